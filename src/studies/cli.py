@@ -1,0 +1,98 @@
+"""The ``studies`` command: sub-commands that are Hydra apps.
+
+``studies run [overrides]``      one study (``-m`` for a sweep)
+``studies bench``                performance figures as JSON
+
+Bad input (config values, data files) is reported as one line on stderr with
+exit status 2, before any MLflow run exists; ``verbose=true`` shows the
+traceback instead.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+from pathlib import Path
+
+__all__ = ["main"]
+
+USAGE = """usage: studies <command> [key=value ...]
+
+commands:
+  run      identify a manoeuvring model from simulated or measured data and log it to MLflow
+  bench    print the performance figures as JSON
+
+Options are Hydra overrides, e.g.
+  studies run method=ls wind.speed=12 wind.direction=45 noise.wind_speed_error=-0.05
+  studies run data.path=my_zigzag.csv vessel=mariner
+  studies run -m wind.speed=4,8,12,16
+"""
+
+
+def _fail(error: Exception, verbose: bool) -> None:
+    if verbose:
+        raise error
+    print(f"studies: error: {error}", file=sys.stderr)
+    sys.exit(2)
+
+
+def _run_task(cfg) -> None:
+    from hydra.core.hydra_config import HydraConfig
+    from hydra.utils import get_original_cwd
+
+    from . import tracking
+    from .errors import StudiesError
+    from .workflows.manoeuvring import execute, prepare, run_name, run_tags
+
+    verbose = bool(cfg.get("verbose", False))
+    root = Path(get_original_cwd())
+    out_dir = Path(HydraConfig.get().runtime.output_dir)
+    try:
+        study = prepare(cfg)
+    except StudiesError as error:
+        _fail(error, verbose)
+    from omegaconf import OmegaConf
+
+    params = OmegaConf.to_container(cfg, resolve=True)
+    name = run_name(cfg, study.settings)
+    with tracking.start_run(str(cfg.tracking.experiment), name, cfg.tracking.uri, root, params,
+                            run_tags(cfg, study.settings)) as run_id:
+        metrics = execute(study, out_dir)
+        tracking.log_outputs(metrics, out_dir)
+    summary = {k: v for k, v in metrics.items()
+               if k.startswith(("deviation/", "runtime/")) or k.endswith("/fitness")}
+    print(f"run '{name}' ({run_id}) -> {out_dir}")
+    print(json.dumps(summary, indent=1, sort_keys=True))
+
+
+def _hydra(task, config_name: str, command: str, args: list[str]) -> None:
+    import hydra
+
+    sys.argv = [f"studies {command}"] + args
+    app = hydra.main(version_base="1.3", config_path="conf", config_name=config_name)(task)
+    app()
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``studies`` console script."""
+    os.environ.setdefault("MLFLOW_DISABLE_TELEMETRY", "true")
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv or argv[0] in ("-h", "--help", "help"):
+        print(USAGE)
+        return 0
+    command, rest = argv[0], argv[1:]
+    if command == "run":
+        _hydra(_run_task, "config", command, rest)
+        return 0
+    if command == "bench":
+        from .bench import run_benchmarks
+
+        print(json.dumps(run_benchmarks(rest), indent=1))
+        return 0
+    print(f"studies: error: unknown command '{command}'\n\n{USAGE}", file=sys.stderr)
+    return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

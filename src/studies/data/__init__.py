@@ -1,0 +1,32 @@
+"""Manoeuvring data: the data contract, its validation, and file loaders.
+
+Public API
+----------
+REQUIRED_COLUMNS, OPTIONAL_COLUMNS
+    Column names of the data contract (``DESIGN.md``, "Data contract").
+validate_manoeuvre(df, file, min_samples=10)
+    Check a table against the contract; return a clean float64 copy.
+read_table(path)
+    Read a CSV or Parquet file (no validation).
+load_manoeuvre(path, min_samples=10), load_manoeuvres(paths, min_samples=10)
+    Read and validate one record / a list of records (CSV, Parquet, MARIN .dat).
+read_marin(path, model_scale=False, scale=45.7, *, uniform_time=False, min_samples=10)
+    Read a MARIN free-running ``.dat`` file into the contract.
+
+Every refusal raises :class:`studies.errors.DataError`.
+"""
+
+from studies.data.contract import (OPTIONAL_COLUMNS, REQUIRED_COLUMNS,
+                                   validate_manoeuvre)
+from studies.data.io import load_manoeuvre, load_manoeuvres, read_table
+from studies.data.marin import read_marin
+
+__all__ = [
+    "REQUIRED_COLUMNS",
+    "OPTIONAL_COLUMNS",
+    "validate_manoeuvre",
+    "read_table",
+    "load_manoeuvre",
+    "load_manoeuvres",
+    "read_marin",
+]

@@ -1,0 +1,485 @@
+"""Roll-decay records: loading, release detection, offset removal, resampling, refusal.
+
+Formats read (CSV, one row per sample):
+
+- the data contract: ``t`` [s], ``phi`` [rad];
+- SSPA model tests (``../shared/data/kvlcc2_roll_decay/model_test_*.csv``):
+  ``time`` [s, model scale], ``phi`` [rad] (other columns ignored);
+- the fully non-linear potential-flow simulation
+  (``fnpf_kvlcc2_rolldecay_0kn.csv``): ``Time`` [s], ``phi`` [rad].
+
+:func:`load_roll_decay` returns a *prepared* record: a ``DataFrame`` with
+``t`` [s] starting at 0 at the release instant and ``phi`` [rad] about the
+equilibrium, on a uniform time step. Metadata are in ``DataFrame.attrs``
+(``file``, ``name``, ``t_release``, ``offset``, ``dt``, ``period``,
+``n_extrema``). Every refused input raises :class:`studies.errors.DataError`
+naming the file and the reason.
+
+References
+----------
+Chen, C., Tello Ruiz, M., Delefortrie, G., Mei, T., Vantorre, M., Lataire, E.
+(2019). Parameter estimation for a ship's roll response model in shallow water
+using an intelligent machine learning method. Ocean Engineering 191, 106479
+(free decay tests, Section 4.3: the model is held at an initial angle and
+released).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from studies.errors import DataError
+
+__all__ = [
+    "read_roll_decay_csv",
+    "find_release",
+    "estimate_offset",
+    "resample_uniform",
+    "prepare_decay",
+    "load_roll_decay",
+    "read_model_test_parameters",
+    "read_fnpf_parameters",
+    "find_particulars",
+    "initial_state",
+]
+
+_TIME_COLUMNS = ("t", "time", "Time")
+_MAX_ROLL_RAD = math.pi / 2  # a roll record beyond 90 deg is in degrees, not radians
+MIN_SAMPLES = 20
+
+
+# -------------------------------------------------------------------- read
+def read_roll_decay_csv(path) -> pd.DataFrame:
+    """Read a raw roll record (any of the supported formats) and check the contract.
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV file with a time column (``t``, ``time`` or ``Time``) [s] and ``phi`` [rad].
+
+    Returns
+    -------
+    DataFrame
+        Columns ``t`` [s] and ``phi`` [rad], as in the file.
+
+    Raises
+    ------
+    DataError
+        Missing file or column, non-numeric values, NaN, time not increasing,
+        angles that look like degrees, or too few samples.
+    """
+    file = str(path)
+    p = Path(path)
+    if not p.is_file():
+        raise DataError(file, "file not found")
+    try:
+        raw = pd.read_csv(p)
+    except Exception as exc:  # pandas raises several types
+        raise DataError(file, f"cannot be read as CSV ({exc.__class__.__name__}: {exc})") from None
+    cols = [str(c).strip() for c in raw.columns]
+    raw.columns = cols
+    tcol = next((c for c in _TIME_COLUMNS if c in cols), None)
+    if tcol is None:
+        raise DataError(file, "no time column (expected one of 't', 'time', 'Time')", column="t")
+    if "phi" not in cols:
+        raise DataError(file, "no roll angle column", column="phi")
+    out = {}
+    for src, dst in ((tcol, "t"), ("phi", "phi")):
+        vals = pd.to_numeric(raw[src], errors="coerce").to_numpy(dtype=float)
+        bad = np.flatnonzero(~np.isfinite(vals))
+        if bad.size:
+            what = "NaN or non-numeric value" if raw[src].iloc[bad[0]] is not None else "missing value"
+            raise DataError(file, f"{what}", column=src, row=int(bad[0]))
+        out[dst] = vals
+    t, phi = out["t"], out["phi"]
+    if t.size < MIN_SAMPLES:
+        raise DataError(file, f"too few samples ({t.size}, need at least {MIN_SAMPLES})")
+    dt = np.diff(t)
+    bad = np.flatnonzero(dt <= 0)
+    if bad.size:
+        raise DataError(file, "time is not increasing", column=tcol, row=int(bad[0] + 1))
+    big = np.flatnonzero(np.abs(phi) > _MAX_ROLL_RAD)
+    if big.size:
+        raise DataError(file, f"roll angle {phi[big[0]]:g} exceeds 90 deg in radians: "
+                              "looks like degrees, radians expected", column="phi", row=int(big[0]))
+    return pd.DataFrame({"t": t, "phi": phi})
+
+
+# ---------------------------------------------------------- preprocessing
+def _extrema(t, phi, centre):
+    from studies.analysis.roll_decay import find_extrema
+
+    return find_extrema(t, phi, centre)
+
+
+def find_release(t, phi, file: str = "<array>", min_peaks: int = 3) -> int:
+    """Index of the release instant of a free decay.
+
+    The release is the largest extremum of the record (the model is heeled to
+    about 10 deg and let go: the first peak after which the signal oscillates
+    with decaying amplitude). When the model was held still at that angle
+    (a plateau), the last sample of the plateau is returned.
+
+    Parameters
+    ----------
+    t, phi : ndarray
+        Time [s] and roll angle [rad].
+    file : str
+        File name used in error messages.
+    min_peaks : int
+        Least number of extrema required after the release.
+
+    Returns
+    -------
+    int
+        Sample index of the release.
+
+    Raises
+    ------
+    DataError
+        Constant signal, no oscillation, growing amplitude, fewer than
+        ``min_peaks`` extrema after the release, irregular (noise-like) or
+        non-decaying oscillation.
+    """
+    from studies.analysis.roll_decay import noise_std
+
+    t = np.asarray(t, float)
+    phi = np.asarray(phi, float)
+    span = float(np.ptp(phi))
+    if span < 1e-6:
+        raise DataError(file, "roll angle is constant: not a decay (no oscillation)", column="phi")
+    n = phi.size
+    c0 = float(np.median(phi[int(0.75 * n):]))  # equilibrium estimate: tail of the decay
+    noise = noise_std(phi)
+    ex = _extrema(t, phi, c0)
+    if len(ex) < 2:
+        raise DataError(file, "no oscillation found: not a roll decay", column="phi")
+    amp = ex.amplitude
+    k = int(np.argmax(amp))
+    after = amp[k + 1:]
+    if after.size < min_peaks:
+        before = amp[:k + 1]
+        if before.size >= min_peaks and np.all(np.diff(before[-min_peaks:]) > 0):
+            raise DataError(file, "oscillation amplitude grows to the end of the record: not a decay",
+                            column="phi")
+        raise DataError(file, f"only {after.size} peaks after the release (need at least {min_peaks}): "
+                              "not a roll decay", column="phi")
+    if amp[k] < 10.0 * noise:
+        raise DataError(file, f"oscillation amplitude {amp[k]:.3g} rad is not above the noise "
+                              f"({noise:.3g} rad): not a roll decay", column="phi")
+    seq = amp[k:]
+    half = np.diff(ex.t[k:])
+    if half.size >= 2:
+        cv = float(np.std(half) / np.mean(half))
+        if cv > 0.25:
+            raise DataError(file, f"irregular oscillation (half-periods vary by {100 * cv:.0f} %): "
+                                  "noise, not a roll decay", column="phi")
+    slope = np.polyfit(np.arange(seq.size), np.log(seq), 1)[0]
+    if slope >= 0 or seq[-1] >= seq[0]:
+        raise DataError(file, "oscillation amplitude does not decay after the release: not a decay",
+                        column="phi")
+    # the sample nearest to the (parabola-refined) extremum
+    i = int(np.clip(np.searchsorted(t, ex.t[k]), 0, n - 1))
+    if i > 0 and abs(t[i - 1] - ex.t[k]) < abs(t[i] - ex.t[k]):
+        i -= 1
+    # plateau (model held still at the initial angle): take its last sample
+    tol = max(4.0 * noise, 0.002 * amp[k], 1e-9)
+    sgn = np.sign(ex.value[k])
+    near = sgn * (phi - c0) >= amp[k] - tol
+    j = int(ex.index[k])
+    while j + 1 < n and near[j + 1]:
+        j += 1
+    lo = int(ex.index[k])
+    while lo - 1 >= 0 and near[lo - 1]:
+        lo -= 1
+    half_period = float(np.median(half)) if half.size else np.inf
+    if t[j] - t[lo] > 0.25 * half_period:  # much flatter than a dynamic peak: held, then let go
+        i = j
+    return i
+
+
+def estimate_offset(t, phi, method: str = "centre") -> float:
+    """Equilibrium (mean offset) of a decay that starts at the release.
+
+    Parameters
+    ----------
+    t, phi : ndarray
+        Time [s] and roll angle [rad], from the release on.
+    method : {"centre", "tail"}
+        ``"centre"``: median of the oscillation centres from three successive
+        extrema, ``(e_k + 2 e_{k+1} + e_{k+2}) / 4``, which is unbiased to
+        second order in the decrement; ``"tail"``: mean over the last whole
+        periods (at least the last two, at most the last quarter of the record).
+
+    Returns
+    -------
+    float
+        Offset [rad].
+    """
+    t = np.asarray(t, float)
+    phi = np.asarray(phi, float)
+    c0 = float(np.median(phi[int(0.75 * phi.size):]))
+    ex = _extrema(t, phi, c0)
+    e = ex.value + c0
+    if method == "centre" and e.size >= 3:
+        centres = (e[:-2] + 2 * e[1:-1] + e[2:]) / 4.0
+        return float(np.median(centres))
+    if method not in ("centre", "tail"):
+        raise ValueError("method must be 'centre' or 'tail'")
+    if ex.t.size >= 5:
+        # the last even number of half-cycles: from an extremum to one of the same sign
+        m = max(2, (ex.t.size // 4) // 2 * 2)
+        lo, hi = ex.index[-1 - m], ex.index[-1]
+        return float(np.mean(phi[lo:hi]))
+    return c0
+
+
+def resample_uniform(t, phi, dt: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Linear interpolation on a uniform grid starting at ``t[0]``.
+
+    Parameters
+    ----------
+    t, phi : ndarray
+        Times [s] (increasing, possibly jittered) and values.
+    dt : float, optional
+        Step [s]; default the median sampling interval rounded to 1e-6 s.
+
+    Returns
+    -------
+    tu, phiu : ndarray
+        Uniform times and interpolated values.
+    """
+    t = np.asarray(t, float)
+    phi = np.asarray(phi, float)
+    if dt is None:
+        dt = round(float(np.median(np.diff(t))), 6)
+    n = int(math.floor((t[-1] - t[0]) / dt + 1e-9)) + 1
+    tu = t[0] + dt * np.arange(n)
+    return tu, np.interp(tu, t, phi)
+
+
+def prepare_decay(raw: pd.DataFrame, file: str = "<data>", dt: float | None = None,
+                  offset: str | float = "centre", max_duration: float | None = None,
+                  min_peaks: int = 3) -> pd.DataFrame:
+    """Cut a raw record at the release, remove the offset and resample uniformly.
+
+    Parameters
+    ----------
+    raw : DataFrame
+        Columns ``t`` [s] and ``phi`` [rad] (e.g. from :func:`read_roll_decay_csv`).
+    file : str
+        File name for error messages and ``attrs``.
+    dt : float, optional
+        Uniform time step [s]; default the median sampling interval.
+    offset : {"centre", "tail"} or float
+        How to estimate the equilibrium (see :func:`estimate_offset`), or its value [rad].
+    max_duration : float, optional
+        Keep at most this long after the release [s].
+    min_peaks : int
+        Least number of extrema after the release.
+
+    Returns
+    -------
+    DataFrame
+        Prepared record (``t`` from 0, ``phi`` about equilibrium) with ``attrs``.
+
+    Raises
+    ------
+    DataError
+        The record is not a decay (see :func:`find_release`).
+    """
+    t = raw["t"].to_numpy(float)
+    phi = raw["phi"].to_numpy(float)
+    if not np.all(np.isfinite(t)) or not np.all(np.isfinite(phi)):
+        bad = int(np.flatnonzero(~(np.isfinite(t) & np.isfinite(phi)))[0])
+        raise DataError(file, "NaN in the record", row=bad)
+    if np.any(np.diff(t) <= 0):
+        raise DataError(file, "time is not increasing", column="t",
+                        row=int(np.flatnonzero(np.diff(t) <= 0)[0] + 1))
+    i = find_release(t, phi, file=file, min_peaks=min_peaks)
+    tr, pr = t[i:] - t[i], phi[i:]
+    if max_duration is not None:
+        keep = tr <= max_duration + 1e-12
+        tr, pr = tr[keep], pr[keep]
+    off = float(offset) if isinstance(offset, (int, float)) else estimate_offset(tr, pr, offset)
+    tu, pu = resample_uniform(tr, pr - off, dt)
+    from studies.analysis.roll_decay import find_extrema
+
+    ex = find_extrema(tu, pu, 0.0)
+    if len(ex) < min_peaks + 1:
+        raise DataError(file, f"fewer than {min_peaks} peaks after the release: not a roll decay",
+                        column="phi")
+    period = float(2.0 * np.median(np.diff(ex.t)))
+    df = pd.DataFrame({"t": tu, "phi": pu})
+    df.attrs.update({
+        "file": str(file),
+        "name": Path(str(file)).stem,
+        "t_release": float(t[i]),
+        "offset": off,
+        "dt": float(tu[1] - tu[0]),
+        "period": period,
+        "n_extrema": int(len(ex)),
+        "phi_release": float(pu[0]),
+    })
+    return df
+
+
+def load_roll_decay(path, dt: float | None = None, offset: str | float = "centre",
+                    max_duration: float | None = None, min_peaks: int = 3) -> pd.DataFrame:
+    """Read and prepare a roll-decay CSV (data contract, SSPA model test or FNPF format).
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file.
+    dt, offset, max_duration, min_peaks
+        See :func:`prepare_decay`.
+
+    Returns
+    -------
+    DataFrame
+        Prepared record: ``t`` [s] from the release, ``phi`` [rad] about
+        equilibrium, uniform step; ``attrs`` with ``file``, ``name``,
+        ``t_release`` [s], ``offset`` [rad], ``dt`` [s], ``period`` [s],
+        ``n_extrema``, ``phi_release`` [rad], and ``particulars`` when
+        :func:`find_particulars` finds them.
+
+    Raises
+    ------
+    DataError
+        Anything that is not a roll decay in the contract (see
+        :func:`read_roll_decay_csv` and :func:`find_release`).
+    """
+    raw = read_roll_decay_csv(path)
+    df = prepare_decay(raw, file=str(path), dt=dt, offset=offset, max_duration=max_duration,
+                       min_peaks=min_peaks)
+    part = find_particulars(path)
+    if part is not None:
+        df.attrs["particulars"] = part
+    return df
+
+
+def initial_state(record: pd.DataFrame, period: float | None = None) -> tuple[float, float]:
+    """Initial roll angle [rad] and rate [rad/s] of a prepared record.
+
+    A cubic is fitted by least squares to the first eighth of a period (at
+    least four samples); its value and slope at ``t[0]`` are returned, which
+    filters measurement noise and quantisation while keeping the release
+    state (rate close to zero).
+    """
+    t = record["t"].to_numpy(float)
+    phi = record["phi"].to_numpy(float)
+    if period is None:
+        period = float(record.attrs.get("period", np.nan))
+    dt = t[1] - t[0]
+    m = 4 if not np.isfinite(period) else max(4, int(round(period / 8.0 / dt)))
+    m = min(m, t.size)
+    tt = t[:m] - t[0]
+    deg = min(3, m - 1)
+    c = np.polyfit(tt, phi[:m], deg)
+    return float(np.polyval(c, 0.0)), float(np.polyval(np.polyder(c), 0.0))
+
+
+# ----------------------------------------------------------- particulars
+def read_model_test_parameters(path, run_id: int | str | None = None) -> pd.DataFrame | dict:
+    """Read ``model_test_parameters.csv`` (SSPA particulars at full scale).
+
+    Parameters
+    ----------
+    path : str or Path
+        The parameters file.
+    run_id : int or str, optional
+        Test id; when given the matching row is returned as a dict.
+
+    Returns
+    -------
+    DataFrame or dict
+        All rows, or the row of ``run_id`` (keys as in the file: ``scale_factor``,
+        ``Volume`` [m^3], ``gm`` [m], ``KXX`` [m], ``rho`` [kg/m^3], ``g`` [m/s^2], ...).
+    """
+    file = str(path)
+    if not Path(path).is_file():
+        raise DataError(file, "file not found")
+    df = pd.read_csv(path)
+    if run_id is None:
+        return df
+    rows = df[df["id"].astype(str) == str(int(float(run_id)))]
+    if rows.empty:
+        raise DataError(file, f"no particulars for test id {run_id}", column="id")
+    return rows.iloc[0].to_dict()
+
+
+def read_fnpf_parameters(path) -> dict:
+    """Read ``fnpf_parameters.csv`` (one row: LPP, B, V, KXX, ..., dt, maxtime, roll)."""
+    file = str(path)
+    if not Path(path).is_file():
+        raise DataError(file, "file not found")
+    return pd.read_csv(path).iloc[0].to_dict()
+
+
+def find_particulars(path) -> dict | None:
+    """Ship particulars for a roll-decay file, from the parameter files beside it.
+
+    For ``model_test_<id>.csv`` the row ``<id>`` of ``model_test_parameters.csv``;
+    for ``fnpf_*.csv`` the row of the test named by ``fnpf_parameters.csv``
+    (its ``id``), with the scale of the simulation inferred from its length
+    (``LPP``) relative to the full-scale ``lpp``.
+
+    Returns
+    -------
+    dict or None
+        ``scale`` (geometric scale factor of the record: 1 = full scale, 68 =
+        model 1:68), ``full`` (dict with ``displacement`` [m^3], ``gm`` [m],
+        ``kxx`` [m], ``rho`` [kg/m^3], ``g`` [m/s^2], ``lpp`` [m] at full scale),
+        ``model_scale_factor`` (the scale of the physical model tests), and
+        ``source`` (text). ``None`` when nothing is found.
+    """
+    p = Path(path)
+    params = p.parent / "model_test_parameters.csv"
+    if not params.is_file():
+        return None
+    try:
+        table = pd.read_csv(params)
+    except Exception:
+        return None
+    stem = p.stem
+    run_id = None
+    scale = None
+    source = ""
+    if stem.startswith("fnpf"):
+        fp = p.parent / "fnpf_parameters.csv"
+        if not fp.is_file():
+            return None
+        f = pd.read_csv(fp).iloc[0].to_dict()
+        run_id = int(float(f["id"]))
+        source = f"{fp.name} (test id {run_id})"
+    else:
+        m = re.search(r"(\d+)", stem)
+        if m:
+            run_id = int(m.group(1))
+        source = params.name
+    rows = table[table["id"].astype(str) == str(run_id)]
+    if rows.empty:
+        return None
+    r = rows.iloc[0]
+    lam_tests = float(r["scale_factor"])
+    if stem.startswith("fnpf"):
+        ratio = float(r["lpp"]) / float(f["LPP"])
+        scale = lam_tests if abs(ratio / lam_tests - 1) < 0.02 else (1.0 if abs(ratio - 1) < 0.02 else ratio)
+    else:
+        scale = lam_tests  # the SSPA model tests are at model scale
+    full = {
+        "displacement": float(r["Volume"]),
+        "gm": float(r["gm"]),
+        "kxx": float(r["KXX"]),
+        "rho": float(r["rho"]),
+        "g": float(r["g"]),
+        "lpp": float(r["lpp"]),
+    }
+    return {"scale": float(scale), "model_scale_factor": lam_tests, "full": full, "source": source,
+            "run_id": run_id}

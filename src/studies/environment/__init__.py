@@ -1,0 +1,1 @@
+"""Environment acting on the ship: wind loads, current, disturbances, sensor noise."""

@@ -1,0 +1,32 @@
+"""Identification methods, selected by the ``method=`` config group.
+
+Every method is an estimator: the constructor stores settings, ``fit(problems)``
+takes the regression problems of :mod:`studies.identify.regression` and
+returns an :class:`~studies.identify.base.Identification`.
+"""
+
+from __future__ import annotations
+
+from ..errors import ConfigError
+from .base import Identification
+from .ls import LeastSquares
+from .regression import RegressionProblem, build_problems
+
+__all__ = ["Identification", "RegressionProblem", "build_problems", "LeastSquares",
+           "MANOEUVRING_METHODS", "make_identifier"]
+
+#: manoeuvring identifiers by config name
+MANOEUVRING_METHODS = {"ls": LeastSquares}
+
+
+def make_identifier(name: str, options: dict | None = None):
+    """Instantiate the identifier registered as ``name`` with ``options``."""
+    try:
+        cls = MANOEUVRING_METHODS[name]
+    except KeyError:
+        raise ConfigError(f"method '{name}' is not available for manoeuvring models; "
+                          f"known: {', '.join(sorted(MANOEUVRING_METHODS))}") from None
+    try:
+        return cls(**(options or {}))
+    except TypeError as exc:
+        raise ConfigError(f"method '{name}': {exc}") from None

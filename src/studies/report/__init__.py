@@ -1,0 +1,1 @@
+"""Figures and pages written for people: run plots and comparison reports."""

@@ -1,0 +1,244 @@
+"""Compiled fixed-step RK4 integrator of the 3-DOF manoeuvring equations.
+
+Everything here is a pure function of its arguments (no model object is
+mutated); :mod:`studies.simulate.simulator` wraps it with the model's terms.
+Coefficients enter as dense ``(3, 35)`` matrices over the cubic monomial
+basis of :mod:`studies.simulate.monomials`.
+
+State vector (7): ``du`` [m/s] surge perturbation through the water
+(``u = U0 + du``), ``v`` [m/s] sway through the water, ``r`` [rad/s],
+``x0``, ``y0`` [m] earth-fixed position (x0 north), ``psi`` [rad], ``delta``
+[rad] actual rudder angle. Forces are evaluated from the terms' monomials::
+
+    F_dof = sum_k coef_k * u'^a_k v'^b_k r'^c_k delta^d_k
+
+then ``M [u'_dot, v'_dot, r'_dot] = F + tau'_wind + R(psi)^T b' + w'``
+(thesis eq. 3.7/3.20, SVM paper eq. 12) with ``u'_dot = du_dot L / U^2``,
+``v'_dot = v_dot L / U^2``, ``r'_dot = r_dot L^2 / U^2``.
+
+Rudder modes (``mode``):
+
+0. ``cmd`` is the commanded rudder; the servo saturates at ``rudder_max``
+   and follows ``delta_dot = (delta_c - delta) / T`` limited to the rate.
+1. zig-zag: ``params = [amplitude, heading_switch, yaw_sign, first_sign]``.
+2. heading autopilot (PD): ``cmd`` is the heading reference,
+   ``params = [kp, kd, yaw_sign]``; ``delta_c = yaw_sign (kp e - kd r)``.
+3. prescribed actual rudder: ``delta`` follows ``cmd`` exactly (linear
+   between samples), for replaying a measured record.
+4. turning circle with pull-out: ``params = [amplitude, pullout_heading,
+   yaw_sign]``; rudder to ``amplitude`` until the heading has changed by
+   ``pullout_heading`` (<= 0: never), then to zero.
+
+``yaw_sign`` is the sign of the heading change a positive rudder gives
+(``sign(Nd)``, -1 for the Mariner).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from ..environment.wind import wind_load
+from .monomials import cubic_forces, dense_coefficients
+
+__all__ = ["rk4_simulate", "rk4_simulate_many", "N_STATES"]
+
+N_STATES = 7
+DIVERGED_SPEED_FACTOR = 5.0
+
+
+@njit(cache=True, inline="always")
+def _rhs(du, v, r, psi, delta, c, k, mwork):
+    """State derivative. ``k`` packs the constants (see ``_constants``)."""
+    speed0 = k[0]
+    u = speed0 + du
+    speed2 = u * u + v * v
+    inv_speed = 1.0 / math.sqrt(speed2)
+    length = k[1]
+    fx, fy, fn = cubic_forces(c, du * inv_speed, v * inv_speed, r * length * inv_speed, delta, mwork)
+    cpsi = math.cos(psi)
+    spsi = math.sin(psi)
+    # current (earth-fixed components k[11], k[12]) seen in the body frame
+    uc = cpsi * k[11] + spsi * k[12]
+    vc = -spsi * k[11] + cpsi * k[12]
+    return fx, fy, fn, cpsi, spsi, uc, vc, speed2
+
+
+@njit(cache=True, inline="always")
+def _derivatives(du, v, r, psi, delta, delta_c, prescribed_rate, prescribed, c, k, wp, ext,
+                 mwork):
+    fx, fy, fn, cpsi, spsi, uc, vc, speed2 = _rhs(du, v, r, psi, delta, c, k, mwork)
+    u = k[0] + du
+    if k[9] != 0.0:
+        wx, wy, wn = wind_load(u + uc, v + vc, psi, k[9], k[10], wp)
+        inv_q = k[13] / speed2
+        fx += wx * inv_q
+        fy += wy * inv_q
+        fn += wn * inv_q * k[14]
+    # earth-fixed slowly varying bias rotated into the body, plus body noise
+    fx += cpsi * ext[0] + spsi * ext[1] + ext[3]
+    fy += -spsi * ext[0] + cpsi * ext[1] + ext[4]
+    fn += ext[2] + ext[5]
+    g = speed2 * k[14]  # U^2 / L
+    du_dot = fx * k[2] * g
+    v_dot = (k[5] * fy + k[6] * fn) * g
+    r_dot = (k[7] * fy + k[8] * fn) * g * k[14]
+    x_dot = cpsi * (u + uc) - spsi * (v + vc)
+    y_dot = spsi * (u + uc) + cpsi * (v + vc)
+    if prescribed:
+        delta_dot = prescribed_rate
+    else:
+        dc = delta_c
+        if dc > k[15]:
+            dc = k[15]
+        elif dc < -k[15]:
+            dc = -k[15]
+        delta_dot = (dc - delta) * k[17]
+        if delta_dot > k[16]:
+            delta_dot = k[16]
+        elif delta_dot < -k[16]:
+            delta_dot = -k[16]
+    return du_dot, v_dot, r_dot, x_dot, y_dot, r, delta_dot
+
+
+def _constants(mass, length, speed0, env, rho, servo):
+    """Pack the constants of the right-hand side, reciprocals precomputed."""
+    det = mass[1, 1] * mass[2, 2] - mass[1, 2] * mass[2, 1]
+    k = np.zeros(18)
+    k[0] = speed0
+    k[1] = length
+    k[2] = 1.0 / mass[0, 0]
+    # inverse of the sway-yaw block [[m22, m23], [m32, m33]]
+    k[5] = mass[2, 2] / det
+    k[6] = -mass[1, 2] / det
+    k[7] = -mass[2, 1] / det
+    k[8] = mass[1, 1] / det
+    k[9] = env[0]
+    k[10] = env[1]
+    k[11] = env[2] * math.cos(env[3])
+    k[12] = env[2] * math.sin(env[3])
+    k[13] = 1.0 / (0.5 * rho * length * length)
+    k[14] = 1.0 / length
+    k[15] = servo[0]
+    k[16] = servo[1]
+    k[17] = 1.0 / servo[2]
+    return k
+
+
+@njit(cache=True, inline="always")
+def _command(mode, step, state, psi0, cmd, params, memory):
+    """Commanded rudder for ``step`` (held over the step). ``memory[0]`` keeps
+    the zig-zag sign / the turning phase between steps."""
+    if mode == 0:
+        return cmd[step]
+    if mode == 1:
+        s = memory[0]
+        if s * params[2] * (state[5] - psi0) >= params[1]:
+            s = -s
+            memory[0] = s
+        return s * params[0]
+    if mode == 2:
+        e = cmd[step] - state[5]
+        return params[2] * (params[0] * e - params[1] * state[2])
+    if mode == 4:
+        if memory[0] > 0.0 and params[1] > 0.0 and abs(state[5] - psi0) >= params[1]:
+            memory[0] = 0.0
+        return memory[0] * params[0]
+    return 0.0
+
+
+# reassociation/contraction only: NaN and inf semantics are kept for the divergence check
+_FAST = {"reassoc", "contract", "arcp", "nsz"}
+
+
+@njit(cache=True, error_model="numpy", fastmath=_FAST)
+def _integrate(c, k, x0, dt, cmd, mode, params, wp, ext, out):
+    n = out.shape[0]
+    state = x0.copy()
+    for j in range(N_STATES):
+        out[0, j] = state[j]
+    psi0 = x0[5]
+    memory = np.empty(1)
+    memory[0] = params[3] if mode == 1 else 1.0
+    prescribed = mode == 3
+    limit = DIVERGED_SPEED_FACTOR * k[0]
+    mwork = np.empty(35)
+    h = 0.5 * dt
+    sixth = dt / 6.0
+    for i in range(n - 1):
+        dc = _command(mode, i, state, psi0, cmd, params, memory)
+        rate = 0.0
+        if prescribed:
+            state[6] = cmd[i]
+            rate = (cmd[i + 1] - cmd[i]) / dt
+        e = ext[i]
+        s0, s1, s2, s5, s6 = state[0], state[1], state[2], state[5], state[6]
+        k1 = _derivatives(s0, s1, s2, s5, s6, dc, rate, prescribed, c, k, wp, e, mwork)
+        k2 = _derivatives(s0 + h * k1[0], s1 + h * k1[1], s2 + h * k1[2], s5 + h * k1[5],
+                          s6 + h * k1[6], dc, rate, prescribed, c, k, wp, e, mwork)
+        k3 = _derivatives(s0 + h * k2[0], s1 + h * k2[1], s2 + h * k2[2], s5 + h * k2[5],
+                          s6 + h * k2[6], dc, rate, prescribed, c, k, wp, e, mwork)
+        k4 = _derivatives(s0 + dt * k3[0], s1 + dt * k3[1], s2 + dt * k3[2], s5 + dt * k3[5],
+                          s6 + dt * k3[6], dc, rate, prescribed, c, k, wp, e, mwork)
+        for j in range(N_STATES):
+            state[j] += sixth * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+        if prescribed:
+            state[6] = cmd[i + 1]
+        u_tot = k[0] + state[0]
+        if not (u_tot > 0.0 and u_tot < limit and abs(state[1]) < limit and abs(state[2]) < 1.0
+                and math.isfinite(state[3]) and math.isfinite(state[4])):
+            for m in range(i + 1, n):
+                for j in range(N_STATES):
+                    out[m, j] = np.nan
+            return i + 1
+        for j in range(N_STATES):
+            out[i + 1, j] = state[j]
+    return -1
+
+
+def _ext_rows(ext, n):
+    ext = np.ascontiguousarray(ext, dtype=float)
+    if ext.shape[0] < n - 1:
+        raise ValueError(f"external forces cover {ext.shape[0]} steps, need {n - 1}")
+    return ext
+
+
+def rk4_simulate(coef, powers, dofs, mass, length, speed0, x0, dt, cmd, mode, params,
+                 env, wp, rho, ext, servo):
+    """Integrate one parameter set; returns ``(states (n, 7), diverged_at)``.
+
+    ``coef`` is the coefficient vector in the order of ``powers``/``dofs``.
+    ``diverged_at`` is -1 when the run stayed bounded, else the first step
+    index that left the physical range (rows from there on are NaN).
+    """
+    n = cmd.shape[0]
+    c = dense_coefficients(coef, powers, dofs)[0]
+    k = _constants(mass, length, speed0, env, rho, servo)
+    out = np.empty((n, N_STATES))
+    diverged = _integrate(c, k, np.asarray(x0, float), float(dt), cmd, int(mode),
+                          np.asarray(params, float), wp, _ext_rows(ext, n), out)
+    return out, diverged
+
+
+@njit(cache=True, parallel=True)
+def _integrate_many(cs, k, x0, dt, cmd, mode, params, wp, ext, out, diverged):
+    for i in prange(cs.shape[0]):
+        diverged[i] = _integrate(cs[i], k, x0, dt, cmd, mode, params, wp, ext, out[i])
+
+
+def rk4_simulate_many(coefs, powers, dofs, mass, length, speed0, x0, dt, cmd, mode, params,
+                      env, wp, rho, ext, servo):
+    """Integrate many parameter sets in parallel (one row of ``coefs`` each).
+
+    Returns ``(states (n_sets, n, 7), diverged_at (n_sets,))``.
+    """
+    n = cmd.shape[0]
+    cs = dense_coefficients(coefs, powers, dofs)
+    k = _constants(mass, length, speed0, env, rho, servo)
+    out = np.empty((cs.shape[0], n, N_STATES))
+    diverged = np.empty(cs.shape[0], dtype=np.int64)
+    _integrate_many(cs, k, np.asarray(x0, float), float(dt), cmd, int(mode),
+                    np.asarray(params, float), wp, _ext_rows(ext, n), out, diverged)
+    return out, diverged

@@ -1,0 +1,170 @@
+"""Standard and less-excitation manoeuvres, as rudder programmes.
+
+A :class:`Manoeuvre` says what the helmsman (or autopilot) does; the
+simulator turns it into a rudder mode of :mod:`studies.simulate.integrator`.
+Angles in configs are degrees (what people write), radians inside.
+
+Kinds
+-----
+``zigzag``
+    IMO zig-zag ``amplitude/heading``: rudder to ``first_sign * amplitude``,
+    reversed each time the heading has changed by ``heading`` in the
+    direction the rudder drives it.
+``turning``
+    Rudder to ``amplitude`` and held; pull-out (rudder to zero) once the
+    heading has changed by ``heading`` degrees (0: no pull-out).
+``course``
+    Heading autopilot (PD) following a piecewise-constant heading
+    reference ``schedule = [[t_start, t_end, heading_deg], ...]`` (zero
+    elsewhere): the zig-zag-like and random tests of Li et al. (2023),
+    Table 4.
+``rudder``
+    Piecewise-constant commanded rudder ``schedule`` (zero elsewhere), e.g.
+    the circle test (20 deg for 600 s).
+
+References
+----------
+IMO (2002). Standards for ship manoeuvrability, MSC.137(76).
+
+Li, S., Wang, T., Li, G., Skulstad, R., Zhang, H. (2023). Ship maneuvering
+model optimization for improved identification with less excitation. Ocean
+Engineering 281, Table 4.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import ConfigError
+
+__all__ = ["Manoeuvre", "MANOEUVRE_KINDS", "zigzag", "turning"]
+
+MANOEUVRE_KINDS = ("zigzag", "turning", "course", "rudder")
+
+
+@dataclass(frozen=True)
+class Manoeuvre:
+    """A manoeuvre to simulate.
+
+    Attributes
+    ----------
+    name : str
+        Record name (``zigzag_20_20``, ...), used as metric prefix.
+    kind : str
+        One of :data:`MANOEUVRE_KINDS`.
+    duration : float
+        Length of the record [s].
+    dt : float
+        Sampling interval of the record [s]; the integration step is
+        ``dt / substeps`` with ``substeps`` chosen so it is at most
+        ``max_step``.
+    amplitude : float
+        Rudder amplitude [deg] (zigzag, turning).
+    heading : float
+        Heading change that reverses the rudder (zigzag) or starts the
+        pull-out (turning) [deg].
+    first_sign : int
+        Sign of the first rudder deflection (zigzag, turning).
+    schedule : tuple of (t_start, t_end, value_deg)
+        Heading reference (course) or commanded rudder (rudder) segments.
+    kp, kd : float
+        Autopilot gains: rudder [rad] per heading error [rad], and per yaw
+        rate [rad/s] (so ``kd`` is in seconds).
+    max_step : float
+        Largest integration step [s].
+    """
+
+    name: str
+    kind: str
+    duration: float
+    dt: float = 0.1
+    amplitude: float = 20.0
+    heading: float = 20.0
+    first_sign: int = 1
+    schedule: tuple = field(default_factory=tuple)
+    kp: float = 1.0
+    kd: float = 10.0
+    max_step: float = 0.1
+
+    def __post_init__(self):
+        if self.kind not in MANOEUVRE_KINDS:
+            raise ConfigError(f"manoeuvre '{self.name}': unknown kind '{self.kind}' "
+                              f"(known: {', '.join(MANOEUVRE_KINDS)})")
+        if not (self.duration > 0):
+            raise ConfigError(f"manoeuvre '{self.name}': duration must be positive, got {self.duration}")
+        if not (0 < self.dt <= self.duration):
+            raise ConfigError(f"manoeuvre '{self.name}': dt must be in (0, duration], got {self.dt}")
+        if self.kind in ("zigzag", "turning") and not (0 < abs(self.amplitude) <= 90):
+            raise ConfigError(f"manoeuvre '{self.name}': rudder amplitude must be in (0, 90] deg")
+        if self.kind == "zigzag" and not (self.heading > 0):
+            raise ConfigError(f"manoeuvre '{self.name}': zig-zag heading must be positive")
+
+    @property
+    def substeps(self) -> int:
+        return max(1, int(np.ceil(self.dt / self.max_step - 1e-9)))
+
+    @property
+    def step(self) -> float:
+        """Integration step [s]."""
+        return self.dt / self.substeps
+
+    def sample_times(self) -> np.ndarray:
+        n = int(round(self.duration / self.dt))
+        return np.arange(n + 1) * self.dt
+
+    def step_times(self) -> np.ndarray:
+        n = int(round(self.duration / self.dt)) * self.substeps
+        return np.arange(n + 1) * self.step
+
+    def schedule_values(self, times: np.ndarray) -> np.ndarray:
+        """Piecewise-constant schedule [rad] at ``times`` (zero outside segments)."""
+        out = np.zeros_like(times, dtype=float)
+        for t0, t1, value in self.schedule:
+            out[(times >= t0) & (times < t1)] = np.deg2rad(value)
+        return out
+
+    def rudder_programme(self, yaw_sign: float):
+        """(mode, cmd per integration step, params) for the compiled integrator."""
+        times = self.step_times()
+        params = np.zeros(4)
+        cmd = np.zeros(times.shape[0])
+        if self.kind == "zigzag":
+            params[:] = [np.deg2rad(self.amplitude), np.deg2rad(self.heading), yaw_sign,
+                         float(np.sign(self.first_sign) or 1)]
+            return 1, cmd, params
+        if self.kind == "turning":
+            params[:3] = [np.deg2rad(self.amplitude) * (np.sign(self.first_sign) or 1),
+                          np.deg2rad(self.heading), yaw_sign]
+            return 4, cmd, params
+        if self.kind == "course":
+            params[:3] = [self.kp, self.kd, yaw_sign]
+            return 2, self.schedule_values(times), params
+        return 0, self.schedule_values(times), params
+
+    @classmethod
+    def from_config(cls, cfg) -> "Manoeuvre":
+        """Build from a mapping (Hydra ``manoeuvre`` group)."""
+        d = dict(cfg)
+        schedule = tuple(tuple(float(x) for x in seg) for seg in (d.pop("schedule", None) or ()))
+        allowed = {f for f in cls.__dataclass_fields__}
+        unknown = set(d) - allowed
+        if unknown:
+            raise ConfigError(f"manoeuvre: unknown option(s) {sorted(unknown)}")
+        return cls(schedule=schedule, **d)
+
+
+def zigzag(amplitude: float, heading: float | None = None, duration: float = 600.0,
+           dt: float = 0.1) -> Manoeuvre:
+    """Zig-zag ``amplitude/heading`` [deg], named ``zigzag_<a>_<h>``."""
+    heading = amplitude if heading is None else heading
+    return Manoeuvre(f"zigzag_{amplitude:g}_{heading:g}", "zigzag", duration, dt,
+                     amplitude=amplitude, heading=heading)
+
+
+def turning(amplitude: float = 35.0, pullout: float = 540.0, duration: float = 900.0,
+            dt: float = 0.1) -> Manoeuvre:
+    """Turning circle with pull-out after ``pullout`` deg of heading change."""
+    return Manoeuvre(f"turning_{amplitude:g}", "turning", duration, dt,
+                     amplitude=amplitude, heading=pullout)

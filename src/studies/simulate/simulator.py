@@ -1,0 +1,184 @@
+"""Simulate a manoeuvre of a model: the pure function the rest of `studies` calls.
+
+``simulate(model, values, vessel, manoeuvre)`` returns a record in the data
+contract (t, x0, y0, psi, u, v, r, delta and the true wind when there is
+some). Velocities in the record are over ground (what a GNSS/IMU measures);
+with a current they differ from the velocities through the water that the
+hydrodynamics see. The model is never mutated.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from ..environment.conditions import Environment
+from ..models.abkowitz import ManoeuvringModel
+from ..vessels.base import Vessel
+from .integrator import rk4_simulate, rk4_simulate_many
+from .manoeuvres import Manoeuvre
+
+__all__ = ["simulate", "simulate_many", "replay", "SimulationInputs"]
+
+
+@dataclass(frozen=True)
+class SimulationInputs:
+    """Everything the compiled integrator needs besides the coefficients."""
+
+    powers: np.ndarray
+    dofs: np.ndarray
+    mass: np.ndarray
+    length: float
+    speed0: float
+    x0: np.ndarray
+    step: float
+    cmd: np.ndarray
+    mode: int
+    params: np.ndarray
+    env: np.ndarray
+    wind: np.ndarray
+    rho: float
+    ext: np.ndarray
+    servo: np.ndarray
+    substeps: int
+
+    def args(self):
+        return (self.powers, self.dofs, self.mass, self.length, self.speed0, self.x0,
+                self.step, self.cmd, self.mode, self.params, self.env, self.wind, self.rho,
+                self.ext, self.servo)
+
+
+def _servo(vessel: Vessel) -> np.ndarray:
+    return np.array([vessel.rudder_max, vessel.rudder_rate, vessel.rudder_time_constant])
+
+
+def prepare(model: ManoeuvringModel, vessel: Vessel, manoeuvre: Manoeuvre,
+            environment: Environment | None = None, external: np.ndarray | None = None,
+            yaw_sign: float = -1.0, initial: dict | None = None) -> SimulationInputs:
+    """Pack the inputs of a simulation (see :func:`simulate`)."""
+    environment = environment or Environment()
+    mode, cmd, params = manoeuvre.rudder_programme(yaw_sign)
+    n_steps = cmd.shape[0] - 1
+    ext = np.zeros((max(n_steps, 1), 6)) if external is None else np.asarray(external, float)
+    if ext.shape[0] < n_steps:
+        raise ValueError(f"external forces cover {ext.shape[0]} steps, need {n_steps}")
+    x0 = np.zeros(7)
+    if initial:
+        x0[0] = initial.get("u", vessel.speed) - vessel.speed
+        for key, idx in (("v", 1), ("r", 2), ("x0", 3), ("y0", 4), ("psi", 5), ("delta", 6)):
+            x0[idx] = initial.get(key, 0.0)
+    wind = vessel.wind.as_array() if vessel.wind is not None else np.zeros(0)
+    return SimulationInputs(model.powers_array(), model.dof_array(), vessel.mass_matrix(),
+                            float(vessel.length), float(vessel.speed), x0, manoeuvre.step,
+                            np.ascontiguousarray(cmd, float), mode, params, environment.as_array(),
+                            wind, float(vessel.rho), np.ascontiguousarray(ext), _servo(vessel),
+                            manoeuvre.substeps)
+
+
+def _to_record(states: np.ndarray, inputs: SimulationInputs, environment: Environment) -> pd.DataFrame:
+    states = states[:: inputs.substeps]
+    t = np.arange(states.shape[0]) * inputs.step * inputs.substeps
+    psi = states[:, 5]
+    u_w = inputs.speed0 + states[:, 0]
+    v_w = states[:, 1]
+    uc = environment.current_speed * np.cos(environment.current_direction - psi)
+    vc = environment.current_speed * np.sin(environment.current_direction - psi)
+    record = pd.DataFrame({
+        "t": t, "x0": states[:, 3], "y0": states[:, 4], "psi": psi,
+        "u": u_w + uc, "v": v_w + vc, "r": states[:, 2], "delta": states[:, 6],
+    })
+    if environment.wind_speed > 0:
+        record["wind_speed"] = environment.wind_speed
+        record["wind_direction"] = environment.wind_direction
+    return record
+
+
+def simulate(model: ManoeuvringModel, values: dict, vessel: Vessel, manoeuvre: Manoeuvre,
+             environment: Environment | None = None, external: np.ndarray | None = None,
+             initial: dict | None = None) -> pd.DataFrame:
+    """Simulate ``manoeuvre`` with coefficient ``values`` of ``model``.
+
+    Parameters
+    ----------
+    model : ManoeuvringModel
+    values : dict
+        Prime coefficients ``{name: value}`` for every term of the model.
+    vessel : Vessel
+        Masses, speed, rudder limits and wind particulars.
+    manoeuvre : Manoeuvre
+    environment : Environment, optional
+        Steady wind and current (default calm).
+    external : ndarray (n_steps, 6), optional
+        Prime external forces per integration step: earth-fixed bias
+        ``(bx, by, bn)`` then body-fixed process noise ``(wx, wy, wn)``.
+    initial : dict, optional
+        Initial ``u`` (total), ``v``, ``r``, ``x0``, ``y0``, ``psi``,
+        ``delta``; default straight at the vessel's speed.
+
+    Returns
+    -------
+    DataFrame
+        The record (data contract); ``attrs["diverged_at"]`` is the time [s]
+        where the simulation left the physical range (NaN rows after it), or
+        absent when it stayed bounded.
+    """
+    environment = environment or Environment()
+    inputs = prepare(model, vessel, manoeuvre, environment, external,
+                     model.rudder_yaw_sign(values), initial)
+    states, diverged = rk4_simulate(model.vector(values), *inputs.args())
+    record = _to_record(states, inputs, environment)
+    record.attrs["name"] = manoeuvre.name
+    if diverged >= 0:
+        record.attrs["diverged_at"] = diverged * inputs.step
+    return record
+
+
+def simulate_many(model: ManoeuvringModel, vectors: np.ndarray, vessel: Vessel,
+                  manoeuvre: Manoeuvre, environment: Environment | None = None,
+                  external: np.ndarray | None = None, yaw_sign: float = -1.0):
+    """Simulate many coefficient vectors (rows, in model term order) in parallel.
+
+    Returns ``(t, states, diverged)``: sample times [s], states
+    ``(n_sets, n_samples, 7)`` in the integrator's order (du, v, r, x0, y0,
+    psi, delta) at the record's sampling, and per set the first diverged
+    integration step (-1 when bounded).
+    """
+    inputs = prepare(model, vessel, manoeuvre, environment, external, yaw_sign)
+    states, diverged = rk4_simulate_many(np.atleast_2d(vectors), *inputs.args())
+    states = states[:, :: inputs.substeps]
+    t = np.arange(states.shape[1]) * manoeuvre.dt
+    return t, states, diverged
+
+
+def replay(model: ManoeuvringModel, values: dict, vessel: Vessel, record: pd.DataFrame,
+           environment: Environment | None = None) -> pd.DataFrame:
+    """Simulate a record's own rudder from its own initial state.
+
+    The measured rudder angle is prescribed (no servo) and held linear
+    between samples; the integration step is the record's sampling interval
+    split so it is at most 0.1 s. This is how a model is validated against a
+    measured manoeuvre.
+    """
+    t = record["t"].to_numpy(float)
+    dt = float(np.median(np.diff(t)))
+    duration = dt * (len(t) - 1)
+    man = Manoeuvre(str(record.attrs.get("name", "record")), "rudder", duration, dt)
+    grid = man.step_times()
+    delta = np.interp(grid, t - t[0], record["delta"].to_numpy(float))
+    environment = environment or Environment()
+    first = record.iloc[0]
+    initial = {k: float(first[k]) for k in ("u", "v", "r", "x0", "y0", "psi", "delta")}
+    if environment.current_speed:
+        initial["u"] -= environment.current_speed * np.cos(environment.current_direction - initial["psi"])
+        initial["v"] -= environment.current_speed * np.sin(environment.current_direction - initial["psi"])
+    inputs = prepare(model, vessel, man, environment, None, model.rudder_yaw_sign(values), initial)
+    inputs = SimulationInputs(**{**inputs.__dict__, "mode": 3, "cmd": np.ascontiguousarray(delta)})
+    states, diverged = rk4_simulate(model.vector(values), *inputs.args())
+    out = _to_record(states, inputs, environment)
+    out["t"] = out["t"] + t[0]
+    out.attrs["name"] = man.name
+    if diverged >= 0:
+        out.attrs["diverged_at"] = diverged * inputs.step
+    return out

@@ -1,0 +1,20 @@
+"""Vessels known to `studies`, by the names of the ``vessel=`` config group."""
+
+from __future__ import annotations
+
+from .base import Vessel, WindParticulars
+from .mariner import MARINER_COEFFICIENTS, mariner
+
+__all__ = ["Vessel", "WindParticulars", "MARINER_COEFFICIENTS", "get_vessel"]
+
+_REGISTRY = {"mariner": mariner}
+
+
+def get_vessel(name: str) -> Vessel:
+    """Return the vessel registered under ``name`` (e.g. ``"mariner"``)."""
+    from ..errors import ConfigError
+
+    try:
+        return _REGISTRY[name]()
+    except KeyError:
+        raise ConfigError(f"unknown vessel '{name}'; known: {', '.join(sorted(_REGISTRY))}") from None
