@@ -8,6 +8,12 @@ biases the regression. Two estimators are provided:
 ``central``
     Fourth-order central differences on a uniform grid (error O(dt^4));
     for clean records, e.g. RK4 simulations or well-filtered measurements.
+    The stencil assumes the states are smooth over five samples; where the
+    rudder angle has a corner (the start or end of a rate-limited rudder
+    movement, visible as a spike of its second difference) the states'
+    second derivative jumps and the stencil is wrong there, so the rows whose
+    stencil straddles such a corner are left out (a fraction of a percent of
+    a zig-zag; nothing is left out when the corners are not isolated).
 ``savgol``
     Savitzky-Golay filtering of the states and their first derivative
     (local polynomial fit), for noisy records.
@@ -78,6 +84,27 @@ def noise_ratio(x: np.ndarray) -> float:
     return float(np.std(np.diff(x, 3)) / (np.sqrt(20.0) * scale))
 
 
+#: a corner is a second difference of the rudder above this fraction of the largest one
+CORNER_FRACTION = 0.1
+#: corners are only left out when they concern at most this fraction of the rows
+MAX_CORNER_ROWS = 0.05
+
+
+def _near_rudder_corners(delta: np.ndarray, reach: int = 3) -> np.ndarray:
+    """Rows within ``reach`` samples of an isolated corner of the rudder signal."""
+    second = np.abs(np.diff(delta, 2))
+    top = second.max() if len(second) else 0.0
+    near = np.zeros(len(delta), dtype=bool)
+    if top < 1e-9:
+        return near
+    corners = np.flatnonzero(second > CORNER_FRACTION * top) + 1
+    for k in corners:
+        near[max(0, k - reach):k + reach + 1] = True
+    if near.mean() > MAX_CORNER_ROWS:
+        near[:] = False
+    return near
+
+
 def estimate_derivatives(record, method: str = "auto", window: float | None = None,
                          polyorder: int = 3) -> DerivativeEstimate:
     """Estimate ``u_dot, v_dot, r_dot`` of a uniformly sampled record.
@@ -103,11 +130,13 @@ def estimate_derivatives(record, method: str = "auto", window: float | None = No
         if n < 5:
             raise ValueError("central differences need at least 5 samples")
         index = np.arange(2, n - 2)
+        index = index[~_near_rudder_corners(cols["delta"])[2:-2]]
         rates = {}
         for c in STATE_COLUMNS:
             x = cols[c]
-            rates[c + "_dot"] = (x[:-4] - 8.0 * x[1:-3] + 8.0 * x[3:-1] - x[4:]) / (12.0 * dt)
-        states = {c: x[2:-2] for c, x in cols.items()}
+            rates[c + "_dot"] = (x[index - 2] - 8.0 * x[index - 1] + 8.0 * x[index + 1]
+                                 - x[index + 2]) / (12.0 * dt)
+        states = {c: x[index] for c, x in cols.items()}
         return DerivativeEstimate(index, states, rates, "central")
     if method == "savgol":
         if window is None:

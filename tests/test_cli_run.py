@@ -1,0 +1,123 @@
+"""``studies run`` as a user runs it: from a CSV another program wrote, and on bad input."""
+
+import json
+import sqlite3
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import reference_mariner as ref
+from conftest import mlflow_runs, run_studies
+from studies.vessels import MARINER_COEFFICIENTS
+
+# The reference program's own coefficient listing (tests/reference_mariner.py).
+REF_VALUES = {name: getattr(ref, name) for name in MARINER_COEFFICIENTS}
+
+
+@pytest.fixture(scope="module")
+def other_program_csv(tmp_path_factory):
+    """A 1500 s 20/20 zig-zag written by the independent SciPy-based simulator."""
+    path = tmp_path_factory.mktemp("data") / "mariner_zigzag_other_program.csv"
+    ref.write_csv(path, ref.zigzag_record(20.0, 20.0, duration=1500.0, dt=0.1))
+    return path
+
+
+@pytest.mark.slow
+def test_run_on_csv_written_by_another_program(tmp_path, other_program_csv):
+    run_dir = tmp_path / "run"
+    proc = run_studies(["run", f"data.path={other_program_csv}", "vessel=mariner",
+                        "validate.manoeuvres=[zigzag_10_10,turning_35]", "validate.duration=600",
+                        f"hydra.run.dir={run_dir}"], cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    table = pd.read_csv(run_dir / "coefficients.csv")
+    assert list(table.columns) == ["name", "value", "lower", "upper", "true", "deviation_pct"]
+    values = dict(zip(table["name"], table["value"]))
+    dev = np.array([100 * (values[k] - v) / v for k, v in REF_VALUES.items()])
+    assert np.median(np.abs(dev)) < 0.5
+    assert np.abs(dev).max() < 10.0
+    # measured data: no "true" column values are invented
+    assert table["true"].isna().all()
+    metrics = json.loads((run_dir / "metrics.json").read_text())
+    assert metrics["zigzag_10_10/fitness"] < 1e-4
+    assert "turning_35/tactical_diameter_error_pct" in metrics
+    assert abs(metrics["turning_35/tactical_diameter_error_pct"]) < 2.0
+    runs = mlflow_runs(tmp_path)
+    assert len(runs) == 1 and runs[0][1] == "FINISHED"
+    artifacts = list((tmp_path / "mlruns" / "artifacts").rglob("*"))
+    names = {p.name for p in artifacts}
+    assert {"coefficients.csv", "metrics.json", "validation_turning_35.png"} <= names
+    with sqlite3.connect(tmp_path / "mlruns" / "mlflow.db") as con:
+        params = dict(con.execute("select key, value from params").fetchall())
+        logged = dict(con.execute("select key, value from latest_metrics").fetchall())
+    assert params["vessel.name"] == "mariner" and params["method.name"] == "ls"
+    assert logged["zigzag_10_10/fitness"] == pytest.approx(metrics["zigzag_10_10/fitness"])
+
+
+@pytest.fixture(scope="module")
+def good_frame():
+    rec = ref.zigzag_record(20.0, 20.0, duration=120.0, dt=0.1)
+    return pd.DataFrame(rec)
+
+
+def _write(frame, path):
+    frame.to_csv(path, index=False)
+    return path
+
+
+def _bad_missing(f, p):
+    return _write(f.drop(columns=["r"]), p), ("'r'",)
+
+
+def _bad_nan(f, p):
+    g = f.copy()
+    g.loc[17, "v"] = np.nan
+    return _write(g, p), ("'v'", "17")
+
+
+def _bad_time(f, p):
+    g = f.copy()
+    g.loc[20, "t"] = g.loc[18, "t"]
+    return _write(g, p), ("'t'", "20")
+
+
+def _bad_degrees(f, p):
+    g = f.copy()
+    g["delta"] = np.rad2deg(g["delta"])
+    return _write(g, p), ("'delta'", "radians")
+
+
+def _bad_empty(f, p):
+    p.write_text("")
+    return p, ("empty",)
+
+
+def _bad_binary(f, p):
+    p.write_bytes(bytes(range(256)) * 8)
+    return p, ()
+
+
+@pytest.mark.parametrize("maker", [_bad_missing, _bad_nan, _bad_time, _bad_degrees,
+                                   _bad_empty, _bad_binary], ids=lambda m: m.__name__[5:])
+def test_bad_input_is_one_line_nonzero_and_no_run(tmp_path, good_frame, maker):
+    path, expected = maker(good_frame, tmp_path / "bad_record.csv")
+    proc = run_studies(["run", f"data.path={path}", f"hydra.run.dir={tmp_path / 'run'}"], cwd=tmp_path)
+    assert proc.returncode != 0
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1, proc.stderr
+    assert "bad_record.csv" in lines[0]
+    for text in expected:
+        assert text in lines[0], lines[0]
+    assert "Traceback" not in proc.stderr + proc.stdout
+    assert mlflow_runs(tmp_path) == []
+
+
+def test_missing_data_file_and_impossible_values_are_refused(tmp_path):
+    for args, text in (([f"data.path={tmp_path / 'nope.csv'}"], "nope.csv"),
+                       (["wind.speed=-3"], "wind.speed"),
+                       (["noise.measurement=5"], "noise.measurement")):
+        proc = run_studies(["run"] + args + [f"hydra.run.dir={tmp_path / 'run'}"], cwd=tmp_path)
+        assert proc.returncode == 2, (args, proc.stderr)
+        assert len(proc.stderr.strip().splitlines()) == 1 and text in proc.stderr
+        assert mlflow_runs(tmp_path) == []
