@@ -1,8 +1,11 @@
 """Identification methods, selected by the ``method=`` config group.
 
-Every method is an estimator: the constructor stores settings, ``fit(problems)``
-takes the regression problems of :mod:`studies.identify.regression` and
-returns an :class:`~studies.identify.base.Identification`.
+Every method is an estimator: the constructor stores settings (the keys of
+its ``conf/method/<name>.yaml`` besides ``name``), and
+``fit(problems, objective=None)`` takes the regression problems of
+:mod:`studies.identify.regression` (one per DOF) and, for methods that
+simulate, a :class:`~studies.identify.objective.TrajectoryObjective` on the
+training records, and returns an :class:`~studies.identify.base.Identification`.
 """
 
 from __future__ import annotations

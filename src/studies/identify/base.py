@@ -23,6 +23,10 @@ class Identification:
         Posterior samples per DOF where the method gives them.
     metrics : dict
         Flat numeric diagnostics (condition numbers, residual RMS, ...).
+    writers : dict
+        ``{file name: callable(path)}`` for figures or tables the method
+        produces (e.g. corner plots); the run writes them into its directory
+        and logs them as artifacts.
     """
 
     params: dict = field(default_factory=dict)
@@ -30,6 +34,7 @@ class Identification:
     upper: dict = field(default_factory=dict)
     samples: dict = field(default_factory=dict)
     metrics: dict = field(default_factory=dict)
+    writers: dict = field(default_factory=dict)
 
     def update(self, other: "Identification") -> None:
         self.params.update(other.params)
@@ -37,6 +42,7 @@ class Identification:
         self.upper.update(other.upper)
         self.samples.update(other.samples)
         self.metrics.update(other.metrics)
+        self.writers.update(other.writers)
 
 
 def _unit_columns(theta: np.ndarray) -> np.ndarray:

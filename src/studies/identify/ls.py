@@ -38,7 +38,8 @@ class LeastSquares:
         coef, *_ = np.linalg.lstsq(theta / norms, problem.y, rcond=self.rcond)
         return coef / norms
 
-    def fit(self, problems: dict) -> Identification:
+    def fit(self, problems: dict, objective=None) -> Identification:
+        """Fit every DOF's problem; ``objective`` (trajectory fitness) is unused."""
         result = Identification()
         for dof, problem in problems.items():
             coef = self.fit_one(problem)

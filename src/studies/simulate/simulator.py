@@ -20,7 +20,7 @@ from ..vessels.base import Vessel
 from .integrator import rk4_simulate, rk4_simulate_many
 from .manoeuvres import Manoeuvre
 
-__all__ = ["simulate", "simulate_many", "replay", "SimulationInputs"]
+__all__ = ["simulate", "simulate_many", "replay", "replay_many", "SimulationInputs"]
 
 
 @dataclass(frozen=True)
@@ -152,15 +152,8 @@ def simulate_many(model: ManoeuvringModel, vectors: np.ndarray, vessel: Vessel,
     return t, states, diverged
 
 
-def replay(model: ManoeuvringModel, values: dict, vessel: Vessel, record: pd.DataFrame,
-           environment: Environment | None = None) -> pd.DataFrame:
-    """Simulate a record's own rudder from its own initial state.
-
-    The measured rudder angle is prescribed (no servo) and held linear
-    between samples; the integration step is the record's sampling interval
-    split so it is at most 0.1 s. This is how a model is validated against a
-    measured manoeuvre.
-    """
+def _replay_inputs(model: ManoeuvringModel, vessel: Vessel, record: pd.DataFrame,
+                   environment: Environment | None, yaw_sign: float) -> SimulationInputs:
     t = record["t"].to_numpy(float)
     dt = float(np.median(np.diff(t)))
     duration = dt * (len(t) - 1)
@@ -173,12 +166,50 @@ def replay(model: ManoeuvringModel, values: dict, vessel: Vessel, record: pd.Dat
     if environment.current_speed:
         initial["u"] -= environment.current_speed * np.cos(environment.current_direction - initial["psi"])
         initial["v"] -= environment.current_speed * np.sin(environment.current_direction - initial["psi"])
-    inputs = prepare(model, vessel, man, environment, None, model.rudder_yaw_sign(values), initial)
-    inputs = SimulationInputs(**{**inputs.__dict__, "mode": 3, "cmd": np.ascontiguousarray(delta)})
+    inputs = prepare(model, vessel, man, environment, None, yaw_sign, initial)
+    return SimulationInputs(**{**inputs.__dict__, "mode": 3, "cmd": np.ascontiguousarray(delta)})
+
+
+def record_environment(record: pd.DataFrame) -> Environment:
+    """The steady wind a record carries (mean of its wind columns), else calm."""
+    if "wind_speed" in record and "wind_direction" in record:
+        speed = float(record["wind_speed"].mean())
+        direction = float(np.angle(np.mean(np.exp(1j * record["wind_direction"].to_numpy(float)))))
+        return Environment(speed, direction)
+    return Environment()
+
+
+def replay(model: ManoeuvringModel, values: dict, vessel: Vessel, record: pd.DataFrame,
+           environment: Environment | None = None) -> pd.DataFrame:
+    """Simulate a record's own rudder from its own initial state.
+
+    The measured rudder angle is prescribed (no servo) and held linear
+    between samples; the integration step is the record's sampling interval
+    split so it is at most 0.1 s. The environment defaults to the wind the
+    record carries. This is how a model is validated against a measured
+    manoeuvre, and how trajectory objectives compare coefficient sets.
+    """
+    environment = environment or record_environment(record)
+    inputs = _replay_inputs(model, vessel, record, environment, model.rudder_yaw_sign(values))
     states, diverged = rk4_simulate(model.vector(values), *inputs.args())
     out = _to_record(states, inputs, environment)
-    out["t"] = out["t"] + t[0]
-    out.attrs["name"] = man.name
+    out["t"] = out["t"] + float(record["t"].iloc[0])
+    out.attrs["name"] = record.attrs.get("name", "record")
     if diverged >= 0:
         out.attrs["diverged_at"] = diverged * inputs.step
     return out
+
+
+def replay_many(model: ManoeuvringModel, vectors: np.ndarray, vessel: Vessel,
+                record: pd.DataFrame, environment: Environment | None = None):
+    """:func:`replay` for many coefficient vectors (rows, model term order), in parallel.
+
+    Returns ``(states, diverged)``: states ``(n_sets, n_samples, 7)`` at the
+    record's samples in the integrator's order (du, v, r, x0, y0, psi,
+    delta; velocities through the water), and the first diverged step per
+    set (-1 when bounded).
+    """
+    environment = environment or record_environment(record)
+    inputs = _replay_inputs(model, vessel, record, environment, -1.0)
+    states, diverged = rk4_simulate_many(np.atleast_2d(vectors), *inputs.args())
+    return states[:, :: inputs.substeps], diverged

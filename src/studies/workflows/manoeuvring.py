@@ -30,6 +30,7 @@ from ..data import load_manoeuvres
 from ..errors import ConfigError
 from ..environment.noise import add_measurement_noise, disturbance_forces, record_wind
 from ..identify import build_problems, make_identifier
+from ..identify.objective import TrajectoryObjective
 from ..identify.regression import prime_states
 from ..models.abkowitz import ManoeuvringModel
 from ..models.registry import get_model
@@ -238,13 +239,16 @@ def execute(study: Study, out_dir: Path) -> dict:
                               str(cfg.data.get("derivative", "auto")))
     identifier = make_identifier(study.method, _method_options(cfg))
     t0 = time.perf_counter()
-    result = identifier.fit(problems)
+    objective = TrajectoryObjective(study.model, study.vessel, study.records)
+    result = identifier.fit(problems, objective=objective)
     metrics = {"runtime/identify_s": time.perf_counter() - t0}
     metrics.update(result.metrics)
     metrics["training/samples"] = float(sum(len(r) for r in study.records))
     params = {name: result.params[name] for name in study.model.names}
     table = coefficient_table(study.model, params, result.lower, result.upper, study.truth)
     table.to_csv(out_dir / "coefficients.csv", index=False)
+    for filename, writer in result.writers.items():
+        writer(out_dir / filename)
     if study.truth:
         dev = table["deviation_pct"].abs()
         metrics["deviation/median_abs_pct"] = float(dev.median())
