@@ -12,14 +12,16 @@ from __future__ import annotations
 
 from ..errors import ConfigError
 from .base import Identification
+from .ga import GeneticRefinement
 from .ls import LeastSquares
 from .regression import RegressionProblem, build_problems
 
 __all__ = ["Identification", "RegressionProblem", "build_problems", "LeastSquares",
-           "MANOEUVRING_METHODS", "make_identifier"]
+           "GeneticRefinement", "MANOEUVRING_METHODS", "make_identifier"]
 
 #: manoeuvring identifiers by config name
-MANOEUVRING_METHODS = {"ls": LeastSquares}
+MANOEUVRING_METHODS = {"ls": LeastSquares, "ls_ga": GeneticRefinement,
+                       "svm_ga": GeneticRefinement}
 
 
 def make_identifier(name: str, options: dict | None = None):
