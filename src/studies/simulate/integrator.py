@@ -182,8 +182,13 @@ def _integrate(c, k, x0, dt, cmd, mode, params, wp, ext, out):
                           s6 + h * k2[6], dc, rate, prescribed, c, k, wp, e, mwork)
         k4 = _derivatives(s0 + dt * k3[0], s1 + dt * k3[1], s2 + dt * k3[2], s5 + dt * k3[5],
                           s6 + dt * k3[6], dc, rate, prescribed, c, k, wp, e, mwork)
-        for j in range(N_STATES):
-            state[j] += sixth * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+        state[0] = s0 + sixth * (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0])
+        state[1] = s1 + sixth * (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1])
+        state[2] = s2 + sixth * (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2])
+        state[3] += sixth * (k1[3] + 2.0 * (k2[3] + k3[3]) + k4[3])
+        state[4] += sixth * (k1[4] + 2.0 * (k2[4] + k3[4]) + k4[4])
+        state[5] = s5 + sixth * (k1[5] + 2.0 * (k2[5] + k3[5]) + k4[5])
+        state[6] = s6 + sixth * (k1[6] + 2.0 * (k2[6] + k3[6]) + k4[6])
         if prescribed:
             state[6] = cmd[i + 1]
         u_tot = k[0] + state[0]
