@@ -21,6 +21,8 @@ USAGE = """usage: studies <command> [key=value ...]
 
 commands:
   run      identify a manoeuvring model from simulated or measured data and log it to MLflow
+  report   write reports/<experiment>/index.md and index.html from the MLflow runs
+  ui       start the MLflow UI on the project's store (127.0.0.1:5000)
   bench    print the performance figures as JSON
 
 Options are Hydra overrides, e.g.
@@ -57,13 +59,28 @@ def _run_task(cfg) -> None:
     params = OmegaConf.to_container(cfg, resolve=True)
     name = run_name(cfg, study.settings)
     with tracking.start_run(str(cfg.tracking.experiment), name, cfg.tracking.uri, root, params,
-                            run_tags(cfg, study.settings)) as run_id:
+                            run_tags(cfg, study.settings)) as run:
         metrics = execute(study, out_dir)
-        tracking.log_outputs(metrics, out_dir)
+        run.log_outputs(metrics, out_dir)
+    run_id = run.run_id
     summary = {k: v for k, v in metrics.items()
                if k.startswith(("deviation/", "runtime/")) or k.endswith("/fitness")}
     print(f"run '{name}' ({run_id}) -> {out_dir}")
     print(json.dumps(summary, indent=1, sort_keys=True))
+
+
+def _report_task(cfg) -> None:
+    from hydra.utils import get_original_cwd
+
+    from .report.builder import build_report
+
+    root = Path(get_original_cwd())
+    name = cfg.report.get("experiment") or None
+    try:
+        path = build_report(cfg.tracking.uri, root, name, root / str(cfg.report.dir))
+    except LookupError as error:
+        _fail(error, bool(cfg.get("verbose", False)))
+    print(f"report written: {path} and {path.with_suffix('.html')}")
 
 
 def _hydra(task, config_name: str, command: str, args: list[str]) -> None:
@@ -72,6 +89,25 @@ def _hydra(task, config_name: str, command: str, args: list[str]) -> None:
     sys.argv = [f"studies {command}"] + args
     app = hydra.main(version_base="1.3", config_path="conf", config_name=config_name)(task)
     app()
+
+
+def _ui(args: list[str]) -> int:
+    """``studies ui [tracking.uri=URI] [host=127.0.0.1] [port=5000]``."""
+    from .ui import serve
+
+    options = {"tracking.uri": None, "host": "127.0.0.1", "port": "5000"}
+    for arg in args:
+        key, sep, value = arg.partition("=")
+        if not sep or key not in options:
+            print(f"studies: error: ui takes tracking.uri=, host= and port=, got '{arg}'", file=sys.stderr)
+            return 2
+        options[key] = value
+    try:
+        port = int(options["port"])
+    except ValueError:
+        print(f"studies: error: port must be an integer, got '{options['port']}'", file=sys.stderr)
+        return 2
+    return serve(options["tracking.uri"], Path.cwd(), options["host"], port)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -85,6 +121,11 @@ def main(argv: list[str] | None = None) -> int:
     if command == "run":
         _hydra(_run_task, "config", command, rest)
         return 0
+    if command == "report":
+        _hydra(_report_task, "report", command, rest)
+        return 0
+    if command == "ui":
+        return _ui(rest)
     if command == "bench":
         from .bench import run_benchmarks
 

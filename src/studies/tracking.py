@@ -4,16 +4,27 @@ Default store (DESIGN.md): ``mlruns/mlflow.db`` (sqlite) with artifacts under
 ``mlruns/artifacts/`` at the project root (the directory `studies` is run
 from). ``tracking.uri=`` selects any other MLflow URI; artifacts then go where
 that server or store puts them.
+
+Parallel sweep jobs share one sqlite file, and sqlite allows one writer at a
+time: concurrent writers get "database is locked" once the busy timeout runs
+out, and MLflow's first-use schema creation races. So every access to a
+sqlite store goes through :func:`store_lock`, an exclusive ``flock`` on a
+file next to the database, held only for short sections (create the run; log
+the results and close it); the computation in between runs unlocked. Jobs on
+one machine (joblib launcher) therefore never write at the same time. A
+shared server or a PostgreSQL URI needs no lock and gets none.
 """
 
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import math
 import os
 from pathlib import Path
 
-__all__ = ["default_uri", "configure", "start_run", "log_outputs", "flatten"]
+__all__ = ["default_uri", "configure", "start_run", "RunLogger", "store_lock", "flatten",
+           "StoredRun", "read_experiment"]
 
 os.environ.setdefault("MLFLOW_DISABLE_TELEMETRY", "true")
 
@@ -30,6 +41,26 @@ def _artifact_root(root, uri: str) -> str | None:
         db = Path(uri[len("sqlite:///"):])
         return (db.parent / "artifacts").resolve().as_uri()
     return None
+
+
+def _sqlite_path(uri: str) -> Path | None:
+    return Path(uri[len("sqlite:///"):]) if uri.startswith("sqlite:///") else None
+
+
+@contextlib.contextmanager
+def store_lock(uri: str):
+    """Exclusive inter-process lock of a sqlite store (no-op for other URIs)."""
+    db = _sqlite_path(uri)
+    if db is None:
+        yield
+        return
+    db.parent.mkdir(parents=True, exist_ok=True)
+    with open(db.parent / f".{db.name}.lock", "a+") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
 
 
 def configure(uri: str | None, root: str | os.PathLike) -> str:
@@ -78,32 +109,129 @@ def flatten(cfg: dict, prefix: str = "") -> dict:
 @contextlib.contextmanager
 def start_run(experiment: str, run_name: str, uri: str | None, root, params: dict,
               tags: dict | None = None):
-    """Open one MLflow run; yields the run id. A failure marks it FAILED."""
+    """Open one MLflow run and yield its :class:`RunLogger`.
+
+    The run is created (status RUNNING, params and tags logged) under the
+    store lock; the body runs unlocked; :meth:`RunLogger.finish` logs the
+    results under the lock. An exception in the body marks the run FAILED
+    with the error as a tag; KeyboardInterrupt/SystemExit mark it KILLED.
+    """
     import mlflow
+    from mlflow.tracking import MlflowClient
 
     uri = configure(uri, root)
-    exp_id = _experiment_id(experiment, uri, root)
-    with mlflow.start_run(experiment_id=exp_id, run_name=run_name) as run:
-        mlflow.set_tags({k: str(v) for k, v in (tags or {}).items()})
+    with store_lock(uri):
+        exp_id = _experiment_id(experiment, uri, root)
+        client = MlflowClient(tracking_uri=uri)
+        run = client.create_run(exp_id, run_name=run_name,
+                                tags={k: str(v) for k, v in (tags or {}).items()})
+        run_id = run.info.run_id
         items = list(flatten(params).items())
         for i in range(0, len(items), 100):
-            mlflow.log_params(dict(items[i:i + 100]))
-        yield run.info.run_id
+            batch = [mlflow.entities.Param(k, v) for k, v in items[i:i + 100]]
+            client.log_batch(run_id, params=batch)
+    logger = RunLogger(client, run_id, uri)
+    try:
+        yield logger
+    except Exception as error:
+        logger.end("FAILED", f"{type(error).__name__}: {error}")
+        raise
+    except BaseException as error:
+        logger.end("KILLED", type(error).__name__)
+        raise
+    else:
+        if not logger.ended:
+            logger.end("FINISHED")
 
 
-def log_outputs(metrics: dict, directory: str | os.PathLike) -> None:
-    """Log finite metrics (non-finite ones are skipped: they stay in metrics.json)
-    and every file of ``directory`` as artifacts of the active run."""
-    import mlflow
+class RunLogger:
+    """Writes one run's results to the store under the store lock."""
 
-    finite = {k: float(v) for k, v in metrics.items()
-              if isinstance(v, (int, float)) and math.isfinite(float(v))}
-    items = list(finite.items())
-    for i in range(0, len(items), 200):
-        mlflow.log_metrics(dict(items[i:i + 200]))
-    directory = Path(directory)
-    for path in sorted(directory.iterdir()):
-        if path.is_file():
-            mlflow.log_artifact(str(path))
-        elif path.is_dir() and path.name == ".hydra":
-            mlflow.log_artifacts(str(path), artifact_path="hydra")
+    def __init__(self, client, run_id: str, uri: str):
+        self.client = client
+        self.run_id = run_id
+        self.uri = uri
+        self.ended = False
+
+    def log_outputs(self, metrics: dict, directory: str | os.PathLike) -> None:
+        """Log finite metrics (non-finite ones stay in metrics.json only) and
+        every file of ``directory`` (plus its ``.hydra/`` config) as artifacts."""
+        import mlflow
+
+        finite = [mlflow.entities.Metric(k, float(v), 0, 0) for k, v in metrics.items()
+                  if isinstance(v, (int, float)) and math.isfinite(float(v))]
+        directory = Path(directory)
+        with store_lock(self.uri):
+            for i in range(0, len(finite), 200):
+                self.client.log_batch(self.run_id, metrics=finite[i:i + 200])
+            for path in sorted(directory.iterdir()):
+                if path.is_file():
+                    self.client.log_artifact(self.run_id, str(path))
+                elif path.is_dir() and path.name == ".hydra":
+                    self.client.log_artifacts(self.run_id, str(path), artifact_path="hydra")
+
+    def end(self, status: str, error: str | None = None) -> None:
+        """Close the run with ``FINISHED``, ``FAILED`` or ``KILLED``."""
+        with store_lock(self.uri):
+            if error:
+                self.client.set_tag(self.run_id, "error", error[:5000])
+            self.client.set_terminated(self.run_id, status=status)
+        self.ended = True
+
+
+class StoredRun:
+    """One run as read back from the store (plain Python values)."""
+
+    def __init__(self, run, client):
+        self._client = client
+        self.run_id = run.info.run_id
+        self.name = run.info.run_name or run.data.tags.get("mlflow.runName", self.run_id)
+        self.status = run.info.status
+        self.start_time = run.info.start_time or 0
+        self.params = dict(run.data.params)
+        self.metrics = dict(run.data.metrics)
+        self.tags = dict(run.data.tags)
+
+    def artifact(self, path: str, destination: str | os.PathLike) -> Path | None:
+        """Download one artifact into ``destination``; None when it does not exist."""
+        try:
+            local = self._client.download_artifacts(self.run_id, path, str(destination))
+        except Exception:
+            return None
+        return Path(local)
+
+    def artifact_names(self) -> list[str]:
+        try:
+            return [f.path for f in self._client.list_artifacts(self.run_id)]
+        except Exception:
+            return []
+
+
+def read_experiment(uri: str | None, root, name: str | None = None):
+    """``(experiment name, [StoredRun, ...])`` of experiment ``name``.
+
+    With ``name=None`` the experiment holding the most recent run is taken.
+    Raises ``LookupError`` when there is no such experiment or no run.
+    """
+    from mlflow.tracking import MlflowClient
+
+    uri = configure(uri, root)
+    with store_lock(uri):
+        client = MlflowClient(tracking_uri=uri)
+        experiments = client.search_experiments()
+        if name is not None:
+            chosen = [e for e in experiments if e.name == name]
+            if not chosen:
+                known = ", ".join(sorted(e.name for e in experiments)) or "none"
+                raise LookupError(f"no MLflow experiment named '{name}' in {uri} (known: {known})")
+        else:
+            chosen = experiments
+        runs = client.search_runs([e.experiment_id for e in chosen], max_results=50000,
+                                  order_by=["attributes.start_time DESC"]) if chosen else []
+        if not runs:
+            raise LookupError(f"no runs in {'experiment ' + repr(name) if name else 'the store'} ({uri})")
+        if name is None:
+            exp_id = runs[0].info.experiment_id
+            name = next(e.name for e in chosen if e.experiment_id == exp_id)
+            runs = [r for r in runs if r.info.experiment_id == exp_id]
+        return name, [StoredRun(r, client) for r in runs]

@@ -191,6 +191,7 @@ def _validate_simulated(study: Study, params: dict, out_dir: Path) -> dict:
         metrics.update(_characteristic_errors(pred, ref, name, kind, heading))
         plot_overlay({"reference": ref, "identified": pred}, out_dir / f"validation_{name}.png",
                      f"{name}: identified ({study.method}) vs reference model")
+        write_overlay_table(ref, pred, out_dir / f"validation_{name}.csv")
     return metrics
 
 
@@ -223,7 +224,25 @@ def _validate_records(study: Study, params: dict, out_dir: Path) -> dict:
         metrics.update(_characteristic_errors(pred, rec, name, manoeuvre_kind(rec), None))
         plot_overlay({"measured": rec, "predicted": pred}, out_dir / f"validation_{name}.png",
                      f"{name}: prediction ({study.method}) vs measurement")
+        write_overlay_table(rec, pred, out_dir / f"validation_{name}.csv")
     return metrics
+
+
+OVERLAY_COLUMNS = ("x0", "y0", "psi", "u", "v", "r", "delta")
+MAX_OVERLAY_ROWS = 1000
+
+
+def write_overlay_table(reference: pd.DataFrame, prediction: pd.DataFrame, path: Path) -> None:
+    """Reference and predicted time series side by side (at most 1000 rows),
+    so that reports can redraw overlays from the store alone."""
+    n = min(len(reference), len(prediction))
+    step = max(1, int(np.ceil(n / MAX_OVERLAY_ROWS)))
+    rows = slice(0, n, step)
+    table = {"t": reference["t"].to_numpy(float)[rows]}
+    for col in OVERLAY_COLUMNS:
+        table[f"reference_{col}"] = reference[col].to_numpy(float)[rows]
+        table[f"predicted_{col}"] = prediction[col].to_numpy(float)[rows]
+    pd.DataFrame(table).to_csv(path, index=False)
 
 
 def execute(study: Study, out_dir: Path) -> dict:

@@ -1,0 +1,304 @@
+"""``studies report``: comparison pages from the MLflow runs of one experiment.
+
+Everything comes from the store (run params, metrics, tags and artifacts),
+so a report can be rebuilt on any machine that sees the store. The page
+holds:
+
+- the runs, with failed and killed ones marked as such;
+- coefficient deviation tables in the thesis' layout (Tables 4.6-4.14: rows
+  = coefficients, column groups = condition, columns = methods), averaged
+  over repeated runs (seeds) of one cell;
+- posterior intervals where a method gave them (Bayes);
+- system performance: validation fitness (thesis eq. 3.43) against the
+  condition, per validation manoeuvre and method (Figs 4.1-4.3);
+- trajectory and velocity overlays of every method against the reference at
+  the two extreme conditions (Figs 4.4-4.12), redrawn from the runs'
+  ``validation_<manoeuvre>.csv`` artifacts;
+- which method wins where (Table 5.1 style), generated from the numbers.
+"""
+
+from __future__ import annotations
+
+import shutil
+import tempfile
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .. import tracking
+from .tables import (condition_label, deviation_table, fitness_table, markdown_table,
+                     method_label, winners)
+
+__all__ = ["build_report"]
+
+STATUS_NOTE = {"FAILED": "failed", "KILLED": "killed", "RUNNING": "running or crashed"}
+
+
+def _none(value):
+    return None if value in (None, "", "null", "None") else value
+
+
+IGNORED_PARAMS = ("method.", "seed", "run_name", "tracking.", "report.", "verbose", "preset")
+
+
+def _varying_key(runs) -> str | None:
+    """The one config key (besides method and seed) whose value differs between runs."""
+    keys = set().union(*(r.params for r in runs)) if runs else set()
+    varying = [k for k in sorted(keys) if not k.startswith(IGNORED_PARAMS)
+               and len({r.params.get(k) for r in runs}) > 1]
+    return varying[0] if len(varying) == 1 else None
+
+
+def _summarise_runs(runs) -> list[dict]:
+    out = []
+    inferred = _varying_key(runs)
+    for run in runs:
+        key = _none(run.params.get("report.condition")) or inferred
+        method = run.params.get("method.name") or run.tags.get("method", "?")
+        if key:
+            condition = run.params.get(key, "?")
+        else:
+            condition = run.tags.get("manoeuvre") or "all"
+        out.append({"run": run, "method": method, "condition_key": key, "condition": condition,
+                    "metrics": run.metrics, "status": run.status})
+    return out
+
+
+def _mean_tables(tables: list[pd.DataFrame]) -> pd.DataFrame:
+    if len(tables) == 1:
+        return tables[0]
+    stacked = pd.concat(tables)
+    numeric = stacked.groupby("name", sort=False)[["value", "lower", "upper", "true", "deviation_pct"]].mean()
+    return numeric.reset_index()
+
+
+def _plot_fitness(table: pd.DataFrame, key: str | None, manoeuvre: str, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.5, 4))
+    labels = [condition_label(key, c) for c in table.index]
+    x = np.arange(len(labels))
+    for method in table.columns:
+        ax.plot(x, table[method].to_numpy(float), marker="o", label=method_label(method))
+    ax.set_xticks(x, labels)
+    ax.set_yscale("log")
+    ax.set_xlabel(key or "condition")
+    ax.set_ylabel("fitness (eq. 3.43)")
+    ax.set_title(f"System performance: {manoeuvre}")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def _plot_overlays(curves: dict, title: str, path: Path) -> None:
+    """Trajectory and u, v, r of the reference and every method's prediction."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig = plt.figure(figsize=(12, 6))
+    grid = fig.add_gridspec(3, 2)
+    ax_traj = fig.add_subplot(grid[:, 0])
+    axes = [fig.add_subplot(grid[i, 1]) for i in range(3)]
+    first = next(iter(curves.values()))
+    ax_traj.plot(first["reference_y0"], first["reference_x0"], "k", lw=2, label="reference")
+    for ax, col, unit in zip(axes, ("u", "v", "r"), ("m/s", "m/s", "deg/s")):
+        k = 180 / np.pi if col == "r" else 1.0
+        ax.plot(first["t"], first[f"reference_{col}"] * k, "k", lw=2)
+        ax.set_ylabel(f"{col} [{unit}]")
+    for method, table in curves.items():
+        ax_traj.plot(table["predicted_y0"], table["predicted_x0"], label=method_label(method))
+        for ax, col in zip(axes, ("u", "v", "r")):
+            k = 180 / np.pi if col == "r" else 1.0
+            ax.plot(table["t"], table[f"predicted_{col}"] * k)
+    axes[-1].set_xlabel("t [s]")
+    ax_traj.set_xlabel("y0 (east) [m]")
+    ax_traj.set_ylabel("x0 (north) [m]")
+    ax_traj.set_aspect("equal", adjustable="datalim")
+    ax_traj.legend(fontsize=8)
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=85)
+    plt.close(fig)
+
+
+def _summary_sentences(win: pd.DataFrame, key: str | None) -> list[str]:
+    if win.empty:
+        return []
+    counts = pd.Series([m for cell in win.to_numpy().ravel() for m in str(cell).split(" = ")]).value_counts()
+    lines = [f"Over {win.size} (condition, manoeuvre) cells, the lowest validation fitness is reached by "
+             + ", ".join(f"{m} in {n}" for m, n in counts.items()) + " (ties counted for each)."]
+    for man in win.columns:
+        col = win[man]
+        groups = defaultdict(list)
+        for cond, method in col.items():
+            groups[method].append(condition_label(key, cond))
+        lines.append(f"{man}: " + "; ".join(f"{m} wins at {', '.join(c)}" for m, c in groups.items()) + ".")
+    return lines
+
+
+def build_report(uri: str | None, root, experiment: str | None, report_dir) -> Path:
+    """Write ``<report_dir>/<experiment>/index.md`` and ``index.html``; return the .md path."""
+    name, runs = tracking.read_experiment(uri, root, experiment)
+    out = Path(report_dir) / name
+    if out.exists():
+        shutil.rmtree(out)
+    out.mkdir(parents=True)
+    items = _summarise_runs(runs)
+    finished = [i for i in items if i["status"] == "FINISHED"]
+    key = next((i["condition_key"] for i in items if i["condition_key"]), None)
+    sections = []
+
+    run_rows = pd.DataFrame([{
+        "run": i["run"].name, "method": method_label(i["method"]),
+        "condition": condition_label(key, i["condition"]),
+        "status": i["status"] if i["status"] == "FINISHED" else f"**{STATUS_NOTE.get(i['status'], i['status'])}**",
+        "error": i["run"].tags.get("error", ""),
+    } for i in items]).set_index("run")
+    sections.append(("Runs", markdown_table(run_rows, "run"), run_rows))
+
+    scratch = Path(tempfile.mkdtemp(prefix="studies-report-"))
+    try:
+        cells = defaultdict(list)
+        curves = defaultdict(dict)
+        for i in finished:
+            local = i["run"].artifact("coefficients.csv", scratch / i["run"].run_id)
+            if local is not None:
+                cells[(i["condition"], i["method"])].append(pd.read_csv(local))
+        entries = [{"condition": c, "method": m, "table": _mean_tables(t)} for (c, m), t in cells.items()]
+        for e in entries:
+            e["condition"] = condition_label(key, e["condition"])
+        has_truth = any(e["table"]["deviation_pct"].notna().any() for e in entries)
+        if has_truth:
+            dev = deviation_table(entries)
+            dev.columns = pd.MultiIndex.from_tuples([(c, method_label(m)) for c, m in dev.columns])
+            sections.append(("Deviation of the identified coefficients [%] (100 (identified - true) / true)",
+                             markdown_table(dev, "coefficient"), dev))
+        with_bounds = [e for e in entries if e["table"]["lower"].notna().any()]
+        if with_bounds:
+            rows = []
+            for e in with_bounds:
+                t = e["table"]
+                for _, r in t.iterrows():
+                    rows.append({"condition": e["condition"], "method": method_label(e["method"]),
+                                 "coefficient": r["name"], "median": r["value"], "5 %": r["lower"],
+                                 "95 %": r["upper"], "true": r["true"],
+                                 "covered": bool(r["lower"] <= r["true"] <= r["upper"]) if np.isfinite(r["true"]) else ""})
+            post = pd.DataFrame(rows).set_index("coefficient")
+            sections.append(("Posterior intervals (5 % - 95 %)", markdown_table(post, "coefficient"), post))
+
+        manoeuvres = sorted({k.split("/")[0] for i in finished for k in i["metrics"]
+                             if k.endswith("/fitness") and not k.startswith(("training", "ga/"))})
+        tables = {}
+        figures = []
+        for man in manoeuvres:
+            per_cell = defaultdict(list)
+            for i in finished:
+                v = i["metrics"].get(f"{man}/fitness")
+                if v is not None:
+                    per_cell[(i["condition"], i["method"])].append(v)
+            rows = [{"condition": c, "method": m, "metrics": {f"{man}/fitness": float(np.mean(v))}}
+                    for (c, m), v in per_cell.items()]
+            table = fitness_table(rows, man)
+            tables[man] = table
+            if not table.empty:
+                path = out / f"fitness_{man}.png"
+                _plot_fitness(table, key, man, path)
+                figures.append(path.name)
+                shown = table.rename(index=lambda c: condition_label(key, c), columns=method_label)
+                sections.append((f"Validation fitness, {man} (thesis eq. 3.43)",
+                                 markdown_table(shown, "condition") + f"\n![fitness {man}]({path.name})\n",
+                                 shown))
+        win = winners(tables)
+        if not win.empty:
+            shown = win.rename(index=lambda c: condition_label(key, c))
+            text = "\n".join(f"- {s}" for s in _summary_sentences(win, key))
+            sections.append(("Which method wins where", markdown_table(shown, "condition") + "\n" + text + "\n", shown))
+
+        conditions = sorted({i["condition"] for i in finished}, key=lambda c: (_as_float(c), str(c)))
+        extremes = [conditions[0], conditions[-1]] if len(conditions) > 1 else conditions
+        overlay_md = []
+        for cond in extremes:
+            for man in manoeuvres:
+                runs_here = {}
+                for i in finished:
+                    if i["condition"] == cond and i["method"] not in runs_here:
+                        local = i["run"].artifact(f"validation_{man}.csv", scratch / i["run"].run_id)
+                        if local is not None:
+                            runs_here[i["method"]] = pd.read_csv(local)
+                if runs_here:
+                    fname = f"overlay_{_slug(cond)}_{man}.png"
+                    _plot_overlays(runs_here, f"{man} at {condition_label(key, cond)}", out / fname)
+                    figures.append(fname)
+                    overlay_md.append(f"![{man} at {condition_label(key, cond)}]({fname})")
+        if overlay_md:
+            sections.append(("Trajectories and velocities at the extreme conditions",
+                             "\n\n".join(overlay_md) + "\n", None))
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+
+    header = (f"# {name}\n\n{len(items)} runs ({len(finished)} finished) from the MLflow store; "
+              f"condition: `{key or 'none'}`.\n")
+    md = header + "\n".join(f"\n## {title}\n\n{body}" for title, body, _ in sections)
+    (out / "index.md").write_text(md)
+    _write_html(out / "index.html", name, header, sections)
+    return out / "index.md"
+
+
+def _as_float(x):
+    try:
+        return float(x)
+    except (TypeError, ValueError):
+        return float("inf")
+
+
+def _slug(text) -> str:
+    return "".join(ch if ch.isalnum() or ch in "-." else "_" for ch in str(text))
+
+
+def _write_html(path: Path, name: str, header: str, sections) -> None:
+    from jinja2 import Environment, select_autoescape
+
+    env = Environment(autoescape=select_autoescape(["html"]))
+    template = env.from_string(HTML)
+    blocks = []
+    for title, body, table in sections:
+        if table is not None:
+            html = table.to_html(float_format=lambda x: f"{x:.4g}", na_rep="-", escape=True)
+            images = [line for line in body.splitlines() if line.startswith("![")]
+            text = [line[2:] for line in body.splitlines() if line.startswith("- ")]
+        else:
+            html = ""
+            images = [line for line in body.split("\n\n") if line.startswith("![")]
+            text = []
+        imgs = [(img[2:img.index("]")], img[img.index("(") + 1:img.rindex(")")]) for img in images]
+        blocks.append({"title": title, "table": html, "images": imgs, "text": text})
+    path.write_text(template.render(name=name, header=header.lstrip("# ").split("\n", 1)[-1], blocks=blocks))
+
+
+HTML = """<!doctype html>
+<html lang="en"><head><meta charset="utf-8"><title>{{ name }}</title>
+<style>
+body { font-family: sans-serif; margin: 2em; max-width: 1400px; }
+table { border-collapse: collapse; font-size: 0.85em; margin-bottom: 1em; }
+th, td { border: 1px solid #ccc; padding: 2px 6px; text-align: right; }
+img { max-width: 100%; }
+</style></head>
+<body>
+<h1>{{ name }}</h1>
+<p>{{ header }}</p>
+{% for b in blocks %}
+<h2>{{ b.title }}</h2>
+{{ b.table | safe }}
+{% for line in b.text %}<p>{{ line }}</p>{% endfor %}
+{% for alt, src in b.images %}<p><img src="{{ src }}" alt="{{ alt }}"></p>{% endfor %}
+{% endfor %}
+</body></html>
+"""

@@ -1,0 +1,39 @@
+"""``studies ui``: the MLflow UI on the project's store, on loopback by default."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from . import tracking
+
+__all__ = ["ui_command", "serve"]
+
+
+def ui_command(uri: str | None, root, host: str = "127.0.0.1", port: int = 5000) -> list[str]:
+    """The ``mlflow server`` command line for the store (artifacts served from it)."""
+    uri = tracking.configure(uri, root)
+    cmd = [sys.executable, "-m", "mlflow", "server", "--backend-store-uri", uri,
+           "--host", host, "--port", str(port), "--workers", "1"]
+    if uri.startswith("sqlite:///"):
+        artifacts = Path(uri[len("sqlite:///"):]).parent / "artifacts"
+        artifacts.mkdir(parents=True, exist_ok=True)
+        cmd += ["--default-artifact-root", artifacts.resolve().as_uri()]
+    return cmd
+
+
+def serve(uri: str | None, root, host: str = "127.0.0.1", port: int = 5000) -> int:
+    """Run the UI in the foreground until interrupted; prints the address."""
+    cmd = ui_command(uri, root, host, port)
+    env = dict(os.environ, MLFLOW_DISABLE_TELEMETRY="true")
+    print(f"MLflow UI for {cmd[cmd.index('--backend-store-uri') + 1]} at http://{host}:{port}", flush=True)
+    if host not in ("127.0.0.1", "localhost", "::1"):
+        print(f"warning: listening on {host}, reachable from other machines", file=sys.stderr)
+    proc = subprocess.Popen(cmd, env=env)
+    try:
+        return proc.wait()
+    except KeyboardInterrupt:
+        proc.terminate()
+        return proc.wait()

@@ -1,0 +1,489 @@
+"""Roll-decay study: identify, validate, compare with a simulation, write the outputs.
+
+One entry point for the command line, :func:`run_roll_study`; plus
+:func:`compare_methods` (Chen et al. 2019, Table 6 and Fig. 8) and
+:func:`simulate_decay_record` (synthetic decays for tests and demos).
+
+Outputs written into ``out_dir`` (the output contract of DESIGN.md):
+
+- ``coefficients.csv``: ``name,value,lower,upper,true,deviation_pct``
+  (``lower``/``upper`` empty: none of NLS, FLS, NLS-SVM gives a posterior);
+- ``metrics.json``: flat numbers (CPU time, per-record errors
+  ``<stem>/rmse_deg``, ``<stem>/mae_deg``, ``<stem>/rmse_deg_linear_only``,
+  equivalent damping, dimensional coefficients, simulation-vs-test numbers);
+- PNG figures: predictions and errors per record (paper Figs 5/8), decay
+  curves, and the simulation-vs-test comparison.
+
+References
+----------
+Chen, C., Tello Ruiz, M., Delefortrie, G., Mei, T., Vantorre, M., Lataire, E.
+(2019). Parameter estimation for a ship's roll response model in shallow water
+using an intelligent machine learning method. Ocean Engineering 191, 106479.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+
+from studies.errors import ConfigError
+
+__all__ = ["run_roll_study", "compare_methods", "simulate_decay_record", "froude_scale_record"]
+
+METHODS = ("nls", "fls", "nls_svm")
+COEFFICIENT_COLUMNS = ["name", "value", "lower", "upper", "true", "deviation_pct"]
+
+
+# ------------------------------------------------------------- synthetic
+def simulate_decay_record(params: Mapping[str, float], terms: Sequence[str] = ("b1", "b2"),
+                          duration: float = 60.0, dt: float = 0.01, phi0: float = math.radians(10.0),
+                          noise: float = 0.0, seed: int = 0, path: str | None = None,
+                          dphi0: float = 0.0) -> str | pd.DataFrame:
+    """Simulate a free roll decay (RK4) and write it as a data-contract CSV (``t``, ``phi``).
+
+    Parameters
+    ----------
+    params : mapping
+        ``omega0`` [rad/s] and the coefficients of ``terms``.
+    terms : sequence of str
+        Model terms (see :class:`studies.models.roll.RollModel`).
+    duration : float
+        Record length [s].
+    dt : float
+        Sampling step [s].
+    phi0 : float
+        Release angle [rad] (the model is released from rest unless ``dphi0``).
+    noise : float
+        Standard deviation of additive white Gaussian measurement noise as a
+        fraction of ``|phi0|`` (0.01 = "1 % noise").
+    seed : int
+        Seed of the noise generator.
+    path : str, optional
+        CSV file to write. Without it the record is returned as a DataFrame.
+    dphi0 : float
+        Initial roll rate [rad/s].
+
+    Returns
+    -------
+    str or DataFrame
+        The path written, or the record.
+    """
+    from studies.models.roll import RollModel
+
+    model = RollModel(tuple(terms))
+    t = np.arange(int(round(duration / dt)) + 1) * dt
+    phi, _ = model.simulate(params, phi0, dphi0, t)
+    if noise:
+        phi = phi + float(noise) * abs(phi0) * np.random.default_rng(seed).standard_normal(t.size)
+    df = pd.DataFrame({"t": t, "phi": phi})
+    if path is None:
+        return df
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    df.to_csv(path, index=False, float_format="%.10g")
+    return str(path)
+
+
+def froude_scale_record(record: pd.DataFrame, from_scale: float, to_scale: float) -> pd.DataFrame:
+    """Froude-scale the time of a roll record (angles are unchanged).
+
+    Parameters
+    ----------
+    record : DataFrame
+        ``t`` [s], ``phi`` [rad].
+    from_scale, to_scale : float
+        Geometric scale factors (1 = full scale, 68 = model 1:68).
+
+    Returns
+    -------
+    DataFrame
+        Copy with ``t`` multiplied by ``sqrt(from_scale / to_scale)`` (and
+        ``period``, ``dt`` in ``attrs`` likewise).
+    """
+    f = math.sqrt(float(from_scale) / float(to_scale))
+    out = record.copy()
+    out["t"] = record["t"] * f
+    out.attrs = dict(record.attrs)
+    for k in ("period", "dt"):
+        if k in out.attrs:
+            out.attrs[k] = out.attrs[k] * f
+    out.attrs["scale"] = float(to_scale)
+    return out
+
+
+# --------------------------------------------------------------- helpers
+def _load(x) -> pd.DataFrame:
+    from studies.data.roll_decay import load_roll_decay
+
+    if isinstance(x, pd.DataFrame):
+        return x
+    return load_roll_decay(x)
+
+
+def _as_list(paths) -> list:
+    if paths is None:
+        return []
+    if isinstance(paths, (str, Path, pd.DataFrame)):
+        return [paths]
+    return list(paths)
+
+
+def _stem(rec: pd.DataFrame, i: int) -> str:
+    return str(rec.attrs.get("name") or f"record_{i}")
+
+
+def _check_method_terms(method: str, terms: Sequence[str]) -> tuple[str, ...]:
+    from studies.models.roll import OPTIONAL_TERMS
+
+    if method not in METHODS:
+        raise ConfigError(f"method={method}: unknown roll identification method; choose from {list(METHODS)}")
+    terms = tuple(terms)
+    bad = [t for t in terms if t not in OPTIONAL_TERMS]
+    if bad:
+        raise ConfigError(f"terms={list(terms)}: unknown roll term(s) {bad}; choose from {list(OPTIONAL_TERMS)}")
+    if not any(t in ("b1", "b2", "b3") for t in terms):
+        raise ConfigError(f"terms={list(terms)}: the roll model needs at least one damping term (b1, b2, b3)")
+    return terms
+
+
+def _particulars(records: Sequence[pd.DataFrame]) -> dict | None:
+    for r in records:
+        p = r.attrs.get("particulars")
+        if p:
+            return p
+    return None
+
+
+def _dimensional_metrics(params: Mapping[str, float], part: dict, amplitude: float) -> dict[str, float]:
+    """Dimensional coefficients at full and model scale from Froude-scaled params."""
+    from studies.models.roll import dimensional_coefficients, equivalent_linear_damping, froude_scale_params
+
+    lam = float(part["scale"])
+    f = part["full"]
+    out: dict[str, float] = {"dimensional/scale_factor": lam}
+    full = froude_scale_params(params, lam, "full")
+    units = {"C44": "Nm", "I_total": "kgm2", "B44": "kgm2_s", "B44q": "kgm2", "B44c": "kgm2s",
+             "C44c": "Nm", "I_xx": "kgm2", "A44": "kgm2", "A44_ratio": "-"}
+    for tag, p, V, gm, kxx in (
+        ("full", full, f["displacement"], f["gm"], f["kxx"]),
+        ("model", params, f["displacement"] / lam**3, f["gm"] / lam, f["kxx"] / lam),
+    ):
+        d = dimensional_coefficients(p, V, gm, kxx, rho=f["rho"], g=f["g"])
+        for k, v in d.items():
+            u = units.get(k, "")
+            key = f"dimensional/{k}_{tag}" + (f"_{u}" if u and u != "-" else "")
+            out[key] = float(v)
+        beq = equivalent_linear_damping(p, amplitude)
+        out[f"dimensional/B44_eq_{tag}_kgm2_s"] = float(beq * d["I_total"])
+    out["dimensional/omega0_full_rad_s"] = float(full["omega0"])
+    out["dimensional/T0_full_s"] = 2 * math.pi / float(full["omega0"])
+    return out
+
+
+def _clean(metrics: Mapping[str, float]) -> dict[str, float]:
+    out = {}
+    for k, v in metrics.items():
+        try:
+            x = float(v)
+        except (TypeError, ValueError):
+            continue
+        if math.isfinite(x):
+            out[k] = x
+    return dict(sorted(out.items()))
+
+
+def _error_metrics(params, terms, rec) -> tuple[np.ndarray, float, float]:
+    from studies.analysis.roll_decay import mae, rmse
+    from studies.identify.roll import predict_record
+
+    pred = predict_record(params, terms, rec)
+    meas = rec["phi"].to_numpy(float)
+    return pred, math.degrees(rmse(meas, pred)), math.degrees(mae(meas, pred))
+
+
+# ------------------------------------------------------------ entry point
+def run_roll_study(data_paths: list[str], method: str, out_dir: str,
+                   validate_paths: list[str] | None = None, terms: list[str] = ["b1", "b2"],  # noqa: B006
+                   simulation_path: str | None = None, true_params: dict | None = None,
+                   seed: int = 0) -> tuple[pd.DataFrame, dict[str, float], list[str]]:
+    """Identify a roll-decay model, validate it and write the study outputs.
+
+    Parameters
+    ----------
+    data_paths : list of str
+        Decay records identified on (jointly when several): data-contract
+        CSVs (``t``, ``phi``), SSPA model tests (``time``, ``phi``) or the
+        FNPF format (``Time``, ``phi``); see :mod:`studies.data.roll_decay`.
+    method : {"nls", "fls", "nls_svm"}
+        Identification method (:mod:`studies.identify.roll`).
+    out_dir : str
+        Directory for ``coefficients.csv``, ``metrics.json`` and figures
+        (created; nothing is written when an input is refused).
+    validate_paths : list of str, optional
+        Records predicted by simulation from their initial state with the
+        identified model (and with a linear-only model, ``b1`` only,
+        identified by the same method on the same data).
+    terms : list of str
+        Model terms, default ``["b1", "b2"]``; any of ``b1, b2, b3, c3``.
+    simulation_path : str, optional
+        A simulated decay of the same ship (e.g. the FNPF potential-flow
+        record) compared with the measured records: decay curves, equivalent
+        linear damping, missing damping.
+    true_params : dict, optional
+        Known coefficients (simulated data): fills ``true`` and
+        ``deviation_pct`` = 100 (value - true) / true.
+    seed : int
+        Seed passed to the estimator (the methods are deterministic).
+
+    Returns
+    -------
+    coefficients : DataFrame
+        Columns ``name,value,lower,upper,true,deviation_pct``.
+    metrics : dict
+        Flat ``{name: float}``, as written to ``metrics.json``.
+    files : list of str
+        Paths written.
+
+    Raises
+    ------
+    studies.errors.DataError
+        A record that is not a roll decay (the message names the file).
+    studies.errors.ConfigError
+        Unknown method or term.
+
+    References
+    ----------
+    Chen, C. et al. (2019). Ocean Engineering 191, 106479 (Tables 5-6, Figs 5 and 8).
+    """
+    from studies.analysis.roll_decay import (
+        compare_simulation_with_tests,
+        decay_curve,
+        plot_decay_curves,
+        plot_prediction,
+    )
+    from studies.identify.roll import make_estimator
+    from studies.models.roll import damping_ratio, equivalent_linear_damping
+
+    terms = _check_method_terms(method, terms)
+    train_in = _as_list(data_paths)
+    if not train_in:
+        raise ConfigError("data.path: no roll-decay record given")
+    # load (and refuse) every input before anything is written
+    train = [_load(p) for p in train_in]
+    valid = [_load(p) for p in _as_list(validate_paths)]
+    sim = _load(simulation_path) if simulation_path is not None else None
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    files: list[str] = []
+
+    fit = make_estimator(method, terms, seed).fit(train)
+    lin_terms = ("b1",)
+    lin = fit if terms == lin_terms else make_estimator(method, lin_terms, seed).fit(train)
+
+    # ---------------------------------------------------- coefficients.csv
+    rows = []
+    for name in ("omega0",) + terms:
+        v = fit.params[name]
+        tv = float(true_params[name]) if true_params and name in true_params else np.nan
+        dev = 100.0 * (v - tv) / tv if np.isfinite(tv) and tv != 0 else np.nan
+        rows.append({"name": name, "value": v, "lower": np.nan, "upper": np.nan, "true": tv,
+                     "deviation_pct": dev})
+    coeffs = pd.DataFrame(rows, columns=COEFFICIENT_COLUMNS)
+    p_csv = out / "coefficients.csv"
+    coeffs.to_csv(p_csv, index=False)
+    files.append(str(p_csv))
+
+    # ------------------------------------------------------------ metrics
+    m: dict[str, float] = {
+        "cpu_s": fit.cpu_s,
+        "wall_s": fit.meta.get("wall_s", np.nan),
+        "cpu_s_linear_only": lin.cpu_s,
+        "n_training_records": len(train),
+        "n_validation_records": len(valid),
+        "seed": seed,
+    }
+    for k, v in fit.params.items():
+        m[f"coef/{k}"] = v
+    for k, v in lin.params.items():
+        m[f"coef_linear_only/{k}"] = v
+    for key in ("sigma_s", "sigma_periods", "gamma", "cv_mse", "smoothing_lam", "residual_rms",
+                "offset_rad", "nfev"):
+        if key in fit.meta and np.isscalar(fit.meta[key]):
+            m[f"method/{key}"] = fit.meta[key]
+    if true_params:
+        for _, r in coeffs.iterrows():
+            if np.isfinite(r["deviation_pct"]):
+                m[f"deviation_pct/{r['name']}"] = r["deviation_pct"]
+
+    a_ref = abs(float(train[0]["phi"].iloc[0]))
+    m["equivalent/amplitude_deg"] = math.degrees(a_ref)
+    m["equivalent/b_eq_1_s"] = equivalent_linear_damping(fit.params, a_ref)
+    m["equivalent/zeta_eq"] = damping_ratio(fit.params, a_ref)
+    m["equivalent/zeta_linear_part"] = fit.params.get("b1", 0.0) / (2 * fit.params["omega0"])
+    m["equivalent/zeta_linear_only_model"] = damping_ratio(lin.params, a_ref)
+    for a_deg in (2.0, 5.0, 10.0):
+        m[f"equivalent/zeta_eq_at_{a_deg:g}deg"] = damping_ratio(fit.params, math.radians(a_deg))
+    part = _particulars(train)
+    if part is not None:
+        m.update(_dimensional_metrics(fit.params, part, a_ref))
+
+    fit_sq, fit_n, val_sq, val_n = 0.0, 0, 0.0, 0
+    names_seen: dict[str, int] = {}
+    for i, (rec, is_train) in enumerate([(r, 1) for r in train] + [(r, 0) for r in valid]):
+        stem = _stem(rec, i)
+        if stem in names_seen:  # the same file given twice
+            names_seen[stem] += 1
+            stem = f"{stem}_{names_seen[stem]}"
+        else:
+            names_seen[stem] = 0
+        pred, e_rmse, e_mae = _error_metrics(fit.params, terms, rec)
+        pred_l, l_rmse, l_mae = _error_metrics(lin.params, lin_terms, rec)
+        m[f"{stem}/rmse_deg"] = e_rmse
+        m[f"{stem}/mae_deg"] = e_mae
+        m[f"{stem}/rmse_deg_linear_only"] = l_rmse
+        m[f"{stem}/mae_deg_linear_only"] = l_mae
+        m[f"{stem}/is_training"] = is_train
+        m[f"{stem}/duration_s"] = float(rec["t"].iloc[-1])
+        m[f"{stem}/release_amplitude_deg"] = math.degrees(abs(float(rec["phi"].iloc[0])))
+        n = len(rec)
+        if is_train:
+            fit_sq += (math.radians(e_rmse) ** 2) * n
+            fit_n += n
+        else:
+            val_sq += (math.radians(e_rmse) ** 2) * n
+            val_n += n
+        if is_train == 0 or not valid:
+            label = "+".join(terms)
+            fig = out / f"prediction_{stem}.png"
+            plot_prediction(rec["t"], rec["phi"], {f"{method} ({label})": pred, f"{method} (b1 only)": pred_l},
+                            str(fig), title=f"{stem}: measured and predicted roll ({'fitted' if is_train else 'not fitted'})")
+            files.append(str(fig))
+    m["fit/rmse_deg"] = math.degrees(math.sqrt(fit_sq / fit_n))
+    if val_n:
+        m["validation/rmse_deg"] = math.degrees(math.sqrt(val_sq / val_n))
+
+    curves = {_stem(r, i): decay_curve(r) for i, r in enumerate(train + valid)}
+    fig = out / "decay_curves.png"
+    plot_decay_curves(curves, str(fig), models={f"{method} ({'+'.join(terms)})": fit.params,
+                                                f"{method} (b1 only)": lin.params},
+                      title="decay curves: measured half-cycles and identified models")
+    files.append(str(fig))
+
+    # ------------------------------------------ simulation vs measurement
+    if sim is not None:
+        tests = train + valid
+        sim_part = sim.attrs.get("particulars") or {}
+        test_scale = float((part or {}).get("scale", 1.0))
+        sim_scale = float(sim_part.get("scale", test_scale))
+        sim_c = froude_scale_record(sim, sim_scale, test_scale) if sim_scale != test_scale else sim
+        t_meas = float(np.median([r.attrs.get("period", np.nan) for r in tests]))
+        m["simulation/scale_factor_file"] = sim_scale
+        m["simulation/scale_factor_compared"] = test_scale
+        m["simulation/period_ratio_to_tests"] = float(sim_c.attrs.get("period", np.nan)) / t_meas
+        inertia = None
+        if part is not None:
+            # total inertia at full scale from the identified natural frequency
+            from studies.models.roll import dimensional_coefficients, froude_scale_params
+
+            full = froude_scale_params(fit.params, test_scale, "full")
+            f = part["full"]
+            inertia = dimensional_coefficients(full, f["displacement"], f["gm"], rho=f["rho"], g=f["g"])["I_total"]
+        scale_note = "model scale 1:%g" % test_scale if test_scale != 1 else "full scale"
+        fig = out / "simulation_vs_tests.png"
+        cm, _ = compare_simulation_with_tests(sim_c, tests, terms=("b1", "b2"), scale_note=scale_note,
+                                              figure_path=str(fig), labels=[_stem(r, i) for i, r in enumerate(tests)])
+        files.append(str(fig))
+        m.update(cm)
+        if inertia is not None:
+            w_full = float(cm["measured/decay_curve_omega0"]) / math.sqrt(test_scale)
+            m["simulation/missing_B44_eq_full_kgm2_s"] = 2.0 * w_full * inertia * cm["simulation/missing_zeta"]
+
+    metrics = _clean(m)
+    p_json = out / "metrics.json"
+    p_json.write_text(json.dumps(metrics, indent=1))
+    files.append(str(p_json))
+    return coeffs, metrics, files
+
+
+# ---------------------------------------------------------- comparison
+def compare_methods(data_paths, validate_paths=None, terms: Sequence[str] = ("b1", "b2"),
+                    methods: Sequence[str] = METHODS, out_dir: str | None = None,
+                    seed: int = 0) -> pd.DataFrame:
+    """Table-6-style comparison of NLS, FLS and NLS-SVM on the same records.
+
+    Parameters
+    ----------
+    data_paths : path, DataFrame or list of them
+        Records identified on.
+    validate_paths : path, DataFrame or list of them, optional
+        Records on which MAE and RMSE are computed (predicted from their
+        initial state); default the identification records themselves, as in
+        the paper.
+    terms : sequence of str
+        Model terms.
+    methods : sequence of str
+        Methods to compare.
+    out_dir : str, optional
+        Writes ``comparison.csv`` and ``comparison_predictions.png``
+        (paper Fig. 8: predictions and errors of every method) there.
+    seed : int
+        Seed passed to the estimators.
+
+    Returns
+    -------
+    DataFrame
+        Rows: the coefficients (``omega0`` [rad/s], ``b1`` [1/s], ``b2`` [-],
+        ...), ``B44_full_kgm2_s`` and ``B44q_full_kgm2`` when the particulars
+        are known, ``zeta_eq`` (at the first record's release amplitude),
+        ``MAE_deg``, ``RMSE_deg``, ``cpu_s``; one column per method.
+
+    References
+    ----------
+    Chen, C. et al. (2019). Ocean Engineering 191, 106479, Table 6 and Fig. 8.
+    """
+    from studies.analysis.roll_decay import mae, plot_prediction, rmse
+    from studies.identify.roll import make_estimator, predict_record
+    from studies.models.roll import damping_ratio
+
+    terms = tuple(terms)
+    for meth in methods:
+        _check_method_terms(meth, terms)
+    train = [_load(p) for p in _as_list(data_paths)]
+    valid = [_load(p) for p in _as_list(validate_paths)] or train
+    part = _particulars(train)
+    a_ref = abs(float(train[0]["phi"].iloc[0]))
+    table: dict[str, dict[str, float]] = {}
+    preds: dict[str, np.ndarray] = {}
+    for meth in methods:
+        fit = make_estimator(meth, terms, seed).fit(train)
+        col = {k: fit.params[k] for k in ("omega0",) + terms}
+        if part is not None:
+            dm = _dimensional_metrics(fit.params, part, a_ref)
+            for k in ("B44_full_kgm2_s", "B44q_full_kgm2"):
+                if f"dimensional/{k}" in dm:
+                    col[k] = dm[f"dimensional/{k}"]
+        col["zeta_eq"] = damping_ratio(fit.params, a_ref)
+        meas, pr = [], []
+        for r in valid:
+            meas.append(r["phi"].to_numpy(float))
+            pr.append(predict_record(fit.params, terms, r))
+        meas_c, pred_c = np.concatenate(meas), np.concatenate(pr)
+        col["MAE_deg"] = math.degrees(mae(meas_c, pred_c))
+        col["RMSE_deg"] = math.degrees(rmse(meas_c, pred_c))
+        col["cpu_s"] = fit.cpu_s
+        table[meth] = col
+        preds[meth] = pr[0]
+    df = pd.DataFrame(table)
+    if out_dir is not None:
+        out = Path(out_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        df.to_csv(out / "comparison.csv", index_label="quantity")
+        r0 = valid[0]
+        plot_prediction(r0["t"], r0["phi"], preds, str(out / "comparison_predictions.png"),
+                        title=f"{_stem(r0, 0)}: predictions of {', '.join(methods)}")
+    return df
