@@ -24,6 +24,9 @@ def swept_store(tmp_path_factory):
                         "noise.wind_speed_error=-0.05", f"hydra.sweep.dir={root / 'multirun'}",
                         *SMALL], cwd=root)
     assert proc.returncode == 0, proc.stderr[-3000:]
+    # progress: the sweep says how many jobs it has and which one runs
+    assert "[studies] sweep of 4 jobs" in proc.stderr
+    assert "[studies] job 4/4 started" in proc.stderr or "[studies] job 4/4 finished" in proc.stderr
     return root
 
 
@@ -120,3 +123,18 @@ def test_ui_serves_the_store_on_loopback(swept_store):
             proc.wait(timeout=20)
         except subprocess.TimeoutExpired:
             proc.kill()
+
+
+@pytest.mark.slow
+def test_same_sweep_through_the_ray_launcher(tmp_path):
+    pytest.importorskip("hydra_plugins.hydra_ray_launcher",
+                        reason="Ray launcher not installed (pip install -e '.[ray]')")
+    proc = run_studies(["run", "-m", "hydra/launcher=ray", "wind.speed=4,8", "method=ls",
+                        "tracking.experiment=ray_small", f"hydra.sweep.dir={tmp_path / 'multirun'}",
+                        *SMALL], cwd=tmp_path, env_extra={"RAY_AUTH_MODE": "disabled"})
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    runs = mlflow_runs(tmp_path)
+    assert len(runs) == 2 and {s for _, s, _ in runs} == {"FINISHED"}
+    for run_id, _, _ in runs:
+        art = next((tmp_path / "mlruns" / "artifacts").glob(f"*/{run_id}/artifacts"))
+        assert {"coefficients.csv", "metrics.json"} <= {p.name for p in art.iterdir()}

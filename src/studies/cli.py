@@ -113,6 +113,8 @@ def _ui(args: list[str]) -> int:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``studies`` console script."""
     os.environ.setdefault("MLFLOW_DISABLE_TELEMETRY", "true")
+    # a local Ray instance started by hydra/launcher=ray needs no auth token file
+    os.environ.setdefault("RAY_AUTH_MODE", "disabled")
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0] in ("-h", "--help", "help"):
         print(USAGE)

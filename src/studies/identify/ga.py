@@ -152,6 +152,9 @@ class GeneticRefinement:
 
         def on_generation(ga):
             history.append(best["fitness"])
+            if ga.generations_completed % 20 == 0 or ga.generations_completed == self.generations:
+                log.info("GA generation %d/%d: best fitness %.4g (start %.4g)",
+                         ga.generations_completed, self.generations, best["fitness"], initial_fitness)
             if best["fitness"] <= self.stop_fitness:
                 return "stop"
             return None
