@@ -68,3 +68,14 @@ def test_current_moves_the_track_not_the_water_velocities(model, vessel):
     # the over-ground record carries the current; the track is shifted east by 0.5 m/s * 200 s
     assert drift["y0"].iloc[-1] - calm["y0"].iloc[-1] == pytest.approx(100.0, rel=1e-3)
     assert drift["v"].iloc[0] == pytest.approx(0.5, abs=1e-9)
+
+
+def test_arbitrary_rudder_series_is_followed_through_the_servo(model, vessel, tmp_path):
+    path = tmp_path / "rudder.csv"
+    path.write_text("t,delta\n0,0\n50,10\n100,-10\n200,-10\n")
+    man = Manoeuvre.from_config({"name": "custom", "kind": "rudder", "duration": 200.0, "dt": 0.5,
+                                 "series_file": str(path)})
+    rec = simulate(model, vessel.coefficients, vessel, man)
+    at = rec.set_index("t")["delta"]
+    assert np.rad2deg(at[50.0]) == pytest.approx(10.0, abs=1.5)   # servo lag of ~1 s
+    assert np.rad2deg(at[200.0]) == pytest.approx(-10.0, abs=1e-3)

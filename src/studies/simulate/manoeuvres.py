@@ -20,7 +20,10 @@ Kinds
     Table 4.
 ``rudder``
     Piecewise-constant commanded rudder ``schedule`` (zero elsewhere), e.g.
-    the circle test (20 deg for 600 s).
+    the circle test (20 deg for 600 s); or an arbitrary commanded rudder
+    time series ``series = [[t, delta_deg], ...]`` (linear in between), given
+    inline or as ``series_file``, a CSV with columns ``t`` [s] and ``delta``
+    [deg].
 
 References
 ----------
@@ -84,6 +87,7 @@ class Manoeuvre:
     heading: float = 20.0
     first_sign: int = 1
     schedule: tuple = field(default_factory=tuple)
+    series: tuple = field(default_factory=tuple)
     kp: float = 1.0
     kd: float = 10.0
     max_step: float = 0.1
@@ -141,6 +145,9 @@ class Manoeuvre:
         if self.kind == "course":
             params[:3] = [self.kp, self.kd, yaw_sign]
             return 2, self.schedule_values(times), params
+        if self.series:
+            pts = np.asarray(self.series, dtype=float)
+            return 0, np.deg2rad(np.interp(times, pts[:, 0], pts[:, 1])), params
         return 0, self.schedule_values(times), params
 
     @classmethod
@@ -148,11 +155,35 @@ class Manoeuvre:
         """Build from a mapping (Hydra ``manoeuvre`` group)."""
         d = dict(cfg)
         schedule = tuple(tuple(float(x) for x in seg) for seg in (d.pop("schedule", None) or ()))
+        series = tuple(tuple(float(x) for x in pt) for pt in (d.pop("series", None) or ()))
+        series_file = d.pop("series_file", None)
+        if series_file:
+            series = _read_series(series_file)
         allowed = {f for f in cls.__dataclass_fields__}
         unknown = set(d) - allowed
         if unknown:
             raise ConfigError(f"manoeuvre: unknown option(s) {sorted(unknown)}")
-        return cls(schedule=schedule, **d)
+        return cls(schedule=schedule, series=series, **d)
+
+
+def _read_series(path) -> tuple:
+    """(t, delta_deg) pairs from a CSV with columns t [s] and delta [deg]."""
+    from ..data.io import read_table
+    from ..errors import DataError
+
+    table = read_table(path)
+    for col in ("t", "delta"):
+        if col not in table:
+            raise DataError(str(path), f"a rudder series needs columns 't' [s] and 'delta' [deg]", col)
+    t = table["t"].to_numpy(float)
+    delta = table["delta"].to_numpy(float)
+    bad = np.flatnonzero(~np.isfinite(t) | ~np.isfinite(delta))
+    if len(bad):
+        raise DataError(str(path), "value is not a finite number", None, int(bad[0]))
+    back = np.flatnonzero(np.diff(t) <= 0)
+    if len(back):
+        raise DataError(str(path), "time must increase strictly", "t", int(back[0] + 1))
+    return tuple(zip(t.tolist(), delta.tolist()))
 
 
 def zigzag(amplitude: float, heading: float | None = None, duration: float = 600.0,
