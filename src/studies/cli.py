@@ -21,6 +21,7 @@ USAGE = """usage: studies <command> [key=value ...]
 
 commands:
   run      identify a manoeuvring model from simulated or measured data and log it to MLflow
+  simplify derive the simplified model (correlation + PAWN, Li et al. 2023) and log how
   report   write reports/<experiment>/index.md and index.html from the MLflow runs
   ui       start the MLflow UI on the project's store (127.0.0.1:5000)
   bench    print the performance figures as JSON
@@ -51,7 +52,7 @@ def _run_task(cfg) -> None:
     root = Path(get_original_cwd())
     out_dir = Path(HydraConfig.get().runtime.output_dir)
     try:
-        study = prepare(cfg)
+        study = prepare(cfg, root)
     except StudiesError as error:
         _fail(error, verbose)
     from omegaconf import OmegaConf
@@ -67,6 +68,23 @@ def _run_task(cfg) -> None:
                if k.startswith(("deviation/", "runtime/")) or k.endswith("/fitness")}
     print(f"run '{name}' ({run_id}) -> {out_dir}")
     print(json.dumps(summary, indent=1, sort_keys=True))
+
+
+def _simplify_task(cfg) -> None:
+    from hydra.core.hydra_config import HydraConfig
+    from hydra.utils import get_original_cwd
+
+    from .errors import StudiesError
+    from .workflows.simplify import ensure_definition
+
+    root = Path(get_original_cwd())
+    out_dir = Path(HydraConfig.get().runtime.output_dir)
+    try:
+        path = ensure_definition(cfg, root, out_dir, force=True)
+    except StudiesError as error:
+        _fail(error, bool(cfg.get("verbose", False)))
+    print(f"simplified model written: {path}")
+    print((out_dir / "simplification.json").read_text())
 
 
 def _report_task(cfg) -> None:
@@ -122,6 +140,9 @@ def main(argv: list[str] | None = None) -> int:
     command, rest = argv[0], argv[1:]
     if command == "run":
         _hydra(_run_task, "config", command, rest)
+        return 0
+    if command == "simplify":
+        _hydra(_simplify_task, "config", command, rest)
         return 0
     if command == "report":
         _hydra(_report_task, "report", command, rest)

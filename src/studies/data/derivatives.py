@@ -115,8 +115,8 @@ def estimate_derivatives(record, method: str = "auto", window: float | None = No
         Data contract record (t, u, v, r, delta, psi, ...).
     method : {"auto", "central", "savgol"}
     window : float, optional
-        Savitzky-Golay window [s]; default 41 samples or 4 s, whichever is
-        longer in samples, made odd.
+        Savitzky-Golay window [s]; default 4 s or 11 samples, whichever is
+        longer, made odd.
     polyorder : int
         Savitzky-Golay polynomial order.
     """
@@ -140,7 +140,7 @@ def estimate_derivatives(record, method: str = "auto", window: float | None = No
         return DerivativeEstimate(index, states, rates, "central")
     if method == "savgol":
         if window is None:
-            length = max(41, int(round(4.0 / dt)))
+            length = max(11, int(round(4.0 / dt)))
         else:
             length = int(round(window / dt))
         length = min(length, n if n % 2 else n - 1)

@@ -10,9 +10,20 @@ __all__ = ["get_model"]
 _REGISTRY = {"abkowitz": abkowitz}
 
 
-def get_model(name: str) -> ManoeuvringModel:
-    """Return the manoeuvring model registered as ``name``."""
+def get_model(name: str, definition=None) -> ManoeuvringModel:
+    """Return the manoeuvring model registered as ``name``.
+
+    ``simplified`` is read from its ``definition`` file (written by
+    ``studies simplify``), as a subset of the Abkowitz model.
+    """
+    if name == "simplified":
+        from .simplified import load_definition
+
+        if definition is None:
+            raise ConfigError("model=simplified needs model.definition (a file written by `studies simplify`)")
+        return load_definition(definition, abkowitz())
     try:
         return _REGISTRY[name]()
     except KeyError:
-        raise ConfigError(f"unknown model '{name}'; known: {', '.join(sorted(_REGISTRY))}") from None
+        known = sorted(_REGISTRY) + ["simplified"]
+        raise ConfigError(f"unknown model '{name}'; known: {', '.join(known)}") from None

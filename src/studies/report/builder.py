@@ -40,7 +40,8 @@ def _none(value):
     return None if value in (None, "", "null", "None") else value
 
 
-IGNORED_PARAMS = ("method.", "seed", "run_name", "tracking.", "report.", "verbose", "preset")
+IGNORED_PARAMS = ("method.", "seed", "run_name", "tracking.", "report.", "verbose", "preset",
+                  "simplify.")
 
 
 def _varying_key(runs) -> str | None:
@@ -56,8 +57,11 @@ def _summarise_runs(runs) -> list[dict]:
     inferred = _varying_key(runs)
     for run in runs:
         key = _none(run.params.get("report.condition")) or inferred
-        method = run.params.get("method.name") or run.tags.get("method", "?")
-        if key:
+        series = _none(run.params.get("report.series")) or "method.name"
+        method = run.params.get(series) or run.tags.get("method", "?")
+        if key and "," in key:
+            condition = " | ".join(run.params.get(k.strip(), "?") for k in key.split(","))
+        elif key:
             condition = run.params.get(key, "?")
         else:
             condition = run.tags.get("manoeuvre") or "all"
@@ -216,6 +220,20 @@ def build_report(uri: str | None, root, experiment: str | None, report_dir) -> P
                 sections.append((f"Validation fitness, {man} (thesis eq. 3.43)",
                                  markdown_table(shown, "condition") + f"\n![fitness {man}]({path.name})\n",
                                  shown))
+        mae_cells = defaultdict(list)
+        for i in finished:
+            v = i["metrics"].get("validation/mae_speed")
+            if v is not None:
+                mae_cells[(i["condition"], i["method"])].append(v)
+        if mae_cells:
+            rows = [{"condition": c, "method": m, "metrics": {"mae/fitness": float(np.median(v))}}
+                    for (c, m), v in mae_cells.items()]
+            table = fitness_table(rows, "mae")
+            path = out / "mae_speed.png"
+            _plot_fitness(table, key, "validation MAE of speeds [m/s]", path)
+            shown = table.rename(index=lambda c: condition_label(key, c), columns=method_label)
+            sections.append(("Validation MAE of speeds on the other manoeuvres [m/s] (median over seeds)",
+                             markdown_table(shown, "condition") + "\n![mae](mae_speed.png)\n", shown))
         win = winners(tables)
         if not win.empty:
             shown = win.rename(index=lambda c: condition_label(key, c))

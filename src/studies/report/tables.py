@@ -20,6 +20,10 @@ def condition_label(key: str | None, value: str) -> str:
     """Readable column-group label of a condition value (``12 m/s``, ``-5 %``)."""
     if key is None:
         return str(value)
+    if "," in key:
+        keys = [k.strip() for k in key.split(",")]
+        parts = str(value).split(" | ")
+        return ", ".join(condition_label(k, v) if k != keys[0] else str(v) for k, v in zip(keys, parts))
     try:
         x = float(value)
     except (TypeError, ValueError):
@@ -42,7 +46,7 @@ def _condition_sort(values) -> list[str]:
     try:
         return sorted(values, key=float)
     except (TypeError, ValueError):
-        return sorted(values)
+        return sorted(values, key=str)
 
 
 def deviation_table(entries: list[dict], column: str = "deviation_pct") -> pd.DataFrame:

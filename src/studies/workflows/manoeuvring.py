@@ -33,6 +33,7 @@ from ..identify import build_problems, make_identifier
 from ..identify.objective import TrajectoryObjective
 from ..identify.regression import prime_states
 from ..models.abkowitz import ManoeuvringModel
+from ..models.abkowitz import abkowitz
 from ..models.registry import get_model
 from ..report.figures import plot_deviations, plot_overlay
 from ..simulate import replay, simulate
@@ -87,14 +88,34 @@ def simulate_training(vessel: Vessel, model: ManoeuvringModel, truth: dict, mano
     return record
 
 
-def prepare(cfg) -> Study:
-    """Check the configuration and get the training records (no side effects).
+def reference_model(vessel: Vessel) -> tuple[ManoeuvringModel, dict]:
+    """The model that plays the real ship in simulated studies: the full
+    Abkowitz model with the vessel's published coefficients."""
+    full = abkowitz()
+    return full, {name: vessel.coefficients[name] for name in full.names}
 
-    Raises ``ConfigError``/``DataError`` on bad input.
+
+def get_study_model(cfg, root: Path | None = None) -> ManoeuvringModel:
+    """The model to identify; ``simplified`` is derived first when its file is missing."""
+    name = str(cfg.model.name)
+    if name == "simplified":
+        from .simplify import ensure_definition
+
+        root = Path(root or Path.cwd())
+        return get_model(name, ensure_definition(cfg, root))
+    return get_model(name)
+
+
+def prepare(cfg, root: Path | None = None) -> Study:
+    """Check the configuration and get the training records.
+
+    Raises ``ConfigError``/``DataError`` on bad input before anything is
+    written (deriving a missing simplified-model definition is logged as its
+    own MLflow run).
     """
     settings = read_settings(cfg)
     vessel = get_vessel(str(cfg.vessel.name))
-    model = get_model(str(cfg.model.name))
+    model = get_study_model(cfg, root)
     method = str(cfg.method.name)
     make_identifier(method, _method_options(cfg))
     n_params = max(len(model.terms_of(d)) for d in ("X", "Y", "N"))
@@ -107,9 +128,10 @@ def prepare(cfg) -> Study:
         if not vessel.coefficients:
             raise ConfigError(f"vessel '{vessel.name}' has no reference coefficients to simulate "
                               "from; give measured records with data.path=")
-        truth = {name: vessel.coefficients[name] for name in model.names}
+        full, full_truth = reference_model(vessel)
+        truth = {name: full_truth[name] for name in model.names}
         rng = np.random.default_rng(settings.seed)
-        records = [simulate_training(vessel, model, truth, manoeuvre, settings, rng)]
+        records = [simulate_training(vessel, full, full_truth, manoeuvre, settings, rng)]
     validation = load_manoeuvres(settings.validate_paths) if settings.validate_paths else []
     return Study(cfg, settings, vessel, model, method, records, truth, validation)
 
@@ -175,15 +197,14 @@ def run_tags(cfg, settings: Settings) -> dict:
 def _validate_simulated(study: Study, params: dict, out_dir: Path) -> dict:
     """Simulate the validation manoeuvres with the identified and the reference model."""
     metrics = {}
-    reference = study.vessel.coefficients
-    if not all(name in reference for name in study.model.names):
+    if not study.vessel.coefficients:
         return metrics
-    ref_values = {name: reference[name] for name in study.model.names}
+    full, ref_values = reference_model(study.vessel)
     env = study.settings.validation_environment
     duration = study.cfg.validate.get("duration")
     for name in study.settings.validate_manoeuvres:
         man = named_manoeuvre(name, {"duration": float(duration)} if duration else None)
-        ref = simulate(study.model, ref_values, study.vessel, man, env)
+        ref = simulate(full, ref_values, study.vessel, man, env)
         pred = simulate(study.model, params, study.vessel, man, env)
         metrics.update(error_metrics(pred, ref, name))
         heading = np.deg2rad(man.heading) if man.kind == "zigzag" else None
@@ -245,6 +266,28 @@ def write_overlay_table(reference: pd.DataFrame, prediction: pd.DataFrame, path:
     pd.DataFrame(table).to_csv(path, index=False)
 
 
+def _training_names(study: Study) -> set:
+    if study.settings.data_paths:
+        return {str(r.attrs.get("name")) for r in study.records}
+    return {str(study.cfg.manoeuvre.name)}
+
+
+def speed_mae_summary(metrics: dict, training: set) -> dict:
+    """Mean absolute speed error over validation manoeuvres (Li et al. Fig. 10).
+
+    ``validation/mae_speed`` averages ``(mae_u + mae_v) / 2`` [m/s] over the
+    manoeuvres that were not the training one (all of them when each was);
+    a diverged prediction counts with the finite penalty.
+    """
+    names = sorted({k.split("/")[0] for k in metrics if k.endswith("/mae_u")} - {"training"})
+    others = [n for n in names if n not in training] or names
+    if not others:
+        return {}
+    values = [0.5 * (metrics[f"{n}/mae_u"] + metrics[f"{n}/mae_v"]) for n in others]
+    return {"validation/mae_speed": float(np.mean(values)),
+            "validation/diverged": float(sum(metrics.get(f"{n}/diverged", 0.0) for n in others))}
+
+
 def execute(study: Study, out_dir: Path) -> dict:
     """Identify, validate and write the run's files into ``out_dir``.
 
@@ -283,6 +326,7 @@ def execute(study: Study, out_dir: Path) -> dict:
         metrics.update(_validate_records(study, params, out_dir))
     else:
         metrics.update(_validate_simulated(study, params, out_dir))
+    metrics.update(speed_mae_summary(metrics, _training_names(study)))
     metrics["runtime/total_s"] = time.perf_counter() - started
     metrics = {k: float(v) for k, v in metrics.items()}
     (out_dir / "metrics.json").write_text(json.dumps(metrics, indent=1, sort_keys=True))
