@@ -51,21 +51,38 @@ def _run_task(cfg) -> None:
     verbose = bool(cfg.get("verbose", False))
     root = Path(get_original_cwd())
     out_dir = Path(HydraConfig.get().runtime.output_dir)
-    try:
-        study = prepare(cfg, root)
-    except StudiesError as error:
-        _fail(error, verbose)
     from omegaconf import OmegaConf
 
     params = OmegaConf.to_container(cfg, resolve=True)
-    name = run_name(cfg, study.settings)
-    with tracking.start_run(str(cfg.tracking.experiment), name, cfg.tracking.uri, root, params,
-                            run_tags(cfg, study.settings)) as run:
-        metrics = execute(study, out_dir)
-        run.log_outputs(metrics, out_dir)
+    if str(cfg.model.name) == "roll":
+        from .workflows.roll_run import execute_roll, prepare_roll
+
+        try:
+            roll = prepare_roll(cfg)
+        except StudiesError as error:
+            _fail(error, verbose)
+        name = cfg.get("run_name") or f"{roll.method} roll {'+'.join(roll.terms)} " + (
+            ", ".join(Path(p).stem for p in roll.data_paths) or "synthetic") + f" seed={roll.seed}"
+        tags = {"method": roll.method, "model": "roll", "manoeuvre": "roll_decay",
+                "data": "measured" if roll.data_paths else "simulated", "preset": cfg.get("preset") or "none"}
+        with tracking.start_run(str(cfg.tracking.experiment), name, cfg.tracking.uri, root, params,
+                                tags) as run:
+            metrics = execute_roll(roll, out_dir)
+            run.log_outputs(metrics, out_dir)
+    else:
+        try:
+            study = prepare(cfg, root)
+        except StudiesError as error:
+            _fail(error, verbose)
+        name = run_name(cfg, study.settings)
+        with tracking.start_run(str(cfg.tracking.experiment), name, cfg.tracking.uri, root, params,
+                                run_tags(cfg, study.settings)) as run:
+            metrics = execute(study, out_dir)
+            run.log_outputs(metrics, out_dir)
     run_id = run.run_id
     summary = {k: v for k, v in metrics.items()
-               if k.startswith(("deviation/", "runtime/")) or k.endswith("/fitness")}
+               if k.startswith(("deviation/", "runtime/", "validation/", "simulation/"))
+               or k.endswith(("/fitness", "/rmse_deg", "cpu_s"))}
     print(f"run '{name}' ({run_id}) -> {out_dir}")
     print(json.dumps(summary, indent=1, sort_keys=True))
 

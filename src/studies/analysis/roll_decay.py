@@ -125,9 +125,7 @@ def _refine(t, y, i, half_width, sign):
     c = np.polyfit(tt, y[lo:hi], 2)
     if sign * c[0] >= 0:  # not a proper extremum shape
         return t[i], y[i]
-    tv = -c[1] / (2 * c[0])
-    if not (tt[0] <= tv <= tt[-1]):
-        return t[i], y[i]
+    tv = float(np.clip(-c[1] / (2 * c[0]), tt[0], tt[-1]))  # a peak at the record's start stays there
     return t[i] + tv, float(np.polyval(c, tv))
 
 
@@ -153,8 +151,10 @@ def find_extrema(t, y, centre: float = 0.0, hysteresis: float | None = None,
     hysteresis : float, optional
         Dead band half-width. Default ``max(0.02 max|y - centre|, 4 noise_std(y))``.
     refine_half_width : int, optional
-        Half-width in samples of the parabola fit; default one twentieth of the
-        median half-cycle (at least 1).
+        Half-width in samples of the parabola fit; default a tenth of the
+        median half-cycle (at least 1): the fitted vertex is then within 0.05 %
+        of the peak of a sinusoid (a common factor on all extrema) and
+        averages the noise over about a tenth of a period.
 
     Returns
     -------
@@ -190,7 +190,7 @@ def find_extrema(t, y, centre: float = 0.0, hysteresis: float | None = None,
     if refine_half_width is None:
         if idx.size > 2:
             half = float(np.median(np.diff(idx)))
-            refine_half_width = max(1, int(round(half / 20.0)))
+            refine_half_width = max(1, int(round(half / 10.0)))
         else:
             refine_half_width = 1
     tv = np.empty(idx.size)

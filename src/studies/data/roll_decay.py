@@ -93,8 +93,7 @@ def read_roll_decay_csv(path) -> pd.DataFrame:
         vals = pd.to_numeric(raw[src], errors="coerce").to_numpy(dtype=float)
         bad = np.flatnonzero(~np.isfinite(vals))
         if bad.size:
-            what = "NaN or non-numeric value" if raw[src].iloc[bad[0]] is not None else "missing value"
-            raise DataError(file, f"{what}", column=src, row=int(bad[0]))
+            raise DataError(file, "NaN, missing or non-numeric value", column=src, row=int(bad[0]))
         out[dst] = vals
     t, phi = out["t"], out["phi"]
     if t.size < MIN_SAMPLES:
@@ -120,10 +119,14 @@ def _extrema(t, phi, centre):
 def find_release(t, phi, file: str = "<array>", min_peaks: int = 3) -> int:
     """Index of the release instant of a free decay.
 
-    The release is the largest extremum of the record (the model is heeled to
-    about 10 deg and let go: the first peak after which the signal oscillates
-    with decaying amplitude). When the model was held still at that angle
-    (a plateau), the last sample of the plateau is returned.
+    The release is the first extremum within 2 % of the largest one (the
+    model is heeled to about 10 deg and let go: the first peak after which
+    the signal oscillates with decaying amplitude; in the SSPA tests the model
+    is swung over in about a second rather than held). When the model was
+    held still at that angle (a plateau longer than a quarter of a
+    half-period), the last sample still at the held angle is returned.
+    Extrema are found with a dead band about the tail's median, so the part
+    before the heeling (at rest, below the dead band) is skipped.
 
     Parameters
     ----------
@@ -160,7 +163,9 @@ def find_release(t, phi, file: str = "<array>", min_peaks: int = 3) -> int:
     if len(ex) < 2:
         raise DataError(file, "no oscillation found: not a roll decay", column="phi")
     amp = ex.amplitude
-    k = int(np.argmax(amp))
+    # the first extremum within 2 % of the largest: for a decay the largest itself,
+    # for a steady or growing oscillation an early one, refused below
+    k = int(np.flatnonzero(amp >= 0.98 * amp.max())[0])
     after = amp[k + 1:]
     if after.size < min_peaks:
         before = amp[:k + 1]
@@ -173,7 +178,7 @@ def find_release(t, phi, file: str = "<array>", min_peaks: int = 3) -> int:
         raise DataError(file, f"oscillation amplitude {amp[k]:.3g} rad is not above the noise "
                               f"({noise:.3g} rad): not a roll decay", column="phi")
     seq = amp[k:]
-    half = np.diff(ex.t[k:])
+    half = np.diff(ex.t[k + 1:])  # the interval from a held plateau to the first extremum is not one
     if half.size >= 2:
         cv = float(np.std(half) / np.mean(half))
         if cv > 0.25:
@@ -197,9 +202,12 @@ def find_release(t, phi, file: str = "<array>", min_peaks: int = 3) -> int:
     lo = int(ex.index[k])
     while lo - 1 >= 0 and near[lo - 1]:
         lo -= 1
-    half_period = float(np.median(half)) if half.size else np.inf
+    half_period = float(np.median(half)) if half.size else float(np.median(np.diff(ex.t[k:])))
     if t[j] - t[lo] > 0.25 * half_period:  # much flatter than a dynamic peak: held, then let go
-        i = j
+        # last sample still at the held angle (to within the noise): the release
+        level = float(np.median(phi[lo:j + 1]))
+        held = np.flatnonzero(np.abs(phi[lo:j + 1] - level) <= max(4.0 * noise, 1e-6 * amp[k]))
+        i = lo + int(held[-1]) if held.size else j
     return i
 
 
@@ -367,21 +375,43 @@ def load_roll_decay(path, dt: float | None = None, offset: str | float = "centre
 def initial_state(record: pd.DataFrame, period: float | None = None) -> tuple[float, float]:
     """Initial roll angle [rad] and rate [rad/s] of a prepared record.
 
-    A cubic is fitted by least squares to the first eighth of a period (at
-    least four samples); its value and slope at ``t[0]`` are returned, which
-    filters measurement noise and quantisation while keeping the release
-    state (rate close to zero).
+    Over the first period the record is fitted by least squares with
+    ``(a + c t + e t^2) cos(w t) + (b + d t + f t^2) sin(w t) + g cos(3 w t)
+    + h sin(3 w t)`` (``w = 2 pi / T``; the polynomial factors follow the
+    changing amplitude and phase, the third harmonic the distortion by
+    nonlinear damping); then ``phi(0) = a + g`` and ``phi'(0) = w b + c + 3 w h``. Using a whole period averages
+    the measurement noise: a local polynomial over a few samples gives a
+    rate so noisy that a simulation started from it is visibly out of phase.
+    Without a period estimate a cubic over the first samples is used.
+
+    Parameters
+    ----------
+    record : DataFrame
+        Prepared decay (``t`` [s] from the release, ``phi`` [rad]).
+    period : float, optional
+        Roll period [s]; default ``record.attrs["period"]``.
+
+    Returns
+    -------
+    phi0, dphi0 : float
+        [rad], [rad/s].
     """
     t = record["t"].to_numpy(float)
     phi = record["phi"].to_numpy(float)
     if period is None:
         period = float(record.attrs.get("period", np.nan))
-    dt = t[1] - t[0]
-    m = 4 if not np.isfinite(period) else max(4, int(round(period / 8.0 / dt)))
-    m = min(m, t.size)
-    tt = t[:m] - t[0]
-    deg = min(3, m - 1)
-    c = np.polyfit(tt, phi[:m], deg)
+    tt = t - t[0]
+    if np.isfinite(period) and period > 0 and tt[-1] >= period:
+        m = tt <= period
+        w = 2 * math.pi / period
+        c, s = np.cos(w * tt[m]), np.sin(w * tt[m])
+        u = tt[m]
+        c3, s3 = np.cos(3 * w * u), np.sin(3 * w * u)
+        X = np.column_stack((c, s, u * c, u * s, u * u * c, u * u * s, c3, s3))
+        coef = np.linalg.lstsq(X, phi[m], rcond=None)[0]
+        return float(coef[0] + coef[6]), float(w * coef[1] + coef[2] + 3 * w * coef[7])
+    n = min(8, t.size)
+    c = np.polyfit(tt[:n], phi[:n], min(3, n - 1))
     return float(np.polyval(c, 0.0)), float(np.polyval(np.polyder(c), 0.0))
 
 

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Sequence
 
@@ -200,19 +201,20 @@ def ode_least_squares(model: RollModel, phi, dphi, ddphi, fit_offset: bool = Tru
 
 
 def _initial_guess(model: RollModel, records: Sequence[pd.DataFrame]) -> dict:
-    """Log-decrement initial guess: decay-curve fit of the damping terms (pooled records)."""
+    """Log-decrement initial guess: decay-curve fit of the damping terms (pooled records).
+
+    ``omega0`` from the median half period, the damping terms from the
+    decrement per half-cycle against amplitude (see
+    :func:`studies.analysis.roll_decay.fit_decay_curve`), ``c3 = 0``.
+    """
     from studies.analysis.roll_decay import decay_curve, fit_decay_curve
 
     curve = pd.concat([decay_curve(r) for r in records], ignore_index=True)
     damp = [t for t in model.terms if t in ("b1", "b2", "b3")]
     g = fit_decay_curve(curve, damp)
-    if "b1" not in model.terms and damp:
-        g = fit_decay_curve(curve, damp)
     out = {"omega0": g["omega0"]}
     for t in model.terms:
         out[t] = float(g.get(t, 0.0))
-    if "b1" in model.terms and "b1" not in g:
-        out["b1"] = 0.0
     return out
 
 
@@ -243,6 +245,21 @@ def predict_record(params: dict, terms: Sequence[str], record: pd.DataFrame,
         initial = initial_state(record)
     phi, _ = RollModel(tuple(terms)).simulate(params, initial[0], initial[1], record["t"].to_numpy(float))
     return phi
+
+
+@contextmanager
+def _single_thread_blas():
+    """Run BLAS single-threaded: the matrices here are small (tens to hundreds
+    of rows), where thread start-up costs more than it gains and, on a busy
+    machine, multiplies the CPU time several-fold (threadpoolctl, a
+    scikit-learn dependency; without it nothing changes)."""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # pragma: no cover
+        yield
+        return
+    with threadpool_limits(limits=1, user_api="blas"):
+        yield
 
 
 class _Estimator:
@@ -276,9 +293,10 @@ class _Estimator:
         """
         records = _as_records(record)
         self._prepare()
-        c0, w0 = time.process_time(), time.perf_counter()
-        params, meta = self._fit(records)
-        cpu = time.process_time() - c0
+        with _single_thread_blas():
+            c0, w0 = time.process_time(), time.perf_counter()
+            params, meta = self._fit(records)
+            cpu = time.process_time() - c0
         meta = dict(meta)
         meta.update({"method": self.name, "terms": list(self.terms), "wall_s": time.perf_counter() - w0})
         return RollFit({k: float(v) for k, v in params.items()}, float(cpu), meta)
@@ -295,9 +313,10 @@ class NLSEstimator(_Estimator):
     ----------
     terms : sequence of str
         Model terms (see :class:`studies.models.roll.RollModel`).
-    points_per_period : float
+    points_per_period : float, optional
         Samples per roll period kept for the residual (the record is
-        subsampled; the RK4 integration uses at least 60 steps per period).
+        subsampled); default every sample. The RK4 integration uses at least
+        60 steps per period in any case.
     fit_initial_state : bool
         Estimate ``phi(0)`` and ``phi'(0)`` of each record with the coefficients.
     max_nfev : int
@@ -318,10 +337,10 @@ class NLSEstimator(_Estimator):
 
     name = "nls"
 
-    def __init__(self, terms: Sequence[str] = ("b1", "b2"), points_per_period: float = 25.0,
+    def __init__(self, terms: Sequence[str] = ("b1", "b2"), points_per_period: float | None = None,
                  fit_initial_state: bool = True, max_nfev: int = 200, seed: int = 0):
         super().__init__(terms, seed)
-        self.points_per_period = float(points_per_period)
+        self.points_per_period = None if points_per_period is None else float(points_per_period)
         self.fit_initial_state = bool(fit_initial_state)
         self.max_nfev = int(max_nfev)
 
@@ -337,7 +356,10 @@ class NLSEstimator(_Estimator):
 
         names = list(self.model.param_names)
         guess = _initial_guess(self.model, records)
-        data = [_subsample(r, self.points_per_period)[:2] for r in records]
+        if self.points_per_period is None:
+            data = [(r["t"].to_numpy(float), r["phi"].to_numpy(float)) for r in records]
+        else:
+            data = [_subsample(r, self.points_per_period)[:2] for r in records]
         inits = [initial_state(r) for r in records]
         x0 = [guess[n] for n in names]
         if self.fit_initial_state:
@@ -500,8 +522,8 @@ class FLSEstimator(_EquationErrorEstimator):
 
     def __init__(self, terms: Sequence[str] = ("b1", "b2"), points_per_period: float = 50.0,
                  n_phases: int | None = None, lam: float | None = None,
-                 lam_grid: Sequence[float] = tuple(10.0 ** np.arange(-10.0, -1.0)),
-                 n_folds: int = 5, cv_points: int = 1500, eval_per_period: int = 60,
+                 lam_grid: Sequence[float] = tuple(10.0 ** np.arange(-10.0, -0.9, 0.5)),
+                 n_folds: int = 5, cv_points: int = 2000, eval_per_period: int = 60,
                  harmonics: Sequence[int] = (2, 3, 4, 5), edge_periods: float = 0.25,
                  fit_offset: bool = True, seed: int = 0):
         super().__init__(terms, points_per_period, n_phases, eval_per_period, harmonics, edge_periods,
