@@ -12,16 +12,17 @@ from __future__ import annotations
 
 from ..errors import ConfigError
 from .base import Identification
+from .bayes import BayesianRegression
 from .ga import GeneticRefinement
 from .ls import LeastSquares
 from .regression import RegressionProblem, build_problems
 
 __all__ = ["Identification", "RegressionProblem", "build_problems", "LeastSquares",
-           "GeneticRefinement", "MANOEUVRING_METHODS", "make_identifier"]
+           "GeneticRefinement", "BayesianRegression", "MANOEUVRING_METHODS", "make_identifier"]
 
 #: manoeuvring identifiers by config name
 MANOEUVRING_METHODS = {"ls": LeastSquares, "ls_ga": GeneticRefinement,
-                       "svm_ga": GeneticRefinement}
+                       "svm_ga": GeneticRefinement, "bayes": BayesianRegression}
 
 
 def make_identifier(name: str, options: dict | None = None):
