@@ -15,14 +15,18 @@ from .base import Identification
 from .bayes import BayesianRegression
 from .ga import GeneticRefinement
 from .ls import LeastSquares
+from .sindy import SparseRegression
+from .svm import SupportVectorRegression
 from .regression import RegressionProblem, build_problems
 
 __all__ = ["Identification", "RegressionProblem", "build_problems", "LeastSquares",
-           "GeneticRefinement", "BayesianRegression", "MANOEUVRING_METHODS", "make_identifier"]
+           "GeneticRefinement", "BayesianRegression", "SupportVectorRegression",
+           "SparseRegression", "MANOEUVRING_METHODS", "make_identifier"]
 
 #: manoeuvring identifiers by config name
-MANOEUVRING_METHODS = {"ls": LeastSquares, "ls_ga": GeneticRefinement,
-                       "svm_ga": GeneticRefinement, "bayes": BayesianRegression}
+MANOEUVRING_METHODS = {"ls": LeastSquares, "svm": SupportVectorRegression,
+                       "ls_ga": GeneticRefinement, "svm_ga": GeneticRefinement,
+                       "bayes": BayesianRegression, "sindy": SparseRegression}
 
 
 def make_identifier(name: str, options: dict | None = None):

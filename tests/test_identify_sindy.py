@@ -1,0 +1,123 @@
+"""Sparse regression (SINDy / STLSQ) on the model's terms and on the extended library."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from omegaconf import OmegaConf
+
+from conftest import deviations
+from studies.identify.objective import TrajectoryObjective
+from studies.identify.regression import build_problems
+from studies.identify.sindy import SparseRegression, term_library
+from studies.models.terms import Term, candidate_terms
+from studies.simulate import simulate, zigzag
+
+CONF = Path(__file__).resolve().parents[1] / "src" / "studies" / "conf" / "method"
+
+NRRR = Term("Nrrr", "N", (0, 0, 3, 0))
+NRRR_VALUE = -0.003
+
+
+@pytest.fixture(scope="module")
+def problems_4000(model, vessel, zigzag_4000):
+    return build_problems(model, vessel, zigzag_4000)
+
+
+def _relative_contributions(problem, truth):
+    """RMS contribution of each true term over the RMS of y: the scaled coefficient."""
+    y_rms = np.sqrt(np.mean(problem.y ** 2))
+    return {n: abs(truth[n]) * np.sqrt(np.mean(problem.theta[:, j] ** 2)) / y_rms
+            for j, n in enumerate(problem.names)}
+
+
+def test_term_library_reads_as_the_model(model):
+    x = np.random.default_rng(0).normal(scale=0.2, size=(50, 4))
+    for dof in "XYN":
+        lib = term_library(model.terms_of(dof))
+        lib.fit(x)
+        assert lib.get_feature_names(["u", "v", "r", "d"]) == model.names_of(dof)
+        assert np.allclose(np.asarray(lib.transform(x)), model.features(x, dof))
+
+
+def test_model_library_recovers_all_40_like_ls(problems_4000, vessel):
+    result = SparseRegression(library="model").fit(problems_4000)
+    dev = np.abs(list(deviations(result.params, vessel.coefficients).values()))
+    assert np.median(dev) < 0.5 and dev.max() < 10.0
+    for dof, n in (("X", 10), ("Y", 15), ("N", 15)):
+        assert result.metrics[f"sindy/{dof}/n_selected"] == n
+        assert result.metrics[f"sindy/{dof}/n_extra"] == 0
+        assert result.metrics[f"sindy/{dof}/converged"] == 1
+
+
+def test_threshold_is_the_relative_rms_contribution(problems_4000, vessel):
+    """Terms contributing less than ``threshold`` of the RMS force are pruned
+    and reported as 0.0: between Yvdd (4.2e-4) and the next weakest term
+    Y0uu (9.4e-4), exactly Yvdd goes."""
+    contrib = _relative_contributions(problems_4000["Y"], vessel.coefficients)
+    weakest = sorted(contrib, key=contrib.get)[:2]
+    assert weakest == ["Yvdd", "Y0uu"]
+    threshold = float(np.sqrt(contrib["Yvdd"] * contrib["Y0uu"]))
+    result = SparseRegression(threshold=threshold).fit(problems_4000)
+    assert result.params["Yvdd"] == 0.0
+    assert result.metrics["sindy/Y/n_dropped"] == 1
+    assert result.metrics["sindy/N/n_dropped"] == result.metrics["sindy/X/n_dropped"] == 0
+
+
+def test_extended_library_needs_the_objective(problems_4000):
+    with pytest.raises(ValueError, match="objective"):
+        SparseRegression(library="extended").fit(problems_4000)
+
+
+@pytest.mark.slow
+def test_extended_library_selects_exactly_the_model_terms(model, vessel, zigzag_4000,
+                                                          problems_4000, tmp_path):
+    """Clean data, 35 candidates per DOF: the 40 model terms and nothing else.
+
+    Threshold 1e-4 (default): the weakest true term contributes 4.2e-4 of
+    its DOF's RMS force (Yvdd), the spurious candidates < 2e-5 once STLSQ's
+    first pass has removed the rest (see the module notes)."""
+    for dof in "XYN":
+        assert len(candidate_terms(dof, 3)) == 35
+    objective = TrajectoryObjective(model, vessel, [zigzag_4000])
+    result = SparseRegression(library="extended").fit(problems_4000, objective)
+    assert set(result.params) == set(model.names)
+    dev = np.abs(list(deviations(result.params, vessel.coefficients).values()))
+    assert np.median(dev) < 0.5 and dev.max() < 10.0
+    for dof in "XYN":
+        assert result.metrics[f"sindy/{dof}/n_candidates"] == 35
+        assert result.metrics[f"sindy/{dof}/n_extra"] == 0
+        assert result.metrics[f"sindy/{dof}/n_selected"] == len(model.names_of(dof))
+    result.writers["sindy_terms.json"](tmp_path / "sindy_terms.json")
+    terms = json.loads((tmp_path / "sindy_terms.json").read_text())
+    assert terms["Y"]["selected"] == model.names_of("Y")   # thesis names (Yvu), not canonical (Yuv)
+    assert all(terms[d]["extra"] == [] and terms[d]["dropped"] == [] for d in "XYN")
+
+
+@pytest.mark.slow
+def test_extended_library_finds_a_hidden_term(model, vessel, tmp_path):
+    """Data from the Mariner plus Nrrr = -0.003: identified with the plain
+    Abkowitz model as the run's model, SINDy lists Nrrr (and only Nrrr) as
+    extra, at its value, and keeps the 40 model terms."""
+    truth = dict(vessel.coefficients, Nrrr=NRRR_VALUE)
+    rec = simulate(model.extended([NRRR]), truth, vessel, zigzag(20, 20, duration=1500.0))
+    problems = build_problems(model, vessel, rec)
+    result = SparseRegression(library="extended").fit(
+        problems, TrajectoryObjective(model, vessel, [rec]))
+    assert set(result.params) - set(model.names) == {"Nrrr"}
+    assert result.params["Nrrr"] == pytest.approx(NRRR_VALUE, rel=1e-3)
+    assert result.metrics["sindy/N/n_extra"] == 1
+    assert result.metrics["sindy/X/n_extra"] == result.metrics["sindy/Y/n_extra"] == 0
+    dev = np.abs(list(deviations(result.params, vessel.coefficients).values()))
+    assert np.median(dev) < 0.5 and dev.max() < 10.0
+    result.writers["sindy_terms.json"](tmp_path / "sindy_terms.json")
+    assert json.loads((tmp_path / "sindy_terms.json").read_text())["N"]["extra"] == ["Nrrr"]
+
+
+def test_config_keys_are_constructor_options():
+    path = CONF / "sindy.yaml"
+    options = OmegaConf.to_container(OmegaConf.load(path), resolve=True)
+    assert list(options)[0] == "name" and options.pop("name") == SparseRegression.name
+    sindy = SparseRegression(**options)
+    assert sindy.library == "model" and sindy.max_order == 3
