@@ -3,6 +3,11 @@
 from __future__ import annotations
 
 import os
+
+# as the CLI does: one BLAS thread (small regressions; multi-threaded BLAS contends)
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("MKL_NUM_THREADS", "1")
+
 import sqlite3
 import subprocess
 import sys

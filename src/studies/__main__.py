@@ -2,6 +2,6 @@
 
 import sys
 
-from .cli import main
+from .cli import main  # sets the BLAS thread count before numpy loads
 
 sys.exit(main())

@@ -3,9 +3,17 @@
 ``studies run [overrides]``      one study (``-m`` for a sweep)
 ``studies bench``                performance figures as JSON
 
-Bad input (config values, data files) is reported as one line on stderr with
-exit status 2, before any MLflow run exists; ``verbose=true`` shows the
-traceback instead.
+Bad input (an unknown key or option, an unparsable override, an impossible
+value, a data file outside the data contract, a path to write outside the
+project) is reported as one line on stderr with exit status 2, before any
+MLflow run exists (:mod:`studies.config_check` composes every job's config
+first); ``verbose=true`` shows the traceback instead. A run that fails later
+is marked FAILED in MLflow with its error (one line, exit status 1). In a
+sweep the other jobs go on; the sweep ends with a one-line summary of the
+failed jobs and exit status 1. SIGINT/SIGTERM mark the running runs KILLED
+(:mod:`studies.interrupt`, :mod:`studies.jobstate`) and exit with 128 + the
+signal; ``resume=true`` then skips the jobs that already have a FINISHED run
+with the same ``config_hash`` tag (:mod:`studies.resume`).
 """
 
 from __future__ import annotations
@@ -30,100 +38,301 @@ Options are Hydra overrides, e.g.
   studies run method=ls wind.speed=12 wind.direction=45 noise.wind_speed_error=-0.05
   studies run data.path=my_zigzag.csv vessel=mariner
   studies run -m wind.speed=4,8,12,16
+  studies run -m wind.speed=4,8,12,16 resume=true   # after an interruption: run the rest
 """
 
 
 def _fail(error: Exception, verbose: bool) -> None:
     if verbose:
         raise error
-    print(f"studies: error: {error}", file=sys.stderr)
+    print(f"studies: error: {_one_line(error)}", file=sys.stderr)
     sys.exit(2)
 
 
-def _run_task(cfg) -> None:
+def _one_line(error) -> str:
+    """An error as one line (first line, plus the last one when they differ)."""
+    text = str(error)
+    lines = [line.strip() for line in text.strip().splitlines() if line.strip()]
+    if not lines:
+        return type(error).__name__ if isinstance(error, BaseException) else ""
+    line = lines[0] if len(lines) == 1 or lines[-1] == lines[0] else f"{lines[0]} ... {lines[-1]}"
+    return line[:1000]
+
+
+def _job_info():
+    """(multirun, job number or None, this job's overrides)."""
+    from hydra.core.hydra_config import HydraConfig
+    from hydra.types import RunMode
+
+    hydra_cfg = HydraConfig.get()
+    multirun = hydra_cfg.mode == RunMode.MULTIRUN
+    num = hydra_cfg.job.get("num") if multirun else None
+    return multirun, num, [str(o) for o in hydra_cfg.overrides.task]
+
+
+def _run_job(cfg, body) -> dict:
+    """Run ``body(cfg, root, out_dir, on_create)`` as one job of `studies`.
+
+    Single run: bad input (:class:`StudiesError`) is one line and exit 2, any
+    other error one line and exit 1 (tracebacks with ``verbose=true``).
+    Sweep job: a failure is recorded for the launcher's summary and the job
+    returns ``{"status": "failed", ...}`` so that the other jobs go on.
+    SIGINT/SIGTERM end the job (its run KILLED) and propagate.
+    """
+    from contextlib import nullcontext
+
     from hydra.core.hydra_config import HydraConfig
     from hydra.utils import get_original_cwd
 
-    from . import tracking
+    from . import interrupt, jobstate
     from .errors import StudiesError
-    from .workflows.manoeuvring import execute, prepare, run_name, run_tags
 
-    verbose = bool(cfg.get("verbose", False))
+    verbose = cfg.get("verbose", False) is True
+    multirun, num, overrides = _job_info()
     root = Path(get_original_cwd())
     out_dir = Path(HydraConfig.get().runtime.output_dir)
+    state = jobstate.current()
+    created = {}
+
+    def on_create(run_id, uri):
+        created["run_id"] = run_id
+        if record is not None:
+            record.set_run(run_id, uri)
+
+    record = None
+    try:
+        with (state.job(num, overrides) if state else nullcontext()) as record, interrupt.job():
+            if state is not None and state.stopped():
+                raise interrupt.Interrupted(interrupt.received() or 15)
+            result = body(cfg, root, out_dir, on_create)
+    except KeyboardInterrupt:
+        if state is not None:
+            run_id = created.get("run_id")
+            state.write_result(num, {"status": "killed" if run_id else "not started",
+                                     "overrides": overrides, "run_id": run_id})
+        raise
+    except Exception as error:  # noqa: BLE001 - reported as one line, run marked FAILED
+        run_id = created.get("run_id")
+        line = _one_line(error) if isinstance(error, StudiesError) else \
+            f"{type(error).__name__}: {_one_line(error)}"
+        if run_id:
+            line += f" (run {run_id} marked FAILED)"
+        if not multirun:
+            if verbose:
+                raise
+            print(f"studies: error: {line}", file=sys.stderr)
+            sys.exit(2 if isinstance(error, StudiesError) else 1)
+        if state is None:
+            raise
+        if verbose:
+            import traceback
+
+            traceback.print_exc()
+        result = {"status": "failed", "error": line, "run_id": run_id}
+    result = {**result, "overrides": overrides}
+    if state is not None:
+        state.write_result(num, result)
+    if result["status"] == "skipped" and not multirun:
+        print(f"[studies] skipped: already finished as run {result['run_id']} (resume=true)",
+              file=sys.stderr)
+    return result
+
+
+def _resumable(cfg, root):
+    """``(config_hash, id of a FINISHED run with it or None)``."""
+    from . import tracking
+    from .resume import config_hash
+
+    digest = config_hash(cfg, root)
+    done = None
+    if cfg.get("resume", False) is True:
+        done = tracking.find_finished_run(cfg.tracking.uri, root, str(cfg.tracking.experiment), digest)
+    return digest, done
+
+
+def _study(cfg, root: Path, out_dir: Path, on_create) -> dict:
+    """One `studies run` job: check, (skip,) prepare, open the run, execute, log."""
     from omegaconf import OmegaConf
 
+    from . import tracking
+    from .workflows.settings import check_output_paths
+
+    check_output_paths(cfg, root, out_dir)
+    digest, done = _resumable(cfg, root)
+    if done:
+        return {"status": "skipped", "run_id": done, "config_hash": digest}
     params = OmegaConf.to_container(cfg, resolve=True)
     if str(cfg.model.name) == "roll":
         from .workflows.roll_run import execute_roll, prepare_roll
 
-        try:
-            roll = prepare_roll(cfg)
-        except StudiesError as error:
-            _fail(error, verbose)
+        roll = prepare_roll(cfg)
         name = cfg.get("run_name") or f"{roll.method} roll {'+'.join(roll.terms)} " + (
             ", ".join(Path(p).stem for p in roll.data_paths) or "synthetic") + f" seed={roll.seed}"
         tags = {"method": roll.method, "model": "roll", "manoeuvre": "roll_decay",
                 "data": "measured" if roll.data_paths else "simulated", "preset": cfg.get("preset") or "none"}
-        with tracking.start_run(str(cfg.tracking.experiment), name, cfg.tracking.uri, root, params,
-                                tags) as run:
-            metrics = execute_roll(roll, out_dir)
-            run.log_outputs(metrics, out_dir)
+
+        def run_body():
+            return execute_roll(roll, out_dir)
     else:
-        try:
-            study = prepare(cfg, root)
-        except StudiesError as error:
-            _fail(error, verbose)
+        from .workflows.manoeuvring import execute, prepare, run_name, run_tags
+
+        study = prepare(cfg, root)
         name = run_name(cfg, study.settings)
-        with tracking.start_run(str(cfg.tracking.experiment), name, cfg.tracking.uri, root, params,
-                                run_tags(cfg, study.settings)) as run:
-            metrics = execute(study, out_dir)
-            run.log_outputs(metrics, out_dir)
-    run_id = run.run_id
+        tags = run_tags(cfg, study.settings)
+
+        def run_body():
+            return execute(study, out_dir)
+    tags["config_hash"] = digest
+    with tracking.start_run(str(cfg.tracking.experiment), name, cfg.tracking.uri, root, params,
+                            tags, on_create=on_create) as run:
+        metrics = run_body()
+        run.log_outputs(metrics, out_dir)
     summary = {k: v for k, v in metrics.items()
                if k.startswith(("deviation/", "runtime/", "validation/", "simulation/"))
                or k.endswith(("/fitness", "/rmse_deg", "cpu_s"))}
-    print(f"run '{name}' ({run_id}) -> {out_dir}")
+    print(f"run '{name}' ({run.run_id}) -> {out_dir}")
     print(json.dumps(summary, indent=1, sort_keys=True))
+    return {"status": "finished", "run_id": run.run_id, "config_hash": digest}
 
 
-def _simplify_task(cfg) -> None:
-    from hydra.core.hydra_config import HydraConfig
-    from hydra.utils import get_original_cwd
+def _run_task(cfg):
+    return _run_job(cfg, _study)
 
-    from .errors import StudiesError
+
+def _simplify(cfg, root: Path, out_dir: Path, on_create) -> dict:
+    from .workflows.settings import check_output_paths
     from .workflows.simplify import ensure_definition
 
-    root = Path(get_original_cwd())
-    out_dir = Path(HydraConfig.get().runtime.output_dir)
-    try:
-        path = ensure_definition(cfg, root, out_dir, force=True)
-    except StudiesError as error:
-        _fail(error, bool(cfg.get("verbose", False)))
+    check_output_paths(cfg, root, out_dir)
+    path = ensure_definition(cfg, root, out_dir, force=True)
     print(f"simplified model written: {path}")
     print((out_dir / "simplification.json").read_text())
+    return {"status": "finished"}
+
+
+def _simplify_task(cfg):
+    return _run_job(cfg, _simplify)
 
 
 def _report_task(cfg) -> None:
     from hydra.utils import get_original_cwd
 
+    from .errors import StudiesError
     from .report.builder import build_report
+    from .workflows.settings import output_path
 
     root = Path(get_original_cwd())
     name = cfg.report.get("experiment") or None
     try:
-        path = build_report(cfg.tracking.uri, root, name, root / str(cfg.report.dir))
-    except LookupError as error:
-        _fail(error, bool(cfg.get("verbose", False)))
+        report_dir = output_path(cfg.report.dir, "report.dir", root)
+        path = build_report(cfg.tracking.uri, root, name, report_dir)
+    except (LookupError, StudiesError) as error:
+        _fail(error, cfg.get("verbose", False) is True)
     print(f"report written: {path} and {path.with_suffix('.html')}")
 
 
-def _hydra(task, config_name: str, command: str, args: list[str]) -> None:
+def _varying(results: list[dict]) -> dict:
+    """Per job number, the overrides that differ between the jobs of the sweep."""
+    common = None
+    for r in results:
+        here = set(r.get("overrides") or [])
+        common = here if common is None else common & here
+    common = common or set()
+    return {r.get("num"): " ".join(o for o in (r.get("overrides") or []) if o not in common)
+            for r in results}
+
+
+def _sweep_summary(state, checked) -> int:
+    """Print the sweep's outcome; the exit status (1 when a job failed)."""
+    results = [r for r in state.results() if r.get("num") is not None]
+    if not results:
+        return 0
+    counts = {}
+    for r in results:
+        counts[r["status"]] = counts.get(r["status"], 0) + 1
+    from .progress import ENV_TOTAL
+
+    try:
+        total = int(os.environ.get(ENV_TOTAL) or 0) or len(results)
+    except ValueError:
+        total = len(results)
+    total = max(total, len(results))
+    parts = ", ".join(f"{n} {s}" for s, n in sorted(counts.items()))
+    print(f"[studies] sweep of {total} jobs done: {parts}", file=sys.stderr)
+    failed = [r for r in results if r["status"] == "failed"]
+    if not failed:
+        return 0
+    labels = _varying(results)
+    detail = "; ".join(f"job {r['num'] + 1} ({labels.get(r['num']) or 'no overrides'}): {r['error']}"
+                       for r in failed)
+    print(f"studies: error: {len(failed)} of {total} jobs failed: {detail}", file=sys.stderr)
+    return 1
+
+
+def _interrupted(state, error: KeyboardInterrupt, root: Path) -> int:
+    """After SIGINT/SIGTERM: close runs whose worker died, say what is left; exit status."""
+    from . import interrupt, tracking
+
+    signum = getattr(error, "signum", None) or interrupt.received() or 2
+    closed = 0
+    for active in state.unclosed_runs():
+        try:
+            closed += tracking.close_if_running(active["uri"], root, active["run_id"], "KILLED",
+                                                "interrupted: the job's process ended before closing its run")
+        except Exception:  # noqa: BLE001 - the store may be unreachable: say so below
+            pass
+    results = state.results()
+    finished = sum(r["status"] in ("finished", "skipped") for r in results)
+    killed = sum(r["status"] == "killed" for r in results) + closed
+    name = {2: "SIGINT", 15: "SIGTERM"}.get(signum, f"signal {signum}")
+    print(f"studies: interrupted by {name}: {finished} job(s) finished, {killed} run(s) marked KILLED; "
+          "run the same command with resume=true to run the rest", file=sys.stderr)
+    return 128 + signum
+
+
+def _hydra(task, config_name: str, command: str, args: list[str]) -> int:
+    """Check the command line, run the Hydra app, report the outcome in one line."""
     import hydra
 
+    from . import interrupt
+    from .config_check import check_arguments, verbose_requested
+    from .errors import StudiesError
+    from .jobstate import JobState
+
+    verbose = verbose_requested(args)
+    root = Path.cwd()
+    try:
+        checked = check_arguments(config_name, args, root, command)
+    except StudiesError as error:
+        _fail(error, verbose)
+    verbose = verbose or bool(checked and checked.verbose)
+    state = JobState.create()
+    interrupt.set_stopper(state.stop_jobs)
+    full_error = os.environ.get("HYDRA_FULL_ERROR")
+    os.environ["HYDRA_FULL_ERROR"] = "1"      # Hydra's errors reach us (one line below)
     sys.argv = [f"studies {command}"] + args
     app = hydra.main(version_base="1.3", config_path="conf", config_name=config_name)(task)
-    app()
+    try:
+        app()
+        return _sweep_summary(state, checked)
+    except KeyboardInterrupt as error:
+        return _interrupted(state, error, root)
+    except Exception as error:  # noqa: BLE001 - Hydra or launcher errors
+        if verbose or full_error == "1":
+            raise
+        from omegaconf.errors import OmegaConfBaseException
+
+        bad_config = isinstance(error, OmegaConfBaseException) or \
+            type(error).__module__.startswith("hydra.errors")
+        print(f"studies: error: {_one_line(error)}", file=sys.stderr)
+        return 2 if bad_config else 1
+    finally:
+        interrupt.set_stopper(None)
+        if full_error is None:
+            os.environ.pop("HYDRA_FULL_ERROR", None)
+        else:
+            os.environ["HYDRA_FULL_ERROR"] = full_error
+        state.remove()
 
 
 def _ui(args: list[str]) -> int:
@@ -147,6 +356,11 @@ def _ui(args: list[str]) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``studies`` console script."""
+    # One BLAS thread per process: the regressions are small and sweeps run one
+    # process per core, where multi-threaded BLAS contends and runs many times slower.
+    # Set before numpy is loaded; sweep workers inherit it.
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    os.environ.setdefault("MKL_NUM_THREADS", "1")
     os.environ.setdefault("MLFLOW_DISABLE_TELEMETRY", "true")
     # a local Ray instance started by hydra/launcher=ray needs no auth token file
     os.environ.setdefault("RAY_AUTH_MODE", "disabled")
@@ -155,15 +369,14 @@ def main(argv: list[str] | None = None) -> int:
         print(USAGE)
         return 0
     command, rest = argv[0], argv[1:]
-    if command == "run":
-        _hydra(_run_task, "config", command, rest)
-        return 0
-    if command == "simplify":
-        _hydra(_simplify_task, "config", command, rest)
-        return 0
-    if command == "report":
-        _hydra(_report_task, "report", command, rest)
-        return 0
+    apps = {"run": (_run_task, "config"), "simplify": (_simplify_task, "config"),
+            "report": (_report_task, "report")}
+    if command in apps:
+        try:
+            return _hydra(*apps[command], command, rest)
+        except KeyboardInterrupt as error:    # before any job started
+            print("studies: interrupted", file=sys.stderr)
+            return 128 + getattr(error, "signum", 2)
     if command == "ui":
         return _ui(rest)
     if command == "bench":

@@ -84,6 +84,42 @@ def noise_ratio(x: np.ndarray) -> float:
     return float(np.std(np.diff(x, 3)) / (np.sqrt(20.0) * scale))
 
 
+#: Savitzky-Golay windows tried by :func:`choose_window` [s]
+WINDOWS = (2.0, 4.0, 6.0, 8.0, 11.0, 15.0, 20.0, 30.0)
+
+
+def choose_window(signals, dt: float, polyorder: int = 3, tolerance: float = 1.02) -> int:
+    """Savitzky-Golay window (odd number of samples) by the discrepancy principle.
+
+    The noise standard deviation ``s`` of each signal is estimated from its
+    third difference (white noise of std s gives third differences of std
+    ``sqrt(20) s``, a smooth signal almost none). Smoothing with a growing
+    window removes more and more of the noise, so the part it removes grows
+    towards ``s``; past the right window it starts removing signal too and
+    grows beyond ``s``. The window is the largest of :data:`WINDOWS` (at
+    least 11 samples) that removes no more than ``tolerance * s`` from any
+    signal.
+    """
+    lengths = []
+    for w in WINDOWS:
+        n = max(11, int(round(w / dt)))
+        lengths.append(n + 1 - n % 2)
+    chosen = lengths[-1]
+    for x in signals:
+        x = np.asarray(x, float)
+        sigma = np.std(np.diff(x, 3)) / np.sqrt(20.0)
+        best = lengths[0]
+        for n in lengths:
+            if n >= len(x):
+                break
+            removed = np.std(x - savgol_filter(x, n, polyorder, mode="interp"))
+            if removed > tolerance * sigma:
+                break
+            best = n
+        chosen = min(chosen, best)
+    return chosen
+
+
 #: a corner is a second difference of the rudder above this fraction of the largest one
 CORNER_FRACTION = 0.1
 #: corners are only left out when they concern at most this fraction of the rows
@@ -115,8 +151,8 @@ def estimate_derivatives(record, method: str = "auto", window: float | None = No
         Data contract record (t, u, v, r, delta, psi, ...).
     method : {"auto", "central", "savgol"}
     window : float, optional
-        Savitzky-Golay window [s]; default 4 s or 11 samples, whichever is
-        longer, made odd.
+        Savitzky-Golay window [s]; by default chosen per record by the
+        discrepancy principle (:func:`choose_window`).
     polyorder : int
         Savitzky-Golay polynomial order.
     """
@@ -140,7 +176,7 @@ def estimate_derivatives(record, method: str = "auto", window: float | None = No
         return DerivativeEstimate(index, states, rates, "central")
     if method == "savgol":
         if window is None:
-            length = max(11, int(round(4.0 / dt)))
+            length = choose_window([cols[c] for c in STATE_COLUMNS], dt, polyorder)
         else:
             length = int(round(window / dt))
         length = min(length, n if n % 2 else n - 1)

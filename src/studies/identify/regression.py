@@ -55,6 +55,9 @@ class RegressionProblem:
         Index of the record each row comes from (for time-blocked folds).
     time : ndarray
         Time stamp of each row [s].
+    states : dict of ndarray, optional
+        The (possibly smoothed) ``u, v, r, delta, psi`` of each row, for
+        diagnostics of the residuals.
     """
 
     dof: str
@@ -64,6 +67,7 @@ class RegressionProblem:
     fixed: dict = field(default_factory=dict)
     record: np.ndarray | None = None
     time: np.ndarray | None = None
+    states: dict | None = None
 
     @property
     def n_rows(self) -> int:
@@ -93,7 +97,7 @@ def _one_record(record: pd.DataFrame, vessel: Vessel, derivative: str):
         lhs = lhs - wind_loads_prime(s["u"], s["v"], s["psi"],
                                      record["wind_speed"].to_numpy(float)[rows],
                                      record["wind_direction"].to_numpy(float)[rows], vessel)
-    return primes, lhs, record["t"].to_numpy(float)[est.index], est.method
+    return primes, lhs, record["t"].to_numpy(float)[est.index], est.method, s
 
 
 def build_problems(model: ManoeuvringModel, vessel: Vessel, records, derivative: str = "auto",
@@ -121,6 +125,7 @@ def build_problems(model: ManoeuvringModel, vessel: Vessel, records, derivative:
     lhs = np.vstack([p[1] for p in parts])
     time = np.concatenate([p[2] for p in parts])
     which = np.concatenate([np.full(len(p[2]), i) for i, p in enumerate(parts)])
+    states = {k: np.concatenate([p[4][k] for p in parts]) for k in parts[0][4]}
     problems = {}
     for k, dof in enumerate(DOFS):
         terms = model.terms_of(dof)
@@ -134,7 +139,7 @@ def build_problems(model: ManoeuvringModel, vessel: Vessel, records, derivative:
         theta = np.column_stack([t.feature(primes) for t in free]) if free else np.empty((len(y), 0))
         problems[dof] = RegressionProblem(dof, theta, y, [t.name for t in free],
                                           {t.name: fixed[t.name] for t in terms if t.name in fixed},
-                                          which, time)
+                                          which, time, states)
     problems_meta = {"derivative": parts[0][3]}
     for p in problems.values():
         p.meta = problems_meta

@@ -153,7 +153,8 @@ def simulate_many(model: ManoeuvringModel, vectors: np.ndarray, vessel: Vessel,
 
 
 def _replay_inputs(model: ManoeuvringModel, vessel: Vessel, record: pd.DataFrame,
-                   environment: Environment | None, yaw_sign: float) -> SimulationInputs:
+                   environment: Environment | None, yaw_sign: float,
+                   external=None) -> SimulationInputs:
     t = record["t"].to_numpy(float)
     dt = float(np.median(np.diff(t)))
     duration = dt * (len(t) - 1)
@@ -166,7 +167,12 @@ def _replay_inputs(model: ManoeuvringModel, vessel: Vessel, record: pd.DataFrame
     if environment.current_speed:
         initial["u"] -= environment.current_speed * np.cos(environment.current_direction - initial["psi"])
         initial["v"] -= environment.current_speed * np.sin(environment.current_direction - initial["psi"])
-    inputs = prepare(model, vessel, man, environment, None, yaw_sign, initial)
+    ext = None
+    if external is not None:
+        ext = np.asarray(external, float)
+        if ext.ndim == 1:
+            ext = np.repeat(ext[None, :], len(grid) - 1, axis=0)
+    inputs = prepare(model, vessel, man, environment, ext, yaw_sign, initial)
     return SimulationInputs(**{**inputs.__dict__, "mode": 3, "cmd": np.ascontiguousarray(delta)})
 
 
@@ -180,7 +186,7 @@ def record_environment(record: pd.DataFrame) -> Environment:
 
 
 def replay(model: ManoeuvringModel, values: dict, vessel: Vessel, record: pd.DataFrame,
-           environment: Environment | None = None) -> pd.DataFrame:
+           environment: Environment | None = None, external=None) -> pd.DataFrame:
     """Simulate a record's own rudder from its own initial state.
 
     The measured rudder angle is prescribed (no servo) and held linear
@@ -188,9 +194,12 @@ def replay(model: ManoeuvringModel, values: dict, vessel: Vessel, record: pd.Dat
     split so it is at most 0.1 s. The environment defaults to the wind the
     record carries. This is how a model is validated against a measured
     manoeuvre, and how trajectory objectives compare coefficient sets.
+    ``external`` adds prime forces: a 6-vector held constant (earth-fixed
+    bias bx, by, bn and body-fixed wx, wy, wn) or one row per step.
     """
     environment = environment or record_environment(record)
-    inputs = _replay_inputs(model, vessel, record, environment, model.rudder_yaw_sign(values))
+    inputs = _replay_inputs(model, vessel, record, environment, model.rudder_yaw_sign(values),
+                            external)
     states, diverged = rk4_simulate(model.vector(values), *inputs.args())
     out = _to_record(states, inputs, environment)
     out["t"] = out["t"] + float(record["t"].iloc[0])
@@ -201,7 +210,7 @@ def replay(model: ManoeuvringModel, values: dict, vessel: Vessel, record: pd.Dat
 
 
 def replay_many(model: ManoeuvringModel, vectors: np.ndarray, vessel: Vessel,
-                record: pd.DataFrame, environment: Environment | None = None):
+                record: pd.DataFrame, environment: Environment | None = None, external=None):
     """:func:`replay` for many coefficient vectors (rows, model term order), in parallel.
 
     Returns ``(states, diverged)``: states ``(n_sets, n_samples, 7)`` at the
@@ -210,6 +219,6 @@ def replay_many(model: ManoeuvringModel, vectors: np.ndarray, vessel: Vessel,
     set (-1 when bounded).
     """
     environment = environment or record_environment(record)
-    inputs = _replay_inputs(model, vessel, record, environment, -1.0)
+    inputs = _replay_inputs(model, vessel, record, environment, -1.0, external)
     states, diverged = rk4_simulate_many(np.atleast_2d(vectors), *inputs.args())
     return states[:, :: inputs.substeps], diverged

@@ -1,0 +1,1 @@
+"""``studies discover``: what the simulation gets wrong, its cause, the extension, the gain."""

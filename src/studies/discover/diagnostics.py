@@ -1,0 +1,70 @@
+"""What the baseline gets wrong: error per DOF and manoeuvre phase, manoeuvre
+characteristics, and the structure of the regression residuals."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from ..analysis.characteristics import characteristics, manoeuvre_kind
+
+__all__ = ["phases", "phase_errors", "residual_structure", "characteristic_table"]
+
+
+def phases(record: pd.DataFrame) -> np.ndarray:
+    """Manoeuvre phase per sample: ``straight`` (|delta| < 1 deg and not moving),
+    ``rudder moving`` (|delta_dot| > 0.5 deg/s) or ``steady helm``."""
+    delta = record["delta"].to_numpy(float)
+    t = record["t"].to_numpy(float)
+    rate = np.gradient(delta, t)
+    out = np.full(len(delta), "steady helm", dtype=object)
+    out[np.abs(delta) < np.deg2rad(1.0)] = "straight"
+    out[np.abs(rate) > np.deg2rad(0.5)] = "rudder moving"
+    return out
+
+
+def phase_errors(record: pd.DataFrame, prediction: pd.DataFrame, name: str) -> pd.DataFrame:
+    """RMSE of u, v [m/s] and r [deg/s] of a prediction, per phase and overall."""
+    ph = phases(record)
+    rows = []
+    for label in ("all", "straight", "rudder moving", "steady helm"):
+        mask = np.ones(len(ph), bool) if label == "all" else ph == label
+        if mask.sum() < 3:
+            continue
+        row = {"record": name, "phase": label, "share_%": 100.0 * mask.mean()}
+        for c, k in (("u", 1.0), ("v", 1.0), ("r", 180 / np.pi)):
+            e = (prediction[c].to_numpy(float) - record[c].to_numpy(float))[mask]
+            row[f"rmse_{c}"] = float(np.sqrt(np.nanmean(e ** 2)) * k)
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def residual_structure(problems: dict, residuals: list, vessel) -> pd.DataFrame:
+    """Per DOF: bias of the regression residual and its correlation with sin/cos
+    of the heading, the rudder sign and amplitude, the speeds, and the wind angle."""
+    rows = []
+    for k, dof in enumerate(("X", "Y", "N")):
+        r = residuals[k]
+        s = problems[dof].states
+        sd = np.std(r) or 1.0
+        candidates = {
+            "sin(psi)": np.sin(s["psi"]), "cos(psi)": np.cos(s["psi"]),
+            "sign(delta)": np.sign(s["delta"]), "|delta|": np.abs(s["delta"]),
+            "u": s["u"], "v": s["v"], "r": s["r"], "|r|": np.abs(s["r"]),
+        }
+        row = {"dof": dof, "bias/std": float(np.mean(r) / sd), "rms": float(np.sqrt(np.mean(r ** 2)))}
+        for name, x in candidates.items():
+            row[f"corr {name}"] = float(np.corrcoef(r, x)[0, 1]) if np.std(x) > 0 else 0.0
+        rows.append(row)
+    return pd.DataFrame(rows).set_index("dof")
+
+
+def characteristic_table(record, predictions: dict, name: str) -> pd.DataFrame:
+    """Overshoots / turning geometry of the measurement and of each prediction."""
+    kind = manoeuvre_kind(record)
+    rows = {"measured": characteristics(record, kind)}
+    for label, pred in predictions.items():
+        rows[label] = characteristics(pred, kind) if "diverged_at" not in pred.attrs else {}
+    table = pd.DataFrame(rows).T
+    table.index.name = name
+    return table.drop(columns=[c for c in ("execute_heading_deg", "turn_direction") if c in table])

@@ -1,0 +1,159 @@
+"""The discovery report: discovery.json, report.md and report.html with figures."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+__all__ = ["write_discovery", "write_report", "plot_predictions", "plot_ranking", "plot_residuals"]
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _clean(x):
+    if isinstance(x, dict):
+        return {k: _clean(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_clean(v) for v in x]
+    if isinstance(x, (np.floating, float)):
+        return float(x) if np.isfinite(x) else None
+    if isinstance(x, np.integer):
+        return int(x)
+    if isinstance(x, np.ndarray):
+        return _clean(x.tolist())
+    return x
+
+
+def write_discovery(path: Path, discovery: dict) -> None:
+    Path(path).write_text(json.dumps(_clean(discovery), indent=1))
+
+
+def plot_predictions(record, predictions: dict, title: str, path: Path) -> None:
+    """Track and u, v, r of the measurement against each model's prediction."""
+    plt = _plt()
+    fig = plt.figure(figsize=(12, 6))
+    grid = fig.add_gridspec(3, 2)
+    ax = fig.add_subplot(grid[:, 0])
+    axes = [fig.add_subplot(grid[i, 1]) for i in range(3)]
+    ax.plot(record["y0"], record["x0"], "k", lw=2, label="measured")
+    for label, pred in predictions.items():
+        ax.plot(pred["y0"], pred["x0"], label=label)
+    for a, (c, unit, k) in zip(axes, (("u", "m/s", 1), ("v", "m/s", 1), ("r", "deg/s", 180 / np.pi))):
+        a.plot(record["t"], record[c] * k, "k", lw=1.5)
+        for pred in predictions.values():
+            a.plot(pred["t"], pred[c] * k)
+        a.set_ylabel(f"{c} [{unit}]")
+    axes[-1].set_xlabel("t [s]")
+    ax.set_xlabel("y0 (east) [m]")
+    ax.set_ylabel("x0 (north) [m]")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.legend(fontsize=8)
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=85)
+    plt.close(fig)
+
+
+def plot_ranking(ranking: list, path: Path) -> None:
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(7, 3.5))
+    names = [r["cause"] for r in ranking]
+    scores = [r["score"] for r in ranking]
+    ax.barh(names[::-1], scores[::-1], color=["tab:green" if i == 0 else "tab:grey"
+                                              for i in range(len(names))][::-1])
+    ax.set_xlabel("score above the best (BIC, lower is better)")
+    ax.set_xscale("symlog", linthresh=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def plot_residuals(problems: dict, residuals: list, path: Path) -> None:
+    """Baseline regression residual against heading and rudder, per DOF."""
+    plt = _plt()
+    fig, axes = plt.subplots(2, 3, figsize=(12, 6))
+    for k, dof in enumerate(("X", "Y", "N")):
+        s = problems[dof].states
+        step = max(1, len(residuals[k]) // 3000)
+        axes[0, k].plot(np.rad2deg(np.angle(np.exp(1j * s["psi"])))[::step], residuals[k][::step], ".", ms=2)
+        axes[0, k].set_xlabel("heading [deg]")
+        axes[0, k].set_title(f"{dof} residual (prime)")
+        axes[1, k].plot(np.rad2deg(s["delta"])[::step], residuals[k][::step], ".", ms=2)
+        axes[1, k].set_xlabel("rudder [deg]")
+    fig.tight_layout()
+    fig.savefig(path, dpi=85)
+    plt.close(fig)
+
+
+def _md_table(df: pd.DataFrame) -> str:
+    if df is None or df.empty:
+        return "_(none)_\n"
+    df = df.reset_index() if df.index.name else df
+    cols = [str(c) for c in df.columns]
+    lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    for _, row in df.iterrows():
+        cells = []
+        for v in row.tolist():
+            if isinstance(v, float):
+                cells.append("-" if not np.isfinite(v) else f"{v:.4g}")
+            else:
+                cells.append(str(v))
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def write_report(out_dir: Path, discovery: dict, explanation: str, sections: list, figures: list) -> None:
+    """report.md and report.html: verdict first, then evidence."""
+    out_dir = Path(out_dir)
+    d = discovery
+    verdict = [f"# Discovery: **{d['cause']}**", "", explanation, ""]
+    if d.get("parameters"):
+        verdict.append("Estimated parameters (90 % interval):")
+        verdict.append("")
+        unc = d.get("uncertainty") or {}
+        for k, v in d["parameters"].items():
+            interval = unc.get(k)
+            iv = f" [{interval[0]:.4g}, {interval[1]:.4g}]" if interval else ""
+            verdict.append(f"- `{k}` = {v if not isinstance(v, float) else f'{v:.4g}'}{iv}")
+        verdict.append("")
+    b, e = d["baseline"]["validation_rmse"], d["extended"]["validation_rmse"]
+    verdict.append(f"Prediction error on data not used for fitting: baseline {b:.4g}, extended {e:.4g} "
+                   f"{d.get('units', '')} -> gain {d['gain_pct']:.1f} %.")
+    if d.get("second_cause"):
+        verdict.append(f"\nA second cause still gains: **{d['second_cause']['cause']}** "
+                       f"(validation {d['second_cause']['validation_rmse']:.4g}).")
+    elif d["cause"] != "none":
+        verdict.append("\nNo second cause gains on top of it.")
+    md = "\n".join(verdict) + "\n"
+    for title, table in sections:
+        md += f"\n## {title}\n\n" + (_md_table(table) if isinstance(table, pd.DataFrame) else str(table) + "\n")
+    if figures:
+        md += "\n## Figures\n\n" + "\n\n".join(f"![{f}]({f})" for f in figures) + "\n"
+    (out_dir / "report.md").write_text(md)
+    html = ["<!doctype html><html><head><meta charset='utf-8'><title>discovery</title>",
+            "<style>body{font-family:sans-serif;margin:2em;max-width:1300px}table{border-collapse:collapse;"
+            "font-size:.85em}td,th{border:1px solid #ccc;padding:2px 6px}img{max-width:100%}</style></head><body>"]
+    import html as h
+
+    html.append(f"<h1>Discovery: {h.escape(d['cause'])}</h1><p>{h.escape(explanation)}</p>")
+    html.append("<pre>" + h.escape("\n".join(verdict[4:])) + "</pre>")
+    for title, table in sections:
+        html.append(f"<h2>{h.escape(title)}</h2>")
+        if isinstance(table, pd.DataFrame):
+            html.append(table.to_html(float_format=lambda x: f"{x:.4g}", na_rep="-"))
+        else:
+            html.append(f"<p>{h.escape(str(table))}</p>")
+    for f in figures:
+        html.append(f"<p><img src='{h.escape(f)}' alt='{h.escape(f)}'></p>")
+    html.append("</body></html>")
+    (out_dir / "report.html").write_text("\n".join(html))

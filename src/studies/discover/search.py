@@ -1,0 +1,110 @@
+"""Naming the cause: candidate terms by sparse regression, all causes fitted,
+ranked, the best checked on unseen data, and a second cause tried on top."""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from ..identify.regression import prime_states
+from .causes import Combined, MissingTerm, manoeuvring_causes, extended_library
+from .fitting import CauseFit, Context, calibrate, fit_cause, posterior, validate
+
+__all__ = ["select_missing_terms", "search"]
+
+log = logging.getLogger(__name__)
+
+
+def select_missing_terms(ctx: Context, residuals, problems, threshold: float = 0.1,
+                         max_terms: int = 3) -> list:
+    """Terms of the extended library that the baseline's residual needs (SINDy's STLSQ).
+
+    Per DOF the candidate features are made orthogonal to the baseline's own
+    columns (so a candidate only gets what the baseline cannot explain), then
+    STLSQ runs on unit-variance columns against the unit-variance residual;
+    ``threshold`` is in those units (a selected term explains at least about
+    ``threshold^2`` of the residual variance). At most ``max_terms`` per DOF,
+    the largest first.
+    """
+    import pysindy as ps
+
+    chosen = []
+    library = extended_library(ctx.model, 3)
+    for k, dof in enumerate(("X", "Y", "N")):
+        p = problems[dof]
+        primes = prime_states(p.states["u"], p.states["v"], p.states["r"], p.states["delta"], ctx.vessel)
+        cands = [t for t in library if t.dof == dof]
+        if not cands:
+            continue
+        feats = np.column_stack([t.feature(primes) for t in cands])
+        if p.theta.shape[1]:
+            coef, *_ = np.linalg.lstsq(p.theta, feats, rcond=None)
+            feats = feats - p.theta @ coef
+        scale = feats.std(axis=0)
+        ok = scale > 1e-12 * max(1.0, np.abs(feats).max())
+        if not ok.any():
+            continue
+        z = feats[:, ok] / scale[ok]
+        r = residuals[k] / max(residuals[k].std(), 1e-300)
+        opt = ps.STLSQ(threshold=threshold, alpha=1e-6, max_iter=50)
+        opt.fit(z, r)
+        w = np.ravel(opt.coef_)
+        idx = np.flatnonzero(np.abs(w) > 0)
+        idx = idx[np.argsort(-np.abs(w[idx]))][:max_terms]
+        names = [cands[i] for i in np.flatnonzero(ok)[idx]]
+        chosen += names
+    return chosen
+
+
+#: a cause must lower the score by this much to be preferred to a simpler
+#: explanation ("very strong" evidence on the 2 ln Bayes-factor scale)
+EVIDENCE = 10.0
+
+
+def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: bool = True,
+           posterior_steps: int = 60, seed: int = 0) -> dict:
+    """Fit every applicable cause, rank them, pick one, try a second, get intervals.
+
+    A cause is chosen over ``none`` only when its score is lower by
+    :data:`EVIDENCE` and its prediction error on the validation records is
+    lower than the baseline's; among those, the lowest score wins.
+    """
+    baseline_params, residuals = calibrate(ctx)
+    from .fitting import regression_fit
+    from .causes import Setup
+
+    _, _, problems = regression_fit(ctx, Setup(ctx.model, ctx.train))
+    terms = select_missing_terms(ctx, residuals, problems, threshold, max_terms)
+    fits = []
+    for cause in manoeuvring_causes(ctx, terms):
+        fit = fit_cause(ctx, cause)
+        validate(ctx, fit)
+        log.info("cause %-18s score %.1f validation %.4g (%.1f s)", cause.id, fit.score,
+                 fit.validation_rmse, fit.seconds)
+        fits.append(fit)
+    baseline = fits[0]
+    eligible = [f for f in fits if f is baseline or (
+        f.score < baseline.score - EVIDENCE and f.validation_rmse < baseline.validation_rmse)]
+    best = min(eligible, key=lambda f: f.score)
+    out = {"baseline": baseline, "fits": fits, "best": best, "terms": terms, "second": None}
+    if second and best is not baseline:
+        pairs = []
+        # second causes worth trying: those that alone explain something (BIC better than none)
+        for other in fits:
+            if other is baseline or other is best or other.score >= baseline.score - EVIDENCE:
+                continue
+            if isinstance(best.cause, Combined) or other.cause.id == best.cause.id:
+                continue
+            first, second_ = (best, other) if not isinstance(best.cause, MissingTerm) else (other, best)
+            combo = Combined(first.cause, second_.cause,
+                             starts=[np.concatenate([first.theta, second_.theta])])
+            fit = fit_cause(ctx, combo)
+            validate(ctx, fit)
+            pairs.append(fit)
+        gaining = [f for f in pairs
+                   if f.score < best.score - EVIDENCE and f.validation_rmse < best.validation_rmse]
+        out["pairs"] = pairs
+        out["second"] = min(gaining, key=lambda f: f.score) if gaining else None
+    out["posterior"] = posterior(ctx, best, steps=posterior_steps, seed=seed) if len(best.theta) else {}
+    return out

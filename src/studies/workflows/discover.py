@@ -1,0 +1,258 @@
+"""``studies discover``: show what the simulation gets wrong, name the cause,
+extend the model with it and measure the gain on data it was not fitted to.
+
+Manoeuvring records (``model=abkowitz|simplified``) go through the cause
+catalogue of :mod:`studies.discover.causes`; roll decays (``model=roll``)
+through :mod:`studies.discover.roll`. Inputs are checked before the MLflow
+run exists (:func:`prepare_discover`); :func:`execute_discover` writes
+``discovery.json``, ``report.md``/``report.html`` and figures.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from omegaconf import OmegaConf
+
+from ..data import load_manoeuvre, load_manoeuvres
+from ..errors import ConfigError
+from ..vessels import get_vessel
+from .settings import as_path_list
+
+__all__ = ["DiscoverStudy", "prepare_discover", "execute_discover", "holdout"]
+
+
+@dataclass
+class DiscoverStudy:
+    cfg: object
+    kind: str                     # "manoeuvring" or "roll"
+    vessel: object
+    model: object
+    train: list
+    validation: list
+    simulation: object = None
+    notes: list = field(default_factory=list)
+
+
+def holdout(records: list, share: float) -> tuple[list, list, str]:
+    """Training and validation records when no validation record is given.
+
+    Two or more records: the last whole record is held out. One record: its
+    last ``share`` is held out (replayed from its own state at the cut).
+    """
+    if len(records) >= 2:
+        return records[:-1], records[-1:], f"held out the whole record {records[-1].attrs.get('name')}"
+    rec = records[0]
+    cut = int(len(rec) * (1.0 - share))
+    train, val = rec.iloc[:cut].copy(), rec.iloc[cut:].copy()
+    for part, suffix in ((train, "first"), (val, "last")):
+        part.attrs = dict(rec.attrs)
+        part.attrs["name"] = f"{rec.attrs.get('name', 'record')}_{suffix}"
+    return [train], [val], f"held out the last {100 * share:.0f} % of {rec.attrs.get('name')}"
+
+
+def prepare_discover(cfg, root: Path) -> DiscoverStudy:
+    """Check options and load every input (raises ConfigError/DataError)."""
+    data = as_path_list(OmegaConf.select(cfg, "data.path"))
+    if not data:
+        raise ConfigError("discover needs measured records: data.path=FILE or data.path=[a,b]")
+    validate = as_path_list(OmegaConf.select(cfg, "validate.path"))
+    simulation = OmegaConf.select(cfg, "simulation.path")
+    share = float(cfg.discover.holdout)
+    if not 0.05 <= share <= 0.8:
+        raise ConfigError(f"discover.holdout must be in [0.05, 0.8], got {share}")
+    if str(cfg.model.name) == "roll":
+        from ..data.roll_decay import load_roll_decay
+
+        train = [load_roll_decay(p) for p in data]
+        val = [load_roll_decay(p) for p in validate]
+        sim = load_roll_decay(str(simulation)) if simulation else None
+        study = DiscoverStudy(cfg, "roll", None, None, train, val, sim)
+        if not val:
+            if len(train) < 2:
+                raise ConfigError("roll discover needs two decays (data.path=[a,b]) or validate.path")
+            study.train, study.validation = train[:-1], train[-1:]
+            study.notes.append(f"held out the decay {train[-1].attrs.get('name')}")
+        return study
+    from .manoeuvring import get_study_model
+
+    vessel = get_vessel(str(cfg.vessel.name))
+    model = get_study_model(cfg, root)
+    records = load_manoeuvres(data, min_samples=60)
+    val = load_manoeuvres(validate, min_samples=20) if validate else []
+    sim = load_manoeuvre(str(simulation)) if simulation else None
+    study = DiscoverStudy(cfg, "manoeuvring", vessel, model, records, val, sim)
+    if not val:
+        study.train, study.validation, note = holdout(records, share)
+        study.notes.append(note)
+    return study
+
+
+def _interval_dict(names, post) -> dict:
+    if not post:
+        return {}
+    return {n: [float(lo), float(hi)] for n, lo, hi in zip(names, post["q05"], post["q95"])}
+
+
+def execute_discover(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
+    """Run the discovery; returns (discovery, metrics)."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    if study.kind == "roll":
+        return _execute_roll(study, out_dir)
+    return _execute_manoeuvring(study, out_dir)
+
+
+def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
+    from ..discover import diagnostics as dg
+    from ..discover.causes import Setup
+    from ..discover.fitting import Context, regression_fit, validate
+    from ..discover.report import (plot_predictions, plot_ranking, plot_residuals, write_discovery,
+                                   write_report)
+    from ..discover.search import search
+
+    opts = study.cfg.discover
+    t0 = time.perf_counter()
+    ctx = Context(study.vessel, study.model, study.train, study.validation,
+                  str(study.cfg.data.get("derivative", "auto")))
+    ctx.horizon = float(opts.horizon) if opts.horizon else None
+    result = search(ctx, float(opts.terms_threshold), int(opts.max_terms), bool(opts.second_cause),
+                    int(opts.posterior_steps), int(study.cfg.seed))
+    best, baseline = result["best"], result["baseline"]
+    # whole-record predictions for the figures and the characteristics
+    for fit in (baseline, best):
+        validate(ctx, fit, keep=True, whole=True)
+    full_base = dict(baseline.validation)
+    full_best = dict(best.validation)
+    validate(ctx, baseline)
+    validate(ctx, best)
+    cause = best.cause
+    params = cause.parameters(best.theta, best.params)
+    post = result.get("posterior") or {}
+    if post.get("method") == "linear":
+        uncertainty = {"terms": _interval_dict(post["names"], post)}
+    else:
+        names = list(cause.nl_params)
+        uncertainty = _interval_dict(names, post)
+        if cause.id in ("current", "wind_unmodelled") and "direction" in uncertainty:
+            uncertainty["direction"] = [float(x) % (2 * np.pi) for x in uncertainty["direction"]]
+    ranked = sorted(result["fits"], key=lambda f: f.score)
+    top = ranked[0].score
+    b_rmse, e_rmse = baseline.validation_rmse, best.validation_rmse
+    discovery = {
+        "cause": cause.id, "parameters": params, "uncertainty": uncertainty,
+        "explanation": cause.explanation,
+        "baseline": {"validation_rmse": b_rmse, "validation_rmse_whole_records": full_base["position_rmse"]},
+        "extended": {"validation_rmse": e_rmse, "validation_rmse_whole_records": full_best["position_rmse"]},
+        "gain_pct": 100.0 * (b_rmse - e_rmse) / b_rmse if b_rmse > 0 else 0.0,
+        "units": "m (position RMSE over prediction windows)",
+        "ranking": [{"cause": f.cause.id, "score": float(f.score - top),
+                     "validation_rmse": f.validation_rmse} for f in ranked],
+        "second_cause": ({"cause": result["second"].cause.id,
+                          "parameters": result["second"].cause.parameters(result["second"].theta,
+                                                                          result["second"].params),
+                          "validation_rmse": result["second"].validation_rmse}
+                         if result.get("second") else None),
+        "candidate_terms": [t.name for t in result["terms"]],
+        "notes": study.notes,
+    }
+    # what the baseline gets wrong
+    base_params, residuals, problems = regression_fit(ctx, Setup(ctx.model, ctx.train))
+    sections = [("Ranking of the causes",
+                 pd.DataFrame(discovery["ranking"]).set_index("cause"))]
+    phase_tables, char_tables, figures = [], [], []
+    for rec, pb, pe in zip(ctx.validation, full_base["predictions"], full_best["predictions"]):
+        name = str(rec.attrs.get("name", "record"))
+        preds = {"baseline": pb}
+        if cause.id != "none":
+            preds[f"extended ({cause.id})"] = pe
+        if study.simulation is not None and len(study.simulation) == len(rec):
+            preds["other simulator"] = study.simulation
+        fig = f"prediction_{name}.png"
+        plot_predictions(rec, preds, f"{name}: measured vs predicted", out_dir / fig)
+        figures.append(fig)
+        phase_tables.append(dg.phase_errors(rec, pb, name).assign(model="baseline"))
+        if cause.id != "none":
+            phase_tables.append(dg.phase_errors(rec, pe, name).assign(model="extended"))
+        char_tables.append(dg.characteristic_table(rec, preds, name))
+    sections.append(("Prediction error per manoeuvre phase (u, v in m/s, r in deg/s)",
+                     pd.concat(phase_tables, ignore_index=True) if phase_tables else pd.DataFrame()))
+    for table in char_tables:
+        if not table.empty:
+            sections.append((f"Manoeuvre characteristics: {table.index.name}", table))
+    sections.append(("Structure of the baseline's regression residual",
+                     dg.residual_structure(problems, residuals, study.vessel)))
+    plot_residuals(problems, residuals, out_dir / "residuals.png")
+    plot_ranking(discovery["ranking"], out_dir / "ranking.png")
+    figures += ["residuals.png", "ranking.png"]
+    write_discovery(out_dir / "discovery.json", discovery)
+    write_report(out_dir, discovery, cause.explanation, sections, figures)
+    metrics = {"discover/gain_pct": discovery["gain_pct"],
+               "discover/baseline_validation_rmse": b_rmse, "discover/extended_validation_rmse": e_rmse,
+               "discover/n_causes": float(len(result["fits"])), "discover/tau": ctx.tau,
+               "runtime/total_s": time.perf_counter() - t0}
+    for f in result["fits"]:
+        metrics[f"discover/score/{f.cause.id}"] = float(f.score - top)
+    return discovery, metrics
+
+
+def _execute_roll(study: DiscoverStudy, out_dir: Path):
+    from ..discover.report import write_discovery, write_report
+    from ..discover.roll import ROLL_CAUSES, _simulate, roll_interval, roll_search
+
+    t0 = time.perf_counter()
+    res = roll_search(study.train, study.validation, study.simulation)
+    best, base = res["best"], res["baseline"]
+    term = ROLL_CAUSES[best["cause"]][0]
+    params = {term: float(best["params"][term])} if term else {}
+    interval = roll_interval(best, study.train, res["simulation_params"]) if term else {}
+    b, e = base["validation_rmse_deg"], best["validation_rmse_deg"]
+    ranked = sorted(res["fits"], key=lambda f: f["score"])
+    discovery = {
+        "cause": best["cause"], "parameters": params, "uncertainty": interval,
+        "explanation": best["explanation"],
+        "baseline": {"validation_rmse": b, "params": base["params"],
+                     "source": "simulation.path" if study.simulation is not None else "data"},
+        "extended": {"validation_rmse": e, "params": best["params"]},
+        "gain_pct": 100.0 * (b - e) / b if b > 0 else 0.0, "units": "deg (roll angle RMSE)",
+        "ranking": [{"cause": f["cause"], "score": float(f["score"] - ranked[0]["score"]),
+                     "validation_rmse": f["validation_rmse_deg"]} for f in ranked],
+        "second_cause": None, "notes": study.notes,
+    }
+    figures = []
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    for rec in study.validation + study.train:
+        name = str(rec.attrs.get("name", "decay"))
+        fig, ax = plt.subplots(figsize=(10, 3.5))
+        ax.plot(rec["t"], np.rad2deg(rec["phi"]), "k", lw=1.5, label="measured")
+        for label, fit in (("baseline", base), (f"extended ({best['cause']})", best)):
+            ax.plot(rec["t"], np.rad2deg(_simulate(fit["terms"], fit["params"], rec)), label=label)
+        if study.simulation is not None:
+            sim = study.simulation
+            n = min(len(sim), len(rec))
+            ax.plot(sim["t"][:n], np.rad2deg(sim["phi"][:n]), ":", label="other simulator")
+        ax.set_xlabel("t [s]")
+        ax.set_ylabel("roll [deg]")
+        ax.legend(fontsize=8)
+        ax.set_title(name)
+        fig.tight_layout()
+        fname = f"decay_{name}.png"
+        fig.savefig(out_dir / fname, dpi=85)
+        plt.close(fig)
+        figures.append(fname)
+    table = pd.DataFrame([{**{"cause": f["cause"], "score": f["score"] - ranked[0]["score"],
+                              "validation_rmse_deg": f["validation_rmse_deg"]}, **f["params"]}
+                          for f in ranked]).set_index("cause")
+    write_discovery(out_dir / "discovery.json", discovery)
+    write_report(out_dir, discovery, best["explanation"], [("Ranking and fitted parameters", table)], figures)
+    metrics = {"discover/gain_pct": discovery["gain_pct"], "discover/baseline_validation_rmse": b,
+               "discover/extended_validation_rmse": e, "runtime/total_s": time.perf_counter() - t0}
+    return discovery, metrics

@@ -1,0 +1,125 @@
+"""``studies discover`` finds effects hidden in data and measures the gain.
+
+Each hidden-effect test draws the effect's magnitude at random (seeded) from
+a physically sensible range, writes the records as files and runs the
+discovery on them as a user would (files in, discovery.json out). The
+parameter must come out within 20 % (angles: within 0.2 rad).
+"""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hydra import compose, initialize_config_module
+
+from conftest import SHARED_DATA
+from studies.discover.hidden import hidden_records
+from studies.workflows.discover import execute_discover, prepare_discover
+
+
+def _discover(tmp_path, records, overrides=()):
+    paths = []
+    for rec in records:
+        p = tmp_path / f"{rec.attrs['name']}.csv"
+        rec.to_csv(p, index=False)
+        paths.append(str(p))
+    with initialize_config_module("studies.conf", version_base="1.3"):
+        cfg = compose("discover", overrides=[f"data.path=[{paths[0]},{paths[1]}]",
+                                             f"validate.path=[{paths[2]}]", *overrides])
+    study = prepare_discover(cfg, tmp_path)
+    discovery, _ = execute_discover(study, tmp_path / "out")
+    on_disk = json.loads((tmp_path / "out" / "discovery.json").read_text())
+    assert on_disk["cause"] == discovery["cause"]
+    assert (tmp_path / "out" / "report.md").exists() and (tmp_path / "out" / "report.html").exists()
+    return on_disk
+
+
+def _close(found, true, rel=0.2):
+    return abs(found - true) <= rel * abs(true)
+
+
+def _angle_close(found, true, tol=0.2):
+    return abs(np.angle(np.exp(1j * (found - true)))) <= tol
+
+
+def check(cause, d, truth):
+    assert d["cause"] == cause, (d["cause"], d["ranking"][:3])
+    p = d["parameters"]
+    if cause == "current" or cause == "wind_unmodelled":
+        assert _close(p["speed"], truth["speed"]) and _angle_close(p["direction"], truth["direction"])
+    elif cause == "rudder_offset":
+        assert _close(p["delta0"], truth["delta0"])
+    elif cause == "wind_speed_bias":
+        assert _close(p["k"], truth["k"])
+    elif cause == "environmental_bias":
+        assert _close(np.hypot(p["bx"], p["by"]), np.hypot(truth["bx"], truth["by"]))
+        assert np.hypot(p["bx"] - truth["bx"], p["by"] - truth["by"]) <= 0.2 * np.hypot(truth["bx"], truth["by"])
+    elif cause == "missing_term":
+        assert "Nrrr" in p["terms"] and _close(p["terms"]["Nrrr"], truth["Nrrr"])
+    if cause != "none":
+        assert d["gain_pct"] > 50.0
+        for name, interval in (d["uncertainty"].get("terms") or d["uncertainty"]).items():
+            assert interval[0] <= interval[1]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("cause", ["none", "current", "rudder_offset", "wind_speed_bias",
+                                   "environmental_bias", "missing_term", "wind_unmodelled"])
+def test_hidden_effect_is_named_on_clean_data(tmp_path, vessel, cause):
+    records, truth = hidden_records(vessel, cause, seed=11)
+    check(cause, _discover(tmp_path, records), truth)
+
+
+@pytest.mark.slow
+def test_none_wins_on_noisy_data(tmp_path, vessel):
+    records, _ = hidden_records(vessel, "none", seed=5, noise=0.05)
+    d = _discover(tmp_path, records)
+    assert d["cause"] == "none", d["ranking"][:3]
+
+
+def _roll_study(tmp_path, data, validate=None, simulation=None):
+    overrides = ["model=roll", f"data.path=[{','.join(map(str, data))}]"]
+    if validate:
+        overrides.append(f"validate.path=[{','.join(map(str, validate))}]")
+    if simulation:
+        overrides.append(f"simulation.path={simulation}")
+    with initialize_config_module("studies.conf", version_base="1.3"):
+        cfg = compose("discover", overrides=overrides)
+    study = prepare_discover(cfg, tmp_path)
+    return execute_discover(study, tmp_path / "out")[0]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("cause,term,value", [("roll_quadratic_damping", "b2", 0.4),
+                                              ("roll_cubic_damping", "b3", 0.8)])
+def test_hidden_roll_damping_is_named(tmp_path, cause, term, value):
+    from studies.workflows.roll import simulate_decay_record
+
+    rng = np.random.default_rng(3)
+    value = value * rng.uniform(0.8, 1.2)
+    params = {"omega0": 2.5, "b1": 0.05, term: value}
+    paths = []
+    for i, phi0 in enumerate((10.0, 8.0)):
+        p = tmp_path / f"decay_{i}.csv"
+        simulate_decay_record(params, ["b1", term], 40.0, 0.01, np.deg2rad(phi0), 0.01, i, p)
+        paths.append(p)
+    d = _roll_study(tmp_path, [paths[0]], [paths[1]])
+    assert d["cause"] == cause, d["ranking"]
+    assert _close(d["parameters"][term], value)
+    assert d["gain_pct"] > 50.0
+
+
+ROLL = SHARED_DATA / "kvlcc2_roll_decay"
+
+
+@pytest.mark.slow
+def test_potential_flow_missing_damping_is_found_on_model_tests(tmp_path):
+    if not ROLL.is_dir():
+        pytest.skip(f"measured roll data not found at {ROLL}")
+    d = _roll_study(tmp_path, [ROLL / "model_test_21338.csv"], [ROLL / "model_test_21337.csv"],
+                    ROLL / "fnpf_kvlcc2_rolldecay_0kn.csv")
+    print(json.dumps({k: d[k] for k in ("cause", "parameters", "uncertainty", "gain_pct")}))
+    assert d["baseline"]["source"] == "simulation.path"
+    assert d["cause"] in ("roll_quadratic_damping", "roll_cubic_damping")
+    assert d["gain_pct"] > 30.0
