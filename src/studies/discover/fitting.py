@@ -237,7 +237,7 @@ def validate(ctx: Context, fit: CauseFit, keep: bool = False, whole: bool = Fals
     return fit.validation
 
 
-def posterior(ctx: Context, fit: CauseFit, walkers: int = 8, steps: int = 60, burn: int = 20,
+def posterior(ctx: Context, fit: CauseFit, walkers: int = 6, steps: int = 40, burn: int = 15,
               seed: int = 0) -> dict:
     """90 % intervals of the cause's parameters from emcee on the profile likelihood
     ``-n_eff / 2 sum_dof ln RSS_dof(theta)`` (flat prior within the bounds)."""

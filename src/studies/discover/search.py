@@ -63,7 +63,7 @@ EVIDENCE = 10.0
 
 
 def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: bool = True,
-           posterior_steps: int = 60, seed: int = 0) -> dict:
+           posterior_steps: int = 40, seed: int = 0) -> dict:
     """Fit every applicable cause, rank them, pick one, try a second, get intervals.
 
     A cause is chosen over ``none`` only when its score is lower by
@@ -90,8 +90,9 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
     out = {"baseline": baseline, "fits": fits, "best": best, "terms": terms, "second": None}
     if second and best is not baseline:
         pairs = []
-        # second causes worth trying: those that alone explain something (BIC better than none)
-        for other in fits:
+        # second causes worth trying: the two that alone explain most (BIC clearly better than none)
+        others = sorted([f for f in fits if f is not baseline and f is not best], key=lambda f: f.score)[:2]
+        for other in others:
             if other is baseline or other is best or other.score >= baseline.score - EVIDENCE:
                 continue
             if isinstance(best.cause, Combined) or other.cause.id == best.cause.id:

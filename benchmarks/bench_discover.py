@@ -1,0 +1,79 @@
+"""Discovery: time of one discovery with the full catalogue and hit rates on
+hidden effects.
+
+Hit rate: over seeds (magnitudes drawn at random per seed, see
+:mod:`studies.discover.hidden`), the fraction of discoveries that name the
+right cause with the parameter within 20 % (angles within 0.2 rad). Set
+``STUDIES_BENCH_SEEDS`` (default 2) and ``STUDIES_BENCH_NOISE`` (default
+"0,0.05") to choose the effort; the runs use all cores.
+"""
+
+import os
+import time
+
+import numpy as np
+
+
+def _one(cause, seed, noise):
+    import tempfile
+    from pathlib import Path
+
+    from hydra import compose, initialize_config_module
+
+    from studies.discover.hidden import hidden_records
+    from studies.vessels import get_vessel
+    from studies.workflows.discover import execute_discover, prepare_discover
+
+    vessel = get_vessel("mariner")
+    records, truth = hidden_records(vessel, cause, seed=seed, noise=noise)
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        paths = []
+        for rec in records:
+            p = tmp / f"{rec.attrs['name']}.csv"
+            rec.to_csv(p, index=False)
+            paths.append(str(p))
+        with initialize_config_module("studies.conf", version_base="1.3"):
+            cfg = compose("discover", overrides=[f"data.path=[{paths[0]},{paths[1]}]",
+                                                 f"validate.path=[{paths[2]}]", f"seed={seed}"])
+        t0 = time.perf_counter()
+        d, _ = execute_discover(prepare_discover(cfg, tmp), tmp / "out")
+        elapsed = time.perf_counter() - t0
+    return cause, noise, seed, _hit(cause, d, truth), elapsed
+
+
+def _hit(cause, d, truth) -> bool:
+    if d["cause"] != cause:
+        return False
+    p = d["parameters"]
+    close = lambda a, b: abs(a - b) <= 0.2 * abs(b)  # noqa: E731
+    ang = lambda a, b: abs(np.angle(np.exp(1j * (a - b)))) <= 0.2  # noqa: E731
+    if cause in ("current", "wind_unmodelled"):
+        return close(p["speed"], truth["speed"]) and ang(p["direction"], truth["direction"])
+    if cause == "rudder_offset":
+        return close(p["delta0"], truth["delta0"])
+    if cause == "wind_speed_bias":
+        return close(p["k"], truth["k"])
+    if cause == "environmental_bias":
+        return np.hypot(p["bx"] - truth["bx"], p["by"] - truth["by"]) <= 0.2 * np.hypot(truth["bx"], truth["by"])
+    if cause == "missing_term":
+        return "Nrrr" in p["terms"] and close(p["terms"]["Nrrr"], truth["Nrrr"])
+    return True
+
+
+def run() -> dict:
+    from joblib import Parallel, delayed
+
+    from studies.discover.hidden import HIDDEN_CAUSES
+
+    seeds = int(os.environ.get("STUDIES_BENCH_SEEDS", "2"))
+    noises = [float(x) for x in os.environ.get("STUDIES_BENCH_NOISE", "0,0.05").split(",")]
+    jobs = [(c, s, n) for c in HIDDEN_CAUSES for n in noises for s in range(seeds)]
+    results = Parallel(n_jobs=-1)(delayed(_one)(c, 100 + s, n) for c, s, n in jobs)
+    out = {"discover_one_600s_records_s_median": float(np.median([r[4] for r in results])),
+           "discover_seeds_per_cause": seeds}
+    for cause in HIDDEN_CAUSES:
+        for n in noises:
+            hits = [r[3] for r in results if r[0] == cause and r[1] == n]
+            out[f"discover_hit_rate/{cause}/noise={n:g}"] = float(np.mean(hits))
+    return out
