@@ -123,3 +123,25 @@ def test_potential_flow_missing_damping_is_found_on_model_tests(tmp_path):
     assert d["baseline"]["source"] == "simulation.path"
     assert d["cause"] in ("roll_quadratic_damping", "roll_cubic_damping")
     assert d["gain_pct"] > 30.0
+
+
+@pytest.mark.slow
+def test_discover_command_writes_discovery_and_logs_a_run(tmp_path, vessel):
+    from conftest import mlflow_runs, run_studies
+
+    records, truth = hidden_records(vessel, "current", seed=2)
+    paths = []
+    for rec in records:
+        p = tmp_path / f"{rec.attrs['name']}.csv"
+        rec.to_csv(p, index=False)
+        paths.append(str(p))
+    proc = run_studies(["discover", f"data.path=[{paths[0]},{paths[1]}]", f"validate.path=[{paths[2]}]",
+                        f"hydra.run.dir={tmp_path / 'run'}"], cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    d = json.loads((tmp_path / "run" / "discovery.json").read_text())
+    assert set(d) >= {"cause", "parameters", "uncertainty", "baseline", "extended", "gain_pct", "ranking"}
+    check("current", d, truth)
+    runs = mlflow_runs(tmp_path)
+    assert len(runs) == 1 and runs[0][1] == "FINISHED"
+    arts = {p.name for p in (tmp_path / "mlruns" / "artifacts").rglob("*")}
+    assert {"discovery.json", "report.md", "report.html", "ranking.png"} <= arts

@@ -18,6 +18,7 @@ with the same ``config_hash`` tag (:mod:`studies.resume`).
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import sys
@@ -29,6 +30,7 @@ USAGE = """usage: studies <command> [key=value ...]
 
 commands:
   run      identify a manoeuvring model from simulated or measured data and log it to MLflow
+  discover show what a model gets wrong on measured data, name the cause, extend, measure the gain
   simplify derive the simplified model (correlation + PAWN, Li et al. 2023) and log how
   report   write reports/<experiment>/index.md and index.html from the MLflow runs
   ui       start the MLflow UI on the project's store (127.0.0.1:5000)
@@ -214,6 +216,38 @@ def _simplify_task(cfg):
     return _run_job(cfg, _simplify)
 
 
+def _discover(cfg, root: Path, out_dir: Path, on_create) -> dict:
+    """One `studies discover` job: load and check inputs, then one MLflow run."""
+    from omegaconf import OmegaConf
+
+    from . import tracking
+    from .workflows.discover import execute_discover, prepare_discover
+    from .workflows.settings import check_output_paths
+
+    check_output_paths(cfg, root, out_dir)
+    study = prepare_discover(cfg, root)
+    params = OmegaConf.to_container(cfg, resolve=True)
+    from .workflows.settings import as_path_list
+
+    stems = ", ".join(Path(p).stem for p in as_path_list(OmegaConf.select(cfg, "data.path")))
+    name = cfg.get("run_name") or f"discover {cfg.model.name} {stems}"
+    tags = {"kind": "discovery", "model": str(cfg.model.name), "vessel": str(cfg.vessel.name),
+            "data": "measured"}
+    with tracking.start_run(str(cfg.tracking.experiment), name, cfg.tracking.uri, root, params,
+                            tags, on_create=on_create) as run:
+        discovery, metrics = execute_discover(study, out_dir)
+        run.log_outputs(metrics, out_dir)
+        run.set_tags({"cause": discovery["cause"]})
+    print(f"discovery '{name}' ({run.run_id}) -> {out_dir}")
+    print(json.dumps({k: discovery[k] for k in ("cause", "parameters", "uncertainty", "gain_pct",
+                                                "second_cause")}, indent=1, default=str))
+    return {"status": "finished", "run_id": run.run_id}
+
+
+def _discover_task(cfg):
+    return _run_job(cfg, _discover)
+
+
 def _report_task(cfg) -> None:
     from hydra.utils import get_original_cwd
 
@@ -269,24 +303,36 @@ def _sweep_summary(state, checked) -> int:
     return 1
 
 
-def _interrupted(state, error: KeyboardInterrupt, root: Path) -> int:
-    """After SIGINT/SIGTERM: close runs whose worker died, say what is left; exit status."""
-    from . import interrupt, tracking
+def _close_orphans(state, root: Path, reason: str) -> int:
+    """Mark KILLED the runs of jobs whose process died with the run open; how many."""
+    from . import tracking
 
-    signum = getattr(error, "signum", None) or interrupt.received() or 2
     closed = 0
     for active in state.unclosed_runs():
         try:
-            closed += tracking.close_if_running(active["uri"], root, active["run_id"], "KILLED",
-                                                "interrupted: the job's process ended before closing its run")
-        except Exception:  # noqa: BLE001 - the store may be unreachable: say so below
+            closed += tracking.close_if_running(active["uri"], root, active["run_id"], "KILLED", reason)
+        except Exception:  # noqa: BLE001 - the store may be unreachable: the run stays RUNNING
             pass
+        with contextlib.suppress(OSError):
+            Path(active["_file"]).unlink()
+    return closed
+
+
+def _interrupted(state, error: KeyboardInterrupt, root: Path, command: str = "run") -> int:
+    """After SIGINT/SIGTERM: close runs whose worker died, say what is left; exit status."""
+    from . import interrupt
+
+    signum = getattr(error, "signum", None) or interrupt.received() or 2
+    closed = _close_orphans(state, root, "interrupted: the job's process ended before closing its run")
     results = state.results()
     finished = sum(r["status"] in ("finished", "skipped") for r in results)
     killed = sum(r["status"] == "killed" for r in results) + closed
     name = {2: "SIGINT", 15: "SIGTERM"}.get(signum, f"signal {signum}")
-    print(f"studies: interrupted by {name}: {finished} job(s) finished, {killed} run(s) marked KILLED; "
-          "run the same command with resume=true to run the rest", file=sys.stderr)
+    if command != "run":
+        print(f"studies: interrupted by {name}", file=sys.stderr)
+    else:
+        print(f"studies: interrupted by {name}: {finished} job(s) finished, {killed} run(s) marked "
+              "KILLED; run the same command with resume=true to run the rest", file=sys.stderr)
     return 128 + signum
 
 
@@ -316,7 +362,7 @@ def _hydra(task, config_name: str, command: str, args: list[str]) -> int:
         app()
         return _sweep_summary(state, checked)
     except KeyboardInterrupt as error:
-        return _interrupted(state, error, root)
+        return _interrupted(state, error, root, command)
     except Exception as error:  # noqa: BLE001 - Hydra or launcher errors
         if verbose or full_error == "1":
             raise
@@ -328,6 +374,8 @@ def _hydra(task, config_name: str, command: str, args: list[str]) -> int:
         return 2 if bad_config else 1
     finally:
         interrupt.set_stopper(None)
+        if state.unclosed_runs():       # a worker died (SIGKILL, out of memory) with its run open
+            _close_orphans(state, root, "the job's process died before closing its run")
         if full_error is None:
             os.environ.pop("HYDRA_FULL_ERROR", None)
         else:
@@ -370,7 +418,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     command, rest = argv[0], argv[1:]
     apps = {"run": (_run_task, "config"), "simplify": (_simplify_task, "config"),
-            "report": (_report_task, "report")}
+            "discover": (_discover_task, "discover"), "report": (_report_task, "report")}
     if command in apps:
         try:
             return _hydra(*apps[command], command, rest)

@@ -3,7 +3,8 @@
 A Hydra callback. In the launching process it counts the jobs of the sweep
 (the product of the swept values) and passes the count to the jobs through
 the environment; each job then prints ``[studies] job 3/16 started: ...`` and
-``[studies] job 3/16 finished in 12.3 s`` on stderr.
+``[studies] job 3/16 finished in 12.3 s`` (or ``failed in 2.1 s: <error>``, or
+``skipped: already finished as run <id>`` with ``resume=true``) on stderr.
 """
 
 from __future__ import annotations
@@ -65,6 +66,22 @@ class SweepProgress(Callback):
             return
         total = os.environ.get(ENV_TOTAL, "?")
         status = getattr(job_return, "status", None)
-        state = "failed" if status is not None and status.name == "FAILED" else "finished"
+        failed = status is not None and status.name == "FAILED"
+        # `studies run` jobs return {"status": finished|failed|skipped, ...} (studies.cli)
+        outcome = {}
+        if not failed:
+            try:
+                value = job_return.return_value
+            except BaseException:  # noqa: BLE001 - the value is only read for the message
+                value = None
+            outcome = value if isinstance(value, dict) else {}
         elapsed = time.perf_counter() - getattr(self, "_t0", time.perf_counter())
-        print(f"[studies] job {num + 1}/{total} {state} in {elapsed:.1f} s", file=sys.stderr, flush=True)
+        label = f"[studies] job {num + 1}/{total}"
+        if outcome.get("status") == "skipped":
+            print(f"{label} skipped: already finished as run {outcome.get('run_id')}",
+                  file=sys.stderr, flush=True)
+        elif failed or outcome.get("status") == "failed":
+            error = outcome.get("error") or str(getattr(job_return, "_return_value", "")).split("\n")[0]
+            print(f"{label} failed in {elapsed:.1f} s: {error}", file=sys.stderr, flush=True)
+        else:
+            print(f"{label} finished in {elapsed:.1f} s", file=sys.stderr, flush=True)

@@ -23,8 +23,10 @@ import math
 import os
 from pathlib import Path
 
+from . import interrupt
+
 __all__ = ["default_uri", "configure", "start_run", "RunLogger", "store_lock", "flatten",
-           "StoredRun", "read_experiment"]
+           "StoredRun", "read_experiment", "find_finished_run", "close_if_running"]
 
 os.environ.setdefault("MLFLOW_DISABLE_TELEMETRY", "true")
 
@@ -55,7 +57,8 @@ def store_lock(uri: str):
         yield
         return
     db.parent.mkdir(parents=True, exist_ok=True)
-    with open(db.parent / f".{db.name}.lock", "a+") as handle:
+    # SIGINT/SIGTERM wait until the section is over (studies.interrupt)
+    with interrupt.critical(), open(db.parent / f".{db.name}.lock", "a+") as handle:
         fcntl.flock(handle, fcntl.LOCK_EX)
         try:
             yield
@@ -108,40 +111,60 @@ def flatten(cfg: dict, prefix: str = "") -> dict:
 
 @contextlib.contextmanager
 def start_run(experiment: str, run_name: str, uri: str | None, root, params: dict,
-              tags: dict | None = None):
+              tags: dict | None = None, on_create=None):
     """Open one MLflow run and yield its :class:`RunLogger`.
 
     The run is created (status RUNNING, params and tags logged) under the
-    store lock; the body runs unlocked; :meth:`RunLogger.finish` logs the
-    results under the lock. An exception in the body marks the run FAILED
-    with the error as a tag; KeyboardInterrupt/SystemExit mark it KILLED.
+    store lock; ``on_create(run_id, uri)`` is called once it exists; the body
+    runs unlocked; :meth:`RunLogger.log_outputs` logs the results under the lock.
+    An exception in the body marks the run FAILED with the error as a tag;
+    KeyboardInterrupt/SystemExit (SIGINT and SIGTERM arrive as
+    :class:`studies.interrupt.Interrupted`) mark it KILLED.
     """
     import mlflow
     from mlflow.tracking import MlflowClient
 
     uri = configure(uri, root)
-    with store_lock(uri):
-        exp_id = _experiment_id(experiment, uri, root)
-        client = MlflowClient(tracking_uri=uri)
-        run = client.create_run(exp_id, run_name=run_name,
-                                tags={k: str(v) for k, v in (tags or {}).items()})
-        run_id = run.info.run_id
-        items = list(flatten(params).items())
-        for i in range(0, len(items), 100):
-            batch = [mlflow.entities.Param(k, v) for k, v in items[i:i + 100]]
-            client.log_batch(run_id, params=batch)
-    logger = RunLogger(client, run_id, uri)
+    logger = None
     try:
+        with store_lock(uri):
+            exp_id = _experiment_id(experiment, uri, root)
+            client = MlflowClient(tracking_uri=uri)
+            run = client.create_run(exp_id, run_name=run_name,
+                                    tags={k: str(v) for k, v in (tags or {}).items()})
+            logger = RunLogger(client, run.info.run_id, uri)
+            if on_create is not None:
+                on_create(logger.run_id, uri)
+            items = list(flatten(params).items())
+            for i in range(0, len(items), 100):
+                batch = [mlflow.entities.Param(k, v) for k, v in items[i:i + 100]]
+                client.log_batch(logger.run_id, params=batch)
         yield logger
     except Exception as error:
-        logger.end("FAILED", f"{type(error).__name__}: {error}")
+        if logger is not None and not logger.ended:
+            import traceback
+
+            logger.end("FAILED", _one_line(f"{type(error).__name__}: {error}"),
+                       traceback.format_exc()[-5000:])
         raise
     except BaseException as error:
-        logger.end("KILLED", type(error).__name__)
+        if logger is not None and not logger.ended:
+            reason = f"interrupted by {error}" if isinstance(error, interrupt.Interrupted) \
+                else type(error).__name__
+            logger.end("KILLED", reason)
         raise
     else:
         if not logger.ended:
             logger.end("FINISHED")
+
+
+def _one_line(text: str, limit: int = 5000) -> str:
+    """The error as one line: its first line, and its last if they differ."""
+    lines = [line.strip() for line in str(text).strip().splitlines() if line.strip()]
+    if not lines:
+        return ""
+    out = lines[0] if len(lines) == 1 or lines[-1] == lines[0] else f"{lines[0]} ... {lines[-1]}"
+    return out[:limit]
 
 
 class RunLogger:
@@ -170,11 +193,20 @@ class RunLogger:
                 elif path.is_dir() and path.name == ".hydra":
                     self.client.log_artifacts(self.run_id, str(path), artifact_path="hydra")
 
-    def end(self, status: str, error: str | None = None) -> None:
-        """Close the run with ``FINISHED``, ``FAILED`` or ``KILLED``."""
+    def set_tags(self, tags: dict) -> None:
+        """Add tags to the run (e.g. the cause a discovery named)."""
+        with store_lock(self.uri):
+            for key, value in tags.items():
+                self.client.set_tag(self.run_id, key, str(value))
+
+    def end(self, status: str, error: str | None = None, detail: str | None = None) -> None:
+        """Close the run with ``FINISHED``, ``FAILED`` or ``KILLED``; ``error``
+        (one line) and ``detail`` (the traceback) become tags."""
         with store_lock(self.uri):
             if error:
                 self.client.set_tag(self.run_id, "error", error[:5000])
+            if detail:
+                self.client.set_tag(self.run_id, "error_traceback", detail[-5000:])
             self.client.set_terminated(self.run_id, status=status)
         self.ended = True
 
@@ -235,3 +267,41 @@ def read_experiment(uri: str | None, root, name: str | None = None):
             name = next(e.name for e in chosen if e.experiment_id == exp_id)
             runs = [r for r in runs if r.info.experiment_id == exp_id]
         return name, [StoredRun(r, client) for r in runs]
+
+
+def find_finished_run(uri: str | None, root, experiment: str, config_hash: str) -> str | None:
+    """Id of a FINISHED run of ``experiment`` tagged ``config_hash`` (None if there is none)."""
+    from mlflow.tracking import MlflowClient
+
+    uri = configure(uri, root)
+    with store_lock(uri):
+        client = MlflowClient(tracking_uri=uri)
+        exp = client.get_experiment_by_name(experiment)
+        if exp is None:
+            return None
+        runs = client.search_runs([exp.experiment_id], max_results=1,
+                                  filter_string=f"tags.config_hash = '{config_hash}' "
+                                                "and attributes.status = 'FINISHED'",
+                                  order_by=["attributes.start_time DESC"])
+    return runs[0].info.run_id if runs else None
+
+
+def close_if_running(uri: str, root, run_id: str, status: str = "KILLED",
+                     error: str | None = None) -> bool:
+    """End run ``run_id`` with ``status`` if it is still RUNNING (its process
+    died before closing it); True when it was closed here."""
+    from mlflow.tracking import MlflowClient
+
+    uri = configure(uri, root)
+    with store_lock(uri):
+        client = MlflowClient(tracking_uri=uri)
+        try:
+            run = client.get_run(run_id)
+        except Exception:
+            return False
+        if run.info.status != "RUNNING":
+            return False
+        if error:
+            client.set_tag(run_id, "error", error[:5000])
+        client.set_terminated(run_id, status=status)
+    return True

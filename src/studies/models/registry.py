@@ -7,7 +7,15 @@ from .abkowitz import ManoeuvringModel, abkowitz
 
 __all__ = ["get_model"]
 
-_REGISTRY = {"abkowitz": abkowitz}
+def symmetric() -> ManoeuvringModel:
+    """The Abkowitz model without its port-starboard asymmetric terms
+    (Y0, Y0u, Y0uu, N0, N0u, N0uu): a symmetric hull and propulsion."""
+    full = abkowitz()
+    keep = [t.name for t in full.terms if not (t.dof in ("Y", "N") and t.powers[1:] == (0, 0, 0))]
+    return full.subset(keep, "symmetric")
+
+
+_REGISTRY = {"abkowitz": abkowitz, "symmetric": symmetric}
 
 
 def get_model(name: str, definition=None) -> ManoeuvringModel:

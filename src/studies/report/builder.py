@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 
 from .. import tracking
+from ..analysis.metrics import DIVERGED_PENALTY
 from .tables import (condition_label, deviation_table, fitness_table, markdown_table,
                      method_label, winners)
 
@@ -41,7 +42,7 @@ def _none(value):
 
 
 IGNORED_PARAMS = ("method.", "seed", "run_name", "tracking.", "report.", "verbose", "preset",
-                  "simplify.")
+                  "simplify.", "resume")
 
 
 def _varying_key(runs) -> str | None:
@@ -151,7 +152,7 @@ def _summary_sentences(win: pd.DataFrame, key: str | None) -> list[str]:
 def build_report(uri: str | None, root, experiment: str | None, report_dir) -> Path:
     """Write ``<report_dir>/<experiment>/index.md`` and ``index.html``; return the .md path."""
     name, runs = tracking.read_experiment(uri, root, experiment)
-    out = Path(report_dir) / name
+    out = _report_directory(Path(report_dir), name)
     if out.exists():
         shutil.rmtree(out)
     out.mkdir(parents=True)
@@ -164,7 +165,7 @@ def build_report(uri: str | None, root, experiment: str | None, report_dir) -> P
         "run": i["run"].name, "method": method_label(i["method"]),
         "condition": condition_label(key, i["condition"]),
         "status": i["status"] if i["status"] == "FINISHED" else f"**{STATUS_NOTE.get(i['status'], i['status'])}**",
-        "error": i["run"].tags.get("error", ""),
+        "error": _note(i),
     } for i in items]).set_index("run")
     sections.append(("Runs", markdown_table(run_rows, "run"), run_rows))
 
@@ -270,6 +271,31 @@ def build_report(uri: str | None, root, experiment: str | None, report_dir) -> P
     return out / "index.md"
 
 
+def _note(item) -> str:
+    """The run's error, or which predictions diverged (scored with the finite penalty)."""
+    error = item["run"].tags.get("error", "")
+    if error:
+        return error.replace("|", "/").replace("\n", " ")
+    diverged = sorted(k.rsplit("/", 1)[0] for k, v in item["metrics"].items()
+                      if k.endswith("/diverged") and k != "validation/diverged" and v)
+    if diverged:
+        return f"diverged: {', '.join(diverged)} (scored with the penalty {DIVERGED_PENALTY:g})"
+    return ""
+
+
+def _report_directory(report_dir: Path, name: str) -> Path:
+    """``<report_dir>/<experiment>``, kept inside ``report_dir`` whatever the
+    experiment is called; an existing directory is only replaced when it holds
+    a report (``index.md``), never another directory of the user's."""
+    safe = name if name not in ("", ".", "..") and not any(c in name for c in "/\\\0") else _slug(name)
+    safe = safe if safe not in ("", ".", "..") else "experiment"
+    out = report_dir / safe
+    if out.exists() and (not out.is_dir() or (any(out.iterdir()) and not (out / "index.md").exists())):
+        raise LookupError(f"{out} exists and is not a report written by studies report; "
+                          "move it or choose another report.dir")
+    return out
+
+
 def _as_float(x):
     try:
         return float(x)
@@ -289,7 +315,8 @@ def _write_html(path: Path, name: str, header: str, sections) -> None:
     blocks = []
     for title, body, table in sections:
         if table is not None:
-            html = table.to_html(float_format=lambda x: f"{x:.4g}", na_rep="-", escape=True)
+            html = table.to_html(float_format=lambda x: f"{x:.4g}" if np.isfinite(x) else "-",
+                                 na_rep="-", escape=True)
             images = [line for line in body.splitlines() if line.startswith("![")]
             text = [line[2:] for line in body.splitlines() if line.startswith("- ")]
         else:

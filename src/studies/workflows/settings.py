@@ -17,7 +17,8 @@ from ..environment.noise import noise_level
 from ..errors import ConfigError
 from ..simulate.manoeuvres import Manoeuvre
 
-__all__ = ["Settings", "read_settings", "named_manoeuvre", "as_path_list", "CONF_DIR"]
+__all__ = ["Settings", "read_settings", "named_manoeuvre", "as_path_list", "CONF_DIR",
+           "output_path", "check_output_paths", "OUTPUT_KEYS"]
 
 CONF_DIR = Path(__file__).resolve().parents[1] / "conf"
 
@@ -96,6 +97,16 @@ def read_settings(cfg) -> Settings:
     if seed < 0:
         raise ConfigError(f"seed must be non-negative, got {seed}")
     manoeuvres = OmegaConf.select(cfg, "validate.manoeuvres") or []
+    if isinstance(manoeuvres, str) or not (OmegaConf.is_list(manoeuvres) or isinstance(manoeuvres, list)):
+        manoeuvres = [manoeuvres]
+    if OmegaConf.select(cfg, "validate.duration", default=None) is not None:
+        duration = _number(cfg, "validate.duration")
+        if duration <= 0:
+            raise ConfigError(f"validate.duration must be positive [s], got {duration:g}")
+    known = sorted(p.stem for p in (CONF_DIR / "manoeuvre").glob("*.yaml"))
+    for name in manoeuvres:
+        if str(name) not in known:
+            raise ConfigError(f"validate.manoeuvres: unknown manoeuvre '{name}'; known: {', '.join(known)}")
     return Settings(
         environment=env,
         validation_environment=venv,
@@ -108,3 +119,32 @@ def read_settings(cfg) -> Settings:
         validate_paths=as_path_list(OmegaConf.select(cfg, "validate.path")),
         validate_manoeuvres=[str(m) for m in manoeuvres],
     )
+
+
+# Config values naming files or directories that `studies` writes (project-relative).
+OUTPUT_KEYS = ("report.dir", "simplify.output")
+
+
+def output_path(value, key: str, root, *allowed) -> Path:
+    """``value`` (relative to ``root``) as an absolute path, refused unless it
+    lies inside ``root`` (the project directory) or one of ``allowed`` (the run
+    directory): config values must not make `studies` write elsewhere."""
+    text = str(value).strip()
+    if not text or "\x00" in text:
+        raise ConfigError(f"{key}: an empty path is not allowed")
+    base = Path(root).resolve()
+    path = Path(text).expanduser()
+    path = (path if path.is_absolute() else base / path).resolve()
+    for place in (base, *(Path(a).resolve() for a in allowed if a)):
+        if path == place or place in path.parents:
+            return path
+    raise ConfigError(f"{key}: '{text}' is outside the project directory {base}; "
+                      "give a path inside it (e.g. a relative path without '..')")
+
+
+def check_output_paths(cfg, root, *allowed) -> None:
+    """Refuse every :data:`OUTPUT_KEYS` value outside the project (or run) directory."""
+    for key in OUTPUT_KEYS:
+        value = OmegaConf.select(cfg, key, default=None)
+        if value is not None:
+            output_path(value, key, root, *allowed)
