@@ -193,4 +193,8 @@ def estimate_derivatives(record, method: str = "auto", window: float | None = No
                 rates[c + "_dot"] = savgol_filter(x, length, polyorder, deriv=1, delta=dt,
                                                   mode="interp")[index]
         return DerivativeEstimate(index, states, rates, "savgol")
-    raise ValueError(f"unknown derivative method '{method}' (auto, central, savgol)")
+    if method in ("ekf", "ekf_kinematic"):
+        from .kalman import ekf_derivatives
+
+        return ekf_derivatives(record)
+    raise ValueError(f"unknown derivative method '{method}' (auto, central, savgol, ekf)")

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 from .base import Vessel, WindParticulars
+from .kvlcc2 import kvlcc2
 from .mariner import MARINER_COEFFICIENTS, mariner
 
 __all__ = ["Vessel", "WindParticulars", "MARINER_COEFFICIENTS", "get_vessel"]
 
-_REGISTRY = {"mariner": mariner}
+_REGISTRY = {"mariner": mariner, "kvlcc2": kvlcc2}
 
 
 def get_vessel(name: str) -> Vessel:

@@ -11,6 +11,19 @@ values, data files) runs before an MLflow run is opened:
 
 Identification only sees the records (and the vessel's prior knowledge),
 never how they were produced.
+
+Measured records (a vessel without reference coefficients such as the
+KVLCC2, MARIN ``.dat`` files, ``data.derivative=ekf|ekf_kinematic`` or
+``data.resample=``) go through :mod:`studies.workflows.measured`: MARIN
+files on their rebuilt uniform time axis, states and accelerations from the
+EKF/RTS smoother (``auto`` picks it for noisy records), a regression
+weighted by ``(U/U0)^4`` (``identify.weights``), the training records
+replayed (``training/<record>/...``) and, with ``validate.path``, the same
+validation repeated with least squares on Savitzky-Golay and on EKF/RTS
+estimates (``derivatives/<estimator>/...``). Optional keys (not in
+``config.yaml``; give them with ``+``): ``data.resample``,
+``identify.weights``, ``kalman.*`` (:class:`studies.data.kalman.KalmanSettings`
+plus ``iterations``), ``validate.band_draws``, ``validate.compare_derivatives``.
 """
 
 from __future__ import annotations
@@ -40,6 +53,7 @@ from ..simulate import replay, simulate
 from ..vessels import get_vessel
 from ..vessels.base import Vessel
 from .settings import Settings, named_manoeuvre, read_settings
+from . import measured as _measured
 
 __all__ = ["Study", "prepare", "execute", "simulate_training", "coefficient_table", "run_name"]
 
@@ -58,6 +72,7 @@ class Study:
     records: list
     truth: dict | None
     validation_records: list = field(default_factory=list)
+    measured: bool = False
 
 
 def simulate_training(vessel: Vessel, model: ManoeuvringModel, truth: dict, manoeuvre,
@@ -119,9 +134,28 @@ def prepare(cfg, root: Path | None = None) -> Study:
     method = str(cfg.method.name)
     make_identifier(method, _method_options(cfg))
     n_params = max(len(model.terms_of(d)) for d in ("X", "Y", "N"))
+    resample_dt = OmegaConf.select(cfg, "data.resample", default=None)
+    if resample_dt is not None:
+        try:
+            resample_dt = float(resample_dt)
+        except (TypeError, ValueError):
+            raise ConfigError(f"data.resample must be a step in seconds, got {resample_dt!r}") from None
+        if not (np.isfinite(resample_dt) and resample_dt > 0):
+            raise ConfigError(f"data.resample must be a positive step in seconds, got {resample_dt}")
+    derivative = str(OmegaConf.select(cfg, "data.derivative", default="auto"))
+    if derivative not in DERIVATIVES:
+        raise ConfigError(f"data.derivative must be one of {', '.join(DERIVATIVES)}, got '{derivative}'")
+    _measured.kalman_options(cfg)           # refuse bad kalman.* settings before any run
+    weights = str(OmegaConf.select(cfg, "identify.weights", default="speed"))
+    if weights not in _measured.WEIGHTINGS:
+        raise ConfigError(f"identify.weights must be one of {', '.join(_measured.WEIGHTINGS)}, "
+                          f"got '{weights}'")
     if settings.data_paths:
-        records = load_manoeuvres(settings.data_paths,
-                                  min_samples=MIN_SAMPLES_PER_COEFFICIENT * n_params + 5)
+        min_samples = MIN_SAMPLES_PER_COEFFICIENT * n_params + 5
+        if _is_measured_study(vessel, settings.data_paths, derivative, resample_dt):
+            records = _measured.load_measured(settings.data_paths, min_samples, resample_dt)
+        else:
+            records = load_manoeuvres(settings.data_paths, min_samples=min_samples)
         truth = None
     else:
         manoeuvre = named_manoeuvre(str(cfg.manoeuvre.name), _manoeuvre_overrides(cfg))
@@ -132,8 +166,26 @@ def prepare(cfg, root: Path | None = None) -> Study:
         truth = {name: full_truth[name] for name in model.names}
         rng = np.random.default_rng(settings.seed)
         records = [simulate_training(vessel, full, full_truth, manoeuvre, settings, rng)]
-    validation = load_manoeuvres(settings.validate_paths) if settings.validate_paths else []
-    return Study(cfg, settings, vessel, model, method, records, truth, validation)
+    validation = _measured.load_measured(settings.validate_paths) if settings.validate_paths else []
+    measured = bool(settings.data_paths) and _is_measured_study(vessel, settings.data_paths, derivative,
+                                                                resample_dt)
+    return Study(cfg, settings, vessel, model, method, records, truth, validation, measured)
+
+
+#: accepted ``data.derivative`` values
+DERIVATIVES = ("auto", "central", "savgol") + _measured.EKF_METHODS
+
+
+def _is_measured_study(vessel: Vessel, paths, derivative: str, resample_dt) -> bool:
+    """Whether training records go through :mod:`studies.workflows.measured`.
+
+    Measured data of a vessel without reference coefficients (KVLCC2), MARIN
+    ``.dat`` files, the Kalman estimators or a resampling request; a CSV of
+    the Mariner keeps the original path (same loader, unweighted
+    regression).
+    """
+    return (not vessel.coefficients or any(str(p).lower().endswith(".dat") for p in paths)
+            or derivative in _measured.EKF_METHODS or resample_dt is not None)
 
 
 def _method_options(cfg) -> dict:
@@ -216,7 +268,9 @@ def _validate_simulated(study: Study, params: dict, out_dir: Path) -> dict:
     return metrics
 
 
-def _characteristic_errors(pred, ref, name: str, kind, heading) -> dict:
+def _characteristic_errors(pred, ref, name: str, kind, heading, measured: bool = False) -> dict:
+    """Characteristics of ``pred``, those of ``ref`` (``..._reference``; also
+    ``..._measured`` when ``ref`` is a measurement) and the errors."""
     out = {}
     if "diverged_at" in pred.attrs:
         return out
@@ -228,6 +282,8 @@ def _characteristic_errors(pred, ref, name: str, kind, heading) -> dict:
         out[f"{name}/{key}"] = value
         if key in c_ref:
             out[f"{name}/{key}_reference"] = c_ref[key]
+            if measured:
+                out[f"{name}/{key}_measured"] = c_ref[key]
             if key.endswith("_m"):
                 out[f"{name}/{key[:-2]}_error_pct"] = 100.0 * (value - c_ref[key]) / c_ref[key]
             elif key.endswith("_deg"):
@@ -235,17 +291,239 @@ def _characteristic_errors(pred, ref, name: str, kind, heading) -> dict:
     return out
 
 
-def _validate_records(study: Study, params: dict, out_dir: Path) -> dict:
-    """Replay each validation record's measured rudder from its initial state."""
+def _validate_records(study: Study, params: dict, out_dir: Path, result=None) -> dict:
+    """Replay each validation record's measured rudder from its initial state.
+
+    Characteristics (``<record>/advance_m`` ...) of the prediction, the
+    measured values (``..._measured``; also ``..._reference`` as for
+    simulated validation) and the errors (``<record>/advance_error_pct``,
+    ``<record>/overshoot1_error_deg``, ...). A zig-zag's overshoots of both
+    are taken from the measured execute heading (the heading when the
+    measured rudder reverses), because the replayed rudder reverses at the
+    measured instants; the closed-loop zig-zag of the model (rudder
+    reversed when the *model's* heading reaches the nominal execute angle,
+    from the measured initial state) is reported as
+    ``<record>/closed_loop/overshoot1_deg`` and its error against the
+    measurement with the nominal execute heading. With posterior samples
+    (``method=bayes``) the 5-95 % predictive band of the trajectory is
+    drawn and its coverage of the measurement logged
+    (``<record>/band/coverage_xy`` ...). Also writes ``characteristics.csv``
+    (one row per record and quantity) and ``validation.md``.
+    """
     metrics = {}
+    rows = []
+    n_draws = int(OmegaConf.select(study.cfg, "validate.band_draws", default=50))
+    vectors = None
+    if result is not None and result.samples and n_draws > 0:
+        vectors = _measured.posterior_vectors(study.model, result, n_draws, study.settings.seed)
     for rec in study.validation_records:
         name = rec.attrs.get("name", "record")
         pred = replay(study.model, params, study.vessel, rec)
         metrics.update(error_metrics(pred, rec, name))
-        metrics.update(_characteristic_errors(pred, rec, name, manoeuvre_kind(rec), None))
+        kind = manoeuvre_kind(rec)
+        heading = None
+        if kind == "zigzag":
+            measured = characteristics(rec, kind)
+            if "execute_heading_deg" in measured:
+                heading = np.deg2rad(measured["execute_heading_deg"])
+        chars = _characteristic_errors(pred, rec, name, kind, heading, measured=True)
+        metrics.update(chars)
+        rows += _characteristic_rows(name, "replay", chars)
+        if kind == "turning":
+            steady = _measured.steady_turn_errors(pred, rec, name)
+            metrics.update(steady)
+            rows += _characteristic_rows(name, "replay", steady)
+        if kind == "zigzag":
+            closed = _closed_loop_zigzag(study, params, rec)
+            metrics.update(closed)
+            rows += _characteristic_rows(name, "closed_loop", closed, prefix="closed_loop/")
         plot_overlay({"measured": rec, "predicted": pred}, out_dir / f"validation_{name}.png",
                      f"{name}: prediction ({study.method}) vs measurement")
         write_overlay_table(rec, pred, out_dir / f"validation_{name}.csv")
+        if vectors is not None:
+            band = _measured.posterior_band(study.model, vectors, study.vessel, rec)
+            for key in ("coverage_x0", "coverage_y0", "coverage_psi", "coverage_xy",
+                        "coverage_all", "diverged", "covered_until_s"):
+                metrics[f"{name}/band/{key}"] = band[key]
+            metrics[f"{name}/band/draws"] = float(len(vectors))
+            _measured.plot_band(rec, pred, band, out_dir / f"band_{name}.png",
+                                f"{name}: 5-95 % posterior predictive band ({len(vectors)} draws)")
+            pd.DataFrame({"t": band["t"], **{f"{ch}_{q}": band[ch][i] for ch in ("x0", "y0", "psi")
+                                            for i, q in enumerate(("q05", "q50", "q95"))}}
+                         ).iloc[::max(1, len(band["t"]) // MAX_OVERLAY_ROWS)].to_csv(
+                out_dir / f"band_{name}.csv", index=False)
+    if rows:
+        table = pd.DataFrame(rows, columns=["record", "simulation", "quantity", "predicted",
+                                            "measured", "error", "error_unit"])
+        table.to_csv(out_dir / "characteristics.csv", index=False)
+        (out_dir / "validation.md").write_text(_markdown_table(table, study))
+    return metrics
+
+
+def _characteristic_rows(name: str, simulation: str, chars: dict, prefix: str = "") -> list:
+    rows = []
+    for key, value in chars.items():
+        if not key.startswith(f"{name}/{prefix}"):
+            continue
+        quantity = key[len(name) + 1 + len(prefix):]
+        if "/" in quantity or quantity.endswith(("_reference", "_measured")) or "_error_" in quantity:
+            continue
+        if quantity in _measured.STEADY_ERROR_KEYS:
+            err_key, unit = f"{name}/{prefix}{_measured.STEADY_ERROR_KEYS[quantity]}", "%"
+        elif quantity.endswith("_m"):
+            err_key, unit = f"{name}/{prefix}{quantity[:-2]}_error_pct", "%"
+        elif quantity.endswith("_deg"):
+            err_key, unit = f"{name}/{prefix}{quantity[:-4]}_error_deg", "deg"
+        else:
+            continue
+        rows.append({"record": name, "simulation": simulation, "quantity": quantity,
+                     "predicted": value, "measured": chars.get(f"{name}/{prefix}{quantity}_measured",
+                                                               np.nan),
+                     "error": chars.get(err_key, np.nan), "error_unit": unit})
+    return rows
+
+
+def _markdown_table(table: pd.DataFrame, study: Study) -> str:
+    lines = [f"# Validation of {study.method} on measured records", "",
+             "Training records: " + ", ".join(str(r.attrs.get("name")) for r in study.records), "",
+             "| record | simulation | quantity | predicted | measured | error |",
+             "|---|---|---|---:|---:|---:|"]
+    for row in table.itertuples():
+        lines.append(f"| {row.record} | {row.simulation} | {row.quantity} | {row.predicted:.1f} | "
+                     f"{row.measured:.1f} | {row.error:+.1f} {row.error_unit} |")
+    lines += ["", "replay: the measured rudder prescribed from the measured initial state; "
+              "closed_loop: the model's own zig-zag (rudder reversed at the nominal execute "
+              "heading), overshoots against the measured ones at that heading.", ""]
+    return "\n".join(lines)
+
+
+def _closed_loop_zigzag(study: Study, params: dict, rec: pd.DataFrame) -> dict:
+    """Overshoots of the model's own zig-zag started from the record's initial state.
+
+    The nominal zig-zag N/N: N is half the measured rudder's peak-to-peak
+    angle to the degree; rudder reversed when the model's heading has
+    changed by N from the initial one. Both overshoots are measured from N.
+    """
+    import dataclasses
+
+    from ..simulate import zigzag
+
+    name = rec.attrs.get("name", "record")
+    measured = characteristics(rec, "zigzag")
+    if "execute_heading_deg" not in measured:
+        return {}
+    delta = rec["delta"].to_numpy(float)
+    # nominal N/N zig-zag: half the rudder's peak-to-peak, to the degree
+    amplitude = float(np.round(np.rad2deg(0.5 * (delta.max() - delta.min()))))
+    heading = amplitude
+    first = int(np.sign(delta[np.argmax(np.abs(delta - delta[0]) > 0.5 * np.deg2rad(amplitude))]) or 1)
+    t = rec["t"].to_numpy(float)
+    man = dataclasses.replace(zigzag(amplitude, heading, duration=float(t[-1] - t[0]),
+                                     dt=float(np.median(np.diff(t)))), first_sign=first)
+    row = rec.iloc[0]
+    initial = {k: float(row[k]) for k in ("u", "v", "r", "x0", "y0", "psi")}
+    sim = simulate(study.model, params, study.vessel, man, initial=initial)
+    out = {}
+    if "diverged_at" in sim.attrs:
+        return {f"{name}/closed_loop/diverged": 1.0}
+    c_pred = characteristics(sim, "zigzag", np.deg2rad(heading))
+    c_meas = characteristics(rec, "zigzag", np.deg2rad(heading))
+    for key, value in c_pred.items():
+        if key == "execute_heading_deg":
+            continue
+        out[f"{name}/closed_loop/{key}"] = value
+        if key in c_meas:
+            out[f"{name}/closed_loop/{key}_measured"] = c_meas[key]
+            out[f"{name}/closed_loop/{key[:-4]}_error_deg"] = value - c_meas[key]
+    return out
+
+
+def measured_derivative(records, derivative: str) -> str:
+    """``data.derivative`` for measured records: ``auto`` is the Kalman
+    smoother (``ekf``) when the records show sensor noise, central
+    differences otherwise."""
+    if derivative != "auto":
+        return derivative
+    from ..data.derivatives import STATE_COLUMNS, noise_ratio
+
+    noisy = any(max(noise_ratio(r[c].to_numpy(float)) for c in STATE_COLUMNS) > 1e-3 for r in records)
+    return "ekf" if noisy else "central"
+
+
+def _replay_training(study: Study, params: dict, out_dir: Path) -> dict:
+    """How the identified model replays its own training records (``training/<record>/...``)."""
+    metrics = {}
+    for rec in study.records:
+        name = rec.attrs.get("name", "record")
+        pred = replay(study.model, params, study.vessel, rec)
+        metrics.update(error_metrics(pred, rec, f"training/{name}"))
+        kind = manoeuvre_kind(rec)
+        heading = None
+        if kind == "zigzag":
+            heading = characteristics(rec, kind).get("execute_heading_deg")
+            heading = None if heading is None else np.deg2rad(heading)
+        metrics.update(_characteristic_errors(pred, rec, f"training/{name}", kind, heading, measured=True))
+        plot_overlay({"measured": rec, "replayed": pred}, out_dir / f"training_{name}.png",
+                     f"{name} (training): replay ({study.method}) vs measurement")
+    return metrics
+
+
+#: estimators compared on measured data (``derivatives/<estimator>/...``)
+COMPARED_DERIVATIVES = ("savgol", "ekf")
+#: characteristics compared per estimator
+_COMPARED_KEYS = ("advance_error_pct", "transfer_error_pct", "tactical_diameter_error_pct",
+                  "overshoot1_error_deg", "overshoot2_error_deg", "rmse_position", "fitness")
+
+
+def _compare_derivatives(study: Study, derivative: str, estimates, params: dict, out_dir: Path) -> dict:
+    """Least squares with each estimator of :data:`COMPARED_DERIVATIVES`, validated alike.
+
+    The run's own estimates are reused when the estimator is the run's
+    (and its method is ``ls``, its coefficients too). Metrics
+    ``derivatives/<estimator>/<record>/<quantity>`` and
+    ``derivatives/<estimator>/regression/<dof>/r2``; table
+    ``derivatives.csv``.
+    """
+    from ..identify.ls import LeastSquares
+
+    cfg = study.cfg
+    kalman, iterations = _measured.kalman_options(cfg)
+    weights = str(OmegaConf.select(cfg, "identify.weights", default="speed"))
+    metrics, rows = {}, []
+    for est in COMPARED_DERIVATIVES:
+        t0 = time.perf_counter()
+        if est == derivative and estimates is not None:
+            problems = _measured.problems_from_estimates(study.model, study.vessel, study.records,
+                                                         estimates, weights=weights)
+            fit = LeastSquares().fit(problems)
+        else:
+            fit, _ = _measured.identify_measured(study.model, study.vessel, study.records, est,
+                                                 LeastSquares(), None, kalman, iterations, weights)
+        values = params if (est == derivative and study.method == "ls") else fit.params
+        prefix = f"derivatives/{est}"
+        for dof in ("X", "Y", "N"):
+            key = f"regression/{dof}/r2"
+            if key in fit.metrics:
+                metrics[f"{prefix}/{key}"] = fit.metrics[key]
+        for rec in study.validation_records:
+            name = rec.attrs.get("name", "record")
+            pred = replay(study.model, values, study.vessel, rec)
+            kind = manoeuvre_kind(rec)
+            heading = None
+            if kind == "zigzag":
+                heading = characteristics(rec, kind).get("execute_heading_deg")
+                heading = None if heading is None else np.deg2rad(heading)
+            found = {**error_metrics(pred, rec, name),
+                     **_characteristic_errors(pred, rec, name, kind, heading)}
+            row = {"estimator": est, "record": name}
+            for key in _COMPARED_KEYS:
+                if f"{name}/{key}" in found:
+                    metrics[f"{prefix}/{name}/{key}"] = found[f"{name}/{key}"]
+                    row[key] = found[f"{name}/{key}"]
+            rows.append(row)
+        metrics[f"{prefix}/runtime_s"] = time.perf_counter() - t0
+    if rows:
+        pd.DataFrame(rows).to_csv(out_dir / "derivatives.csv", index=False)
     return metrics
 
 
@@ -297,13 +575,24 @@ def execute(study: Study, out_dir: Path) -> dict:
     out_dir.mkdir(parents=True, exist_ok=True)
     cfg = study.cfg
     started = time.perf_counter()
-    problems = build_problems(study.model, study.vessel, study.records,
-                              str(cfg.data.get("derivative", "auto")))
+    derivative = str(cfg.data.get("derivative", "auto"))
     identifier = make_identifier(study.method, _method_options(cfg))
-    t0 = time.perf_counter()
     objective = TrajectoryObjective(study.model, study.vessel, study.records)
-    result = identifier.fit(problems, objective=objective)
+    info = {}
+    if study.measured:
+        derivative = measured_derivative(study.records, derivative)
+        kalman, iterations = _measured.kalman_options(cfg)
+        weights = str(OmegaConf.select(cfg, "identify.weights", default="speed"))
+        t0 = time.perf_counter()
+        result, info = _measured.identify_measured(study.model, study.vessel, study.records, derivative,
+                                                   identifier, objective, kalman, iterations, weights)
+    else:
+        problems = build_problems(study.model, study.vessel, study.records, derivative)
+        t0 = time.perf_counter()
+        result = identifier.fit(problems, objective=objective)
     metrics = {"runtime/identify_s": time.perf_counter() - t0}
+    estimates = info.pop("estimates", None)
+    metrics.update(info)
     metrics.update(result.metrics)
     metrics["training/samples"] = float(sum(len(r) for r in study.records))
     params = {name: result.params[name] for name in study.model.names}
@@ -322,8 +611,13 @@ def execute(study: Study, out_dir: Path) -> dict:
         pred = simulate(study.model, params, study.vessel, named_manoeuvre(
             str(cfg.manoeuvre.name), _manoeuvre_overrides(cfg)), study.settings.environment)
         metrics.update(error_metrics(pred, rec, "training"))
+    if study.measured:
+        metrics.update(_replay_training(study, params, out_dir))
     if study.validation_records:
-        metrics.update(_validate_records(study, params, out_dir))
+        metrics.update(_validate_records(study, params, out_dir, result))
+        compare = OmegaConf.select(cfg, "validate.compare_derivatives", default=True)
+        if study.measured and compare:
+            metrics.update(_compare_derivatives(study, derivative, estimates, params, out_dir))
     else:
         metrics.update(_validate_simulated(study, params, out_dir))
     metrics.update(speed_mae_summary(metrics, _training_names(study)))

@@ -1,0 +1,477 @@
+"""Identification and validation on measured manoeuvres (e.g. the MARIN KVLCC2 tests).
+
+What differs from simulated studies:
+
+Loading
+    MARIN ``.dat`` files are read with ``uniform_time=True``. The files print
+    every number with three significant digits, the time included, so up to
+    ten consecutive rows share a stamp although the samples are uniform
+    (0.1353 s at full scale). Keeping the first row of each stamp (the
+    loader's default) throws away most rows, leaves an uneven time axis
+    that the derivative estimators refuse, and stamps the kept samples up
+    to half a printed step late (0.45 s between 100 and 1000 s, 4.9 s
+    beyond 1000 s, which shifts a 0.0075 rad/s turn by 2 deg of heading).
+    Rebuilding the uniform axis keeps every sample at its true time (the
+    loader refuses files whose stamps disagree with a uniform axis). Other
+    files go through :func:`studies.data.load_manoeuvre`; a record that is
+    not uniformly sampled is resampled (linear) to its median step, and
+    ``data.resample=DT`` resamples every record to ``DT`` seconds.
+States and accelerations (``data.derivative``)
+    ``savgol``/``central``/``auto`` as for simulated data
+    (:mod:`studies.data.derivatives`); ``ekf``: the extended Kalman filter
+    and RTS smoother of :mod:`studies.data.kalman`, first with the
+    kinematic process model, then ``kalman.iterations`` times with the
+    identified ship model as process model, re-identifying (least squares)
+    on the smoothed states and accelerations each time (Alexandersson et
+    al. 2022); the configured method makes the final fit.
+    ``ekf_kinematic``: the first pass only.
+Validation
+    each record of ``validate.path`` is replayed with its measured rudder
+    from its measured initial state; with a posterior (``method=bayes``)
+    ``band_draws`` coefficient sets drawn from it are replayed as well and
+    the 5-95 % band of ``x0, y0, psi`` is compared with the measurement.
+
+References
+----------
+Alexandersson, M., Mao, W., Ringsberg, J.W. (2022). System identification
+of vessel manoeuvring models. Ocean Engineering 266, 112940.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from omegaconf import OmegaConf
+
+from ..data import load_manoeuvre
+from ..data.derivatives import DerivativeEstimate, estimate_derivatives
+from ..data.kalman import KalmanSettings, ekf_derivatives
+from ..environment.wind import wind_loads_prime
+from ..errors import ConfigError
+from ..identify.base import Identification
+from ..identify.ls import LeastSquares
+from ..identify.regression import RegressionProblem, prime_states
+from ..models.abkowitz import ManoeuvringModel
+from ..models.terms import DOFS
+from ..simulate.simulator import replay_many
+from ..vessels.base import Vessel
+
+__all__ = ["steady_turn", "EKF_METHODS", "load_measured", "resample", "estimate_all", "problems_from_estimates",
+           "identify_measured", "posterior_vectors", "posterior_band", "kalman_options",
+           "mirror_record"]
+
+#: ``data.derivative`` values handled here (the others go to build_problems)
+EKF_METHODS = ("ekf", "ekf_kinematic")
+#: seconds left out at both ends of each smoothed record
+EKF_TRIM = 5.0
+
+
+# ------------------------------------------------------------------ loading
+
+def resample(record: pd.DataFrame, dt: float | None = None) -> pd.DataFrame:
+    """Linear resampling onto a uniform grid of step ``dt`` (default: the median step).
+
+    The heading is continuous in the data contract, so linear interpolation
+    of every column is safe. Attributes are kept.
+    """
+    t = record["t"].to_numpy(float)
+    step = float(np.median(np.diff(t))) if dt is None else float(dt)
+    if not step > 0:
+        raise ConfigError(f"data.resample must be a positive step [s], got {dt}")
+    grid = t[0] + step * np.arange(int(np.floor((t[-1] - t[0]) / step + 1e-9)) + 1)
+    out = pd.DataFrame({"t": grid})
+    for col in record.columns:
+        if col != "t":
+            out[col] = np.interp(grid, t, record[col].to_numpy(float))
+    out.attrs = dict(record.attrs)
+    return out
+
+
+def _uniform(t: np.ndarray) -> bool:
+    dt = np.diff(t)
+    step = float(np.median(dt))
+    return bool(np.max(np.abs(dt - step)) <= 1e-6 * step + 1e-9)
+
+
+def load_measured(paths, min_samples: int = 10, resample_dt: float | None = None) -> list:
+    """Load records for identification or validation (see the module docstring)."""
+    from ..data.marin import read_marin
+
+    out = []
+    for path in paths:
+        if str(path).lower().endswith(".dat"):
+            rec = read_marin(path, uniform_time=True, min_samples=min_samples)
+        else:
+            rec = load_manoeuvre(path, min_samples=min_samples)
+        if resample_dt is not None:
+            rec = resample(rec, resample_dt)
+        elif not _uniform(rec["t"].to_numpy(float)):
+            rec = resample(rec)
+        rec.attrs.setdefault("name", Path(str(path)).stem)
+        out.append(rec)
+    return out
+
+
+def mirror_record(record: pd.DataFrame) -> pd.DataFrame:
+    """Port/starboard mirror image: negate ``y0, psi, v, r, delta`` (and roll).
+
+    The mirror of a starboard turn is the port turn of the mirrored ship;
+    used to check that nothing assumes the sign of a manoeuvre.
+    """
+    out = record.copy()
+    for col in ("y0", "psi", "v", "r", "delta", "phi", "p"):
+        if col in out:
+            out[col] = -out[col]
+    out.attrs = dict(record.attrs)
+    out.attrs["name"] = f"{record.attrs.get('name', 'record')}_mirror"
+    return out
+
+
+# ------------------------------------------------------------------ estimation
+
+def kalman_options(cfg) -> tuple[KalmanSettings, int]:
+    """``kalman.*`` settings (optional config block) and the number of model iterations."""
+    node = OmegaConf.select(cfg, "kalman") if cfg is not None else None
+    node = OmegaConf.to_container(node, resolve=True) if node is not None else {}
+    iterations = int(node.pop("iterations", 2)) if node else 2
+    if iterations < 0:
+        raise ConfigError(f"kalman.iterations must be >= 0, got {iterations}")
+    return KalmanSettings.from_config(node), iterations
+
+
+def estimate_all(records, method: str, settings: KalmanSettings | None = None, model=None,
+                 values=None, vessel=None) -> list[DerivativeEstimate]:
+    """States and accelerations of every record with one estimator."""
+    if method in EKF_METHODS:
+        return [ekf_derivatives(rec, settings, model, values, vessel, trim=EKF_TRIM) for rec in records]
+    return [estimate_derivatives(rec, method) for rec in records]
+
+
+#: row weightings of the measured regression (``identify.weights``)
+WEIGHTINGS = ("none", "speed", "record", "speed_record")
+
+
+def problems_from_estimates(model: ManoeuvringModel, vessel: Vessel, records, estimates,
+                            fixed: dict | None = None, weights: str = "none") -> dict:
+    """Regression problems from given state/acceleration estimates.
+
+    The same algebra as :func:`studies.identify.regression.build_problems`
+    (which estimates the derivatives itself), for estimators that need
+    more than a record, such as the model-based Kalman smoother, plus an
+    optional row weighting (rows of ``theta`` and ``y`` multiplied by
+    ``sqrt(w)``):
+
+    ``speed``
+        ``w = (U / U0)^4``: the error of a measured acceleration is about
+        the same in SI units whatever the speed, so in prime units (divided
+        by ``U^2 / L``) its variance grows as ``U^-4``; weighted least
+        squares with the inverse variance is then the maximum-likelihood
+        fit, and the slow part of a turning circle (U = 0.4 U0, prime
+        errors six times larger) no longer dominates the fit.
+    ``record``
+        every record gets the same total weight, so that one long record
+        (a turning circle is four times as long as a zig-zag, mostly in
+        steady turning) does not outweigh the others.
+    ``speed_record``
+        both.
+    """
+    if weights not in WEIGHTINGS:
+        raise ConfigError(f"identify.weights must be one of {', '.join(WEIGHTINGS)}, got '{weights}'")
+    fixed = dict(fixed or {})
+    L = vessel.length
+    M = vessel.mass_matrix()
+    primes, lhs, times, which, speed2s = [], [], [], [], []
+    method = estimates[0].method if estimates else "none"
+    for i, (rec, est) in enumerate(zip(records, estimates)):
+        s, a = est.states, est.rates
+        p = prime_states(s["u"], s["v"], s["r"], s["delta"], vessel)
+        speed2 = s["u"] ** 2 + s["v"] ** 2
+        acc = np.column_stack([a["u_dot"] * L / speed2, a["v_dot"] * L / speed2,
+                               a["r_dot"] * L * L / speed2])
+        y = acc @ M.T
+        if "wind_speed" in rec and "wind_direction" in rec:
+            rows = est.index
+            y = y - wind_loads_prime(s["u"], s["v"], s["psi"], rec["wind_speed"].to_numpy(float)[rows],
+                                     rec["wind_direction"].to_numpy(float)[rows], vessel)
+        primes.append(p)
+        lhs.append(y)
+        times.append(rec["t"].to_numpy(float)[est.index])
+        which.append(np.full(len(est.index), i))
+        speed2s.append(speed2)
+    primes = np.vstack(primes)
+    lhs = np.vstack(lhs)
+    times = np.concatenate(times)
+    which = np.concatenate(which)
+    w = np.ones(len(times))
+    if weights in ("speed", "speed_record"):
+        w *= (np.concatenate(speed2s) / vessel.speed ** 2) ** 2
+    if weights in ("record", "speed_record"):
+        total = w.sum()
+        for i in range(len(records)):
+            rows = which == i
+            w[rows] *= total / (len(records) * w[rows].sum())
+    root = np.sqrt(w / w.mean())
+    problems = {}
+    for k, dof in enumerate(DOFS):
+        terms = model.terms_of(dof)
+        if not terms:
+            continue
+        free = [t for t in terms if t.name not in fixed]
+        y = lhs[:, k].copy()
+        for t in terms:
+            if t.name in fixed:
+                y -= fixed[t.name] * t.feature(primes)
+        theta = np.column_stack([t.feature(primes) for t in free]) if free else np.empty((len(y), 0))
+        theta = theta * root[:, None]
+        y = y * root
+        problem = RegressionProblem(dof, theta, y, [t.name for t in free],
+                                    {t.name: fixed[t.name] for t in terms if t.name in fixed},
+                                    which, times)
+        problem.meta = {"derivative": method, "weights": weights}
+        problems[dof] = problem
+    return problems
+
+
+def identify_measured(model: ManoeuvringModel, vessel: Vessel, records, derivative: str,
+                      identifier, objective=None, settings: KalmanSettings | None = None,
+                      iterations: int = 2, weights: str = "speed") -> tuple[Identification, dict]:
+    """Identify from measured records with any estimator, EKF iterations included.
+
+    Returns the identifier's result and diagnostics (``ekf/...`` metrics:
+    the process-noise scale chosen, the sensor biases found, the change of
+    the coefficients between iterations) with the final estimates under
+    ``info["estimates"]``.
+    """
+    started = time.perf_counter()
+    info = {}
+    settings = settings or KalmanSettings()
+    first = "ekf_kinematic" if derivative in EKF_METHODS else derivative
+    estimates = estimate_all(records, first, settings)
+    passes = iterations if derivative == "ekf" else 0
+    previous = None
+    for it in range(passes):
+        problems = problems_from_estimates(model, vessel, records, estimates, weights=weights)
+        params = LeastSquares().fit(problems).params
+        if previous is not None:
+            change = max(abs(params[n] - previous[n]) / (abs(previous[n]) + 1e-12) for n in params)
+            info[f"ekf/iteration{it}/max_rel_change"] = float(change)
+        previous = params
+        estimates = estimate_all(records, "ekf", settings, model, params, vessel)
+    problems = problems_from_estimates(model, vessel, records, estimates, weights=weights)
+    result = identifier.fit(problems, objective=objective)
+    if derivative in EKF_METHODS:
+        info["ekf/iterations"] = float(passes)
+        info["ekf/runtime_s"] = time.perf_counter() - started
+    info["estimates"] = estimates
+    return result, info
+
+
+# ------------------------------------------------------------------ steady turn
+
+def _steady_rows(record: pd.DataFrame) -> np.ndarray | None:
+    """Rows of the steady phase of a turning record (see :func:`steady_turn`)."""
+    delta = np.abs(record["delta"].to_numpy(float))
+    psi = record["psi"].to_numpy(float)
+    top = delta.max()
+    moved = np.flatnonzero(delta > np.deg2rad(1.0))
+    if top < np.deg2rad(2.0) or len(moved) == 0:
+        return None
+    plateau = np.abs(delta - np.median(delta[delta > 0.9 * top])) <= max(np.deg2rad(0.5), 0.05 * top)
+    change = np.abs(psi - psi[moved[0]])
+    rows = plateau & (change >= 2 * np.pi)
+    rows[: moved[0]] = False
+    if not rows.any():
+        return None
+    first = np.flatnonzero(rows)[0]
+    leave = np.flatnonzero(~plateau[first:])
+    if len(leave):
+        rows[first + leave[0]:] = False
+    if rows.sum() < 10 or change[rows].max() - change[rows].min() < np.pi / 2:
+        return None
+    return rows
+
+
+def _steady_values(record: pd.DataFrame, rows: np.ndarray) -> dict:
+    u = record["u"].to_numpy(float)[rows]
+    v = record["v"].to_numpy(float)[rows]
+    r = np.abs(record["r"].to_numpy(float)[rows])
+    speed = np.hypot(u, v)
+    return {"steady_speed_m_s": float(np.median(speed)),
+            "steady_yaw_rate_deg_s": float(np.rad2deg(np.median(r))),
+            "steady_drift_deg": float(np.rad2deg(np.median(np.abs(np.arctan2(v, u))))),
+            "steady_diameter_m": float(2.0 * np.median(speed / np.maximum(r, 1e-9)))}
+
+
+#: error key of each steady-turn quantity
+STEADY_ERROR_KEYS = {"steady_speed_m_s": "steady_speed_error_pct",
+                     "steady_yaw_rate_deg_s": "steady_yaw_rate_error_pct",
+                     "steady_drift_deg": "steady_drift_error_pct",
+                     "steady_diameter_m": "steady_diameter_error_pct"}
+
+
+def steady_turn(record: pd.DataFrame) -> dict:
+    """Steady phase of a turning circle: speed, yaw rate, drift angle and diameter.
+
+    The steady phase is taken as the samples with the rudder on its
+    plateau after the heading has changed by 360 deg from the execute (the
+    speed has settled by then); the diameter is ``2 U / |r|`` (medians
+    over the phase). Empty when the record does not hold the rudder for at
+    least 450 deg of heading change. These complement advance and tactical
+    diameter, which are reached while the ship is still losing speed.
+    """
+    rows = _steady_rows(record)
+    return {} if rows is None else _steady_values(record, rows)
+
+
+def steady_turn_errors(prediction: pd.DataFrame, record: pd.DataFrame, name: str) -> dict:
+    """:func:`steady_turn` of a prediction and a measurement, with % errors.
+
+    The prediction's steady phase is taken on the measurement's rows, so
+    both describe the same time span.
+    """
+    rows = _steady_rows(record)
+    if rows is None or "diverged_at" in prediction.attrs:
+        return {}
+    n = min(len(prediction), len(record))
+    measured = _steady_values(record.iloc[:n], rows[:n])
+    predicted = _steady_values(prediction.iloc[:n], rows[:n])
+    out = {}
+    for key, value in predicted.items():
+        out[f"{name}/{key}"] = value
+        out[f"{name}/{key}_measured"] = measured[key]
+        out[f"{name}/{STEADY_ERROR_KEYS[key]}"] = 100.0 * (value - measured[key]) / measured[key]
+    return out
+
+
+# ------------------------------------------------------------------ posterior band
+
+def posterior_vectors(model: ManoeuvringModel, result: Identification, n_draws: int,
+                      seed: int = 0) -> np.ndarray | None:
+    """``n_draws`` coefficient vectors (model term order) from a posterior.
+
+    Each DOF's regression posterior is sampled independently (one joint
+    draw of that DOF's coefficients per set); terms without samples keep
+    their point estimate. None when the result has no samples.
+    """
+    dof_samples = {d: result.samples[d] for d in DOFS if d in result.samples}
+    if not dof_samples:
+        return None
+    rng = np.random.default_rng(seed)
+    base = model.vector(result.params)
+    index = {name: i for i, name in enumerate(model.names)}
+    out = np.tile(base, (n_draws, 1))
+    for entry in dof_samples.values():
+        values = np.asarray(entry["values"])
+        rows = rng.integers(0, values.shape[0], n_draws)
+        for j, name in enumerate(entry["names"]):
+            if name in index:
+                out[:, index[name]] = values[rows, j]
+    traj = result.samples.get("trajectory")
+    if traj is not None:
+        values = np.asarray(traj["values"])
+        rows = rng.integers(0, values.shape[0], n_draws)
+        for j, name in enumerate(traj["names"]):
+            if name in index:
+                out[:, index[name]] = values[rows, j]
+    return out
+
+
+def posterior_band(model: ManoeuvringModel, vectors: np.ndarray, vessel: Vessel,
+                   record: pd.DataFrame, quantiles=(0.05, 0.5, 0.95), noise: bool = True) -> dict:
+    """Replay ``record`` with every vector; quantiles of ``x0, y0, psi`` per sample.
+
+    Returns ``{"t", "x0", "y0", "psi"}`` (each channel an array (3, n):
+    lower, median, upper), ``"paths"`` (the replayed ``x0, y0`` of every
+    set, thinned to at most 500 samples, for plots), ``"diverged"`` (the
+    fraction of sets that left the physical range; their rows are ignored)
+    and the coverage of the measurement: ``coverage_<ch>`` (fraction of the
+    samples inside the band), ``coverage_xy`` (``x0`` and ``y0`` both
+    inside) and ``coverage_all``, and ``covered_until_s`` (time from the
+    start until the measured position first stays outside the band for
+    more than 10 s). A posterior
+    predictive band of a *measurement* includes the sensor noise: with
+    ``noise`` the band is widened by 1.645 times the measurement noise of
+    the channel (:func:`studies.data.kalman.measurement_variance`), which
+    matters at the start where every replay begins at the measured state.
+    """
+    from ..data.kalman import measurement_variance
+
+    states, diverged = replay_many(model, vectors, vessel, record)
+    n = min(states.shape[1], len(record))
+    out = {"t": record["t"].to_numpy(float)[:n], "diverged": float(np.mean(diverged >= 0))}
+    widen = {ch: np.zeros(n) for ch in ("x0", "y0", "psi")}
+    if noise:
+        var = measurement_variance(record.iloc[:n], ("x0", "y0", "psi"))
+        for j, ch in enumerate(("x0", "y0", "psi")):
+            widen[ch] = 1.645 * np.sqrt(var[:, j])
+    inside = {}
+    for ch, j in (("x0", 3), ("y0", 4), ("psi", 5)):
+        values = states[:, :n, j]
+        ok = np.isfinite(values).all(axis=1)
+        if ok.any():
+            q = np.quantile(values[ok], quantiles, axis=0)
+        else:
+            q = np.full((len(quantiles), n), np.nan)
+        q[0] = q[0] - widen[ch]
+        q[-1] = q[-1] + widen[ch]
+        out[ch] = q
+        meas = record[ch].to_numpy(float)[:n]
+        inside[ch] = (meas >= q[0]) & (meas <= q[-1])
+        out[f"coverage_{ch}"] = float(np.mean(inside[ch]))
+    step = max(1, n // 500)
+    out["paths"] = states[:, :n:step, 3:5]
+    both = inside["x0"] & inside["y0"]
+    out["coverage_xy"] = float(np.mean(both))
+    out["coverage_all"] = float(np.mean(both & inside["psi"]))
+    out["covered_until_s"] = _covered_until(out["t"], both)
+    return out
+
+
+def _covered_until(t: np.ndarray, inside: np.ndarray, grace: float = 10.0) -> float:
+    """Time from the start until the measurement first stays outside the band
+    for longer than ``grace`` seconds (the whole record when it never does)."""
+    outside = ~inside
+    start = None
+    for i in range(len(t)):
+        if outside[i]:
+            if start is None:
+                start = i
+            if t[i] - t[start] >= grace:
+                return float(t[start] - t[0])
+        else:
+            start = None
+    return float(t[-1] - t[0])
+
+
+def plot_band(record: pd.DataFrame, prediction: pd.DataFrame, band: dict, path, title: str) -> None:
+    """Trajectory and heading with the posterior predictive band."""
+    from ..report.figures import _pyplot
+
+    plt = _pyplot()
+    fig, (ax_xy, ax_psi) = plt.subplots(1, 2, figsize=(12, 5.5))
+    t = band["t"]
+    # the trajectory band as the replayed posterior draws themselves
+    for j, drawn in enumerate(band.get("paths", [])):
+        ax_xy.plot(drawn[:, 1], drawn[:, 0], color="tab:orange", alpha=0.15, lw=0.6,
+                   label="posterior draws" if j == 0 else None)
+    ax_xy.plot(record["y0"], record["x0"], "k", lw=1.2, label="measured")
+    ax_xy.plot(prediction["y0"], prediction["x0"], "tab:orange", lw=1.0, label="prediction (median coef.)")
+    ax_xy.set_xlabel("y0 (east) [m]")
+    ax_xy.set_ylabel("x0 (north) [m]")
+    ax_xy.set_aspect("equal", adjustable="datalim")
+    ax_xy.legend(fontsize=8)
+    k = 180.0 / np.pi
+    ax_psi.fill_between(t, band["psi"][0] * k, band["psi"][-1] * k, color="tab:orange", alpha=0.3,
+                        label="5-95 %")
+    ax_psi.plot(record["t"], record["psi"] * k, "k", lw=1.2, label="measured")
+    ax_psi.plot(prediction["t"], prediction["psi"] * k, "tab:orange", lw=1.0, label="prediction")
+    ax_psi.set_xlabel("t [s]")
+    ax_psi.set_ylabel("psi [deg]")
+    ax_psi.legend(fontsize=8)
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
