@@ -18,7 +18,6 @@ import numpy as np
 import pandas as pd
 from omegaconf import OmegaConf
 
-from ..data import load_manoeuvre, load_manoeuvres
 from ..errors import ConfigError
 from ..vessels import get_vessel
 from .settings import as_path_list
@@ -82,9 +81,11 @@ def prepare_discover(cfg, root: Path) -> DiscoverStudy:
 
     vessel = get_vessel(str(cfg.vessel.name))
     model = get_study_model(cfg, root)
-    records = load_manoeuvres(data, min_samples=60)
-    val = load_manoeuvres(validate, min_samples=20) if validate else []
-    sim = load_manoeuvre(str(simulation)) if simulation else None
+    from .measured import load_measured
+
+    records = load_measured(data, min_samples=60)
+    val = load_measured(validate, min_samples=20) if validate else []
+    sim = load_measured([str(simulation)])[0] if simulation else None
     study = DiscoverStudy(cfg, "manoeuvring", vessel, model, records, val, sim)
     if not val:
         study.train, study.validation, note = holdout(records, share)
