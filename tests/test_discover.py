@@ -67,14 +67,16 @@ def check(cause, d, truth):
 @pytest.mark.parametrize("cause", ["none", "current", "rudder_offset", "wind_speed_bias",
                                    "environmental_bias", "missing_term", "wind_unmodelled"])
 def test_hidden_effect_is_named_on_clean_data(tmp_path, vessel, cause):
+    # the second-cause search and the full posterior are exercised by the command test below
     records, truth = hidden_records(vessel, cause, seed=11)
-    check(cause, _discover(tmp_path, records), truth)
+    check(cause, _discover(tmp_path, records, ["discover.second_cause=false",
+                                               "discover.posterior_steps=15"]), truth)
 
 
 @pytest.mark.slow
 def test_none_wins_on_noisy_data(tmp_path, vessel):
     records, _ = hidden_records(vessel, "none", seed=5, noise=0.05)
-    d = _discover(tmp_path, records)
+    d = _discover(tmp_path, records, ["discover.second_cause=false", "discover.posterior_steps=15"])
     assert d["cause"] == "none", d["ranking"][:3]
 
 

@@ -120,9 +120,14 @@ def test_ui_serves_the_store_on_loopback(swept_store):
     finally:
         proc.terminate()
         try:
-            proc.wait(timeout=20)
+            proc.wait(timeout=30)
         except subprocess.TimeoutExpired:
             proc.kill()
+    # stopping `studies ui` stops the server's worker processes too
+    deadline = time.time() + 20
+    while f"127.0.0.1:{port}" in subprocess.run(["ss", "-ltn"], capture_output=True, text=True).stdout:
+        assert time.time() < deadline, "the MLflow server outlived `studies ui`"
+        time.sleep(1)
 
 
 @pytest.mark.slow

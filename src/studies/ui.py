@@ -31,9 +31,34 @@ def serve(uri: str | None, root, host: str = "127.0.0.1", port: int = 5000) -> i
     print(f"MLflow UI for {cmd[cmd.index('--backend-store-uri') + 1]} at http://{host}:{port}", flush=True)
     if host not in ("127.0.0.1", "localhost", "::1"):
         print(f"warning: listening on {host}, reachable from other machines", file=sys.stderr)
-    proc = subprocess.Popen(cmd, env=env)
+    import signal
+
+    # the server starts worker processes of its own: run it in its own process group
+    # and end the whole group, so that stopping `studies ui` leaves nothing behind
+    proc = subprocess.Popen(cmd, env=env, start_new_session=True)
+
+    def _stop(signum, frame):
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, _stop)
     try:
         return proc.wait()
     except KeyboardInterrupt:
-        proc.terminate()
+        return _stop_group(proc)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+        if proc.poll() is None:
+            _stop_group(proc)
+
+
+def _stop_group(proc) -> int:
+    import signal
+
+    try:
+        os.killpg(proc.pid, signal.SIGTERM)
+        return proc.wait(timeout=20)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        return proc.wait()
+    except ProcessLookupError:
         return proc.wait()
