@@ -150,9 +150,10 @@ def estimate_derivatives(record, method: str = "auto", window: float | None = No
     record : DataFrame
         Data contract record (t, u, v, r, delta, psi, ...).
     method : {"auto", "central", "savgol"}
-    window : float, optional
-        Savitzky-Golay window [s]; by default chosen per record by the
-        discrepancy principle (:func:`choose_window`).
+    window : float or "auto", optional
+        Savitzky-Golay window [s]; default 4 s or 11 samples, whichever is
+        longer; ``"auto"`` chooses it per record by the discrepancy principle
+        (:func:`choose_window`).
     polyorder : int
         Savitzky-Golay polynomial order.
     """
@@ -176,6 +177,8 @@ def estimate_derivatives(record, method: str = "auto", window: float | None = No
         return DerivativeEstimate(index, states, rates, "central")
     if method == "savgol":
         if window is None:
+            length = max(11, int(round(4.0 / dt)))
+        elif window == "auto":
             length = choose_window([cols[c] for c in STATE_COLUMNS], dt, polyorder)
         else:
             length = int(round(window / dt))
