@@ -37,6 +37,22 @@ class DiscoverStudy:
     notes: list = field(default_factory=list)
 
 
+def smooth_measured(record: pd.DataFrame) -> pd.DataFrame:
+    """Velocities and heading of a measured record replaced by their EKF/RTS
+    estimates (kinematic pass; positions and rudder kept): discovery then
+    fits every cause on consistent states, estimated once."""
+    from ..data.kalman import ekf_derivatives
+
+    est = ekf_derivatives(record)
+    out = record.iloc[est.index].copy()
+    for c in ("u", "v", "r", "psi"):
+        out[c] = est.states[c]
+    out["t"] = out["t"] - 0.0
+    out.attrs = dict(record.attrs)
+    out.attrs["smoothed"] = "ekf"
+    return out.reset_index(drop=True)
+
+
 def holdout(records: list, share: float) -> tuple[list, list, str]:
     """Training and validation records when no validation record is given.
 
@@ -86,6 +102,8 @@ def prepare_discover(cfg, root: Path) -> DiscoverStudy:
     records = load_measured(data, min_samples=60)
     val = load_measured(validate, min_samples=20) if validate else []
     sim = load_measured([str(simulation)])[0] if simulation else None
+    if str(cfg.data.get("derivative", "auto")) in ("ekf", "ekf_kinematic"):
+        records = [smooth_measured(r) for r in records]
     study = DiscoverStudy(cfg, "manoeuvring", vessel, model, records, val, sim)
     if not val:
         study.train, study.validation, note = holdout(records, share)
@@ -118,8 +136,10 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
 
     opts = study.cfg.discover
     t0 = time.perf_counter()
-    ctx = Context(study.vessel, study.model, study.train, study.validation,
-                  str(study.cfg.data.get("derivative", "auto")))
+    derivative = str(study.cfg.data.get("derivative", "auto"))
+    if any(r.attrs.get("smoothed") == "ekf" for r in study.train):
+        derivative = "central"      # states already smoothed once by the EKF/RTS pass
+    ctx = Context(study.vessel, study.model, study.train, study.validation, derivative)
     ctx.horizon = float(opts.horizon) if opts.horizon else None
     result = search(ctx, float(opts.terms_threshold), int(opts.max_terms), bool(opts.second_cause),
                     int(opts.posterior_steps), int(study.cfg.seed))
