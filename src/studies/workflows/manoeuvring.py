@@ -158,14 +158,14 @@ def prepare(cfg, root: Path | None = None) -> Study:
             records = load_manoeuvres(settings.data_paths, min_samples=min_samples)
         truth = None
     else:
-        manoeuvre = named_manoeuvre(str(cfg.manoeuvre.name), _manoeuvre_overrides(cfg))
+        manoeuvres = training_manoeuvres(cfg)
         if not vessel.coefficients:
             raise ConfigError(f"vessel '{vessel.name}' has no reference coefficients to simulate "
                               "from; give measured records with data.path=")
         full, full_truth = reference_model(vessel)
         truth = {name: full_truth[name] for name in model.names}
         rng = np.random.default_rng(settings.seed)
-        records = [simulate_training(vessel, full, full_truth, manoeuvre, settings, rng)]
+        records = [simulate_training(vessel, full, full_truth, man, settings, rng) for man in manoeuvres]
     validation = _measured.load_measured(settings.validate_paths) if settings.validate_paths else []
     measured = bool(settings.data_paths) and _is_measured_study(vessel, settings.data_paths, derivative,
                                                                 resample_dt)
@@ -544,10 +544,19 @@ def write_overlay_table(reference: pd.DataFrame, prediction: pd.DataFrame, path:
     pd.DataFrame(table).to_csv(path, index=False)
 
 
+def training_manoeuvres(cfg) -> list:
+    """The simulated training manoeuvres: ``train.manoeuvres`` (a list of names,
+    e.g. several zig-zags as in Wang et al. 2021) or the ``manoeuvre`` group."""
+    names = OmegaConf.select(cfg, "train.manoeuvres") or []
+    if names:
+        return [named_manoeuvre(str(n)) for n in names]
+    return [named_manoeuvre(str(cfg.manoeuvre.name), _manoeuvre_overrides(cfg))]
+
+
 def _training_names(study: Study) -> set:
     if study.settings.data_paths:
         return {str(r.attrs.get("name")) for r in study.records}
-    return {str(study.cfg.manoeuvre.name)}
+    return {str(r.attrs.get("name")) for r in study.records}
 
 
 def speed_mae_summary(metrics: dict, training: set) -> dict:
@@ -606,11 +615,10 @@ def execute(study: Study, out_dir: Path) -> dict:
         metrics["deviation/max_abs_pct"] = float(dev.max())
         plot_deviations(table, out_dir / "deviations.png",
                         f"{study.method}: deviation from the reference coefficients")
-        # training fit: the identified model replays the training manoeuvre
-        rec = study.records[0]
-        pred = simulate(study.model, params, study.vessel, named_manoeuvre(
-            str(cfg.manoeuvre.name), _manoeuvre_overrides(cfg)), study.settings.environment)
-        metrics.update(error_metrics(pred, rec, "training"))
+        # training fit: the identified model repeats the training manoeuvre(s)
+        for k, (man, rec) in enumerate(zip(training_manoeuvres(cfg), study.records)):
+            pred = simulate(study.model, params, study.vessel, man, study.settings.environment)
+            metrics.update(error_metrics(pred, rec, "training" if k == 0 else f"training_{man.name}"))
     if study.measured:
         metrics.update(_replay_training(study, params, out_dir))
     if study.validation_records:
