@@ -159,6 +159,17 @@ class ChainDiagnostics:
                 f"{prefix}/converged": float(self.converged)}
 
 
+
+def run_with_progress(sampler, start, steps: int, label: str):
+    """``sampler.run_mcmc`` that logs its progress five times (long runs show progress)."""
+    every = max(1, steps // 5)
+    state = None
+    for i, state in enumerate(sampler.sample(start, iterations=steps), 1):
+        if i % every == 0 or i == steps:
+            logger.info("%s: emcee step %d/%d, mean acceptance %.2f", label, i, steps,
+                        float(np.mean(sampler.acceptance_fraction)))
+    return state
+
 def residual_autocorr_time(residual: np.ndarray) -> float:
     """Integrated autocorrelation time of a residual series [rows].
 
@@ -488,7 +499,7 @@ class BayesianRegression:
         sampler = emcee.EnsembleSampler(walkers, ndim, log_prob, vectorize=True,
                                         moves=_moves(self.moves, walkers, ndim))
         sampler.random_state = np.random.RandomState(seed).get_state()
-        sampler.run_mcmc(x0, self.burn_in + steps, progress=False)
+        run_with_progress(sampler, x0, self.burn_in + steps, f"bayes {dof}")
         diag = _diagnose(sampler, self.burn_in, steps, dof)
         chain = sampler.get_chain(discard=self.burn_in, thin=self.thin, flat=True)[-self.n_samples:]
         coef, sigma = post.to_coefficients(chain)
@@ -702,7 +713,7 @@ class BayesianRegression:
         sampler.random_state = np.random.RandomState(seed + 1).get_state()
         rest = self.trajectory_burn_in - first
         steps = self.trajectory_steps
-        sampler.run_mcmc(coords, rest + steps, progress=False)
+        run_with_progress(sampler, coords, rest + steps, "bayes trajectory")
         diag = _diagnose(sampler, rest, steps, "trajectory")
         chain = sampler.get_chain(discard=rest, thin=self.trajectory_thin, flat=True)
         coef = centre + chain * width
