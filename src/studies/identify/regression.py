@@ -33,7 +33,7 @@ from ..models.abkowitz import ManoeuvringModel
 from ..models.terms import DOFS
 from ..vessels.base import Vessel
 
-__all__ = ["RegressionProblem", "prime_states", "build_problems"]
+__all__ = ["RegressionProblem", "prime_states", "assemble_problems", "build_problems"]
 
 
 @dataclass
@@ -100,6 +100,31 @@ def _one_record(record: pd.DataFrame, vessel: Vessel, derivative: str):
     return primes, lhs, record["t"].to_numpy(float)[est.index], est.method, s
 
 
+def assemble_problems(model: ManoeuvringModel, primes: np.ndarray, lhs: np.ndarray, fixed: dict,
+                      which=None, time=None, states=None, row_weights=None) -> dict:
+    """``{dof: RegressionProblem}`` from prime states (n, 4) and the prime
+    generalised forces to explain (n, 3): known coefficients moved to ``y``;
+    rows scaled by ``row_weights`` (the square roots of weights) when given."""
+    problems = {}
+    for k, dof in enumerate(DOFS):
+        terms = model.terms_of(dof)
+        if not terms:
+            continue
+        free = [t for t in terms if t.name not in fixed]
+        y = lhs[:, k].copy()
+        for t in terms:
+            if t.name in fixed:
+                y -= fixed[t.name] * t.feature(primes)
+        theta = np.column_stack([t.feature(primes) for t in free]) if free else np.empty((len(y), 0))
+        if row_weights is not None:
+            theta = theta * row_weights[:, None]
+            y = y * row_weights
+        problems[dof] = RegressionProblem(dof, theta, y, [t.name for t in free],
+                                          {t.name: fixed[t.name] for t in terms if t.name in fixed},
+                                          which, time, states)
+    return problems
+
+
 def build_problems(model: ManoeuvringModel, vessel: Vessel, records, derivative: str = "auto",
                    fixed: dict | None = None) -> dict:
     """Regression problems ``{dof: RegressionProblem}`` from one or more records.
@@ -126,20 +151,7 @@ def build_problems(model: ManoeuvringModel, vessel: Vessel, records, derivative:
     time = np.concatenate([p[2] for p in parts])
     which = np.concatenate([np.full(len(p[2]), i) for i, p in enumerate(parts)])
     states = {k: np.concatenate([p[4][k] for p in parts]) for k in parts[0][4]}
-    problems = {}
-    for k, dof in enumerate(DOFS):
-        terms = model.terms_of(dof)
-        if not terms:
-            continue
-        free = [t for t in terms if t.name not in fixed]
-        y = lhs[:, k].copy()
-        for t in terms:
-            if t.name in fixed:
-                y -= fixed[t.name] * t.feature(primes)
-        theta = np.column_stack([t.feature(primes) for t in free]) if free else np.empty((len(y), 0))
-        problems[dof] = RegressionProblem(dof, theta, y, [t.name for t in free],
-                                          {t.name: fixed[t.name] for t in terms if t.name in fixed},
-                                          which, time, states)
+    problems = assemble_problems(model, primes, lhs, fixed, which, time, states)
     problems_meta = {"derivative": parts[0][3]}
     for p in problems.values():
         p.meta = problems_meta

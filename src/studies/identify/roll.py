@@ -28,6 +28,7 @@ using an intelligent machine learning method. Ocean Engineering 191, 106479.
 
 from __future__ import annotations
 
+import abc
 import math
 import time
 from contextlib import contextmanager
@@ -262,7 +263,7 @@ def _single_thread_blas():
         yield
 
 
-class _Estimator:
+class _Estimator(abc.ABC):
     """Common part: settings, timing, record handling."""
 
     name = "base"
@@ -301,8 +302,9 @@ class _Estimator:
         meta.update({"method": self.name, "terms": list(self.terms), "wall_s": time.perf_counter() - w0})
         return RollFit({k: float(v) for k, v in params.items()}, float(cpu), meta)
 
-    def _fit(self, records):  # pragma: no cover - abstract
-        raise NotImplementedError
+    @abc.abstractmethod
+    def _fit(self, records):
+        """Identify from prepared records; returns ``(params, meta)``."""
 
 
 # -------------------------------------------------------------------- NLS
@@ -444,13 +446,13 @@ class _EquationErrorEstimator(_Estimator):
         n = max(1, min(n, self.MAX_PHASES))
         return sorted({int(round(k * step / n)) for k in range(n)})
 
-    def _select(self, records, T) -> dict:  # pragma: no cover - abstract
+    @abc.abstractmethod
+    def _select(self, records, T) -> dict:
         """Choose the smoother's settings (cross-validation); returns them as a dict."""
-        raise NotImplementedError
 
-    def _smoother(self, t, y, T, settings):  # pragma: no cover - abstract
+    @abc.abstractmethod
+    def _smoother(self, t, y, T, settings):
         """Fitted smoother: a callable ``f(t, order)`` for order 0, 1, 2."""
-        raise NotImplementedError
 
     def _fit(self, records):
         T = float(np.median([_period(r) for r in records]))

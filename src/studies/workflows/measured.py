@@ -53,7 +53,7 @@ from ..environment.wind import wind_loads_prime
 from ..errors import ConfigError
 from ..identify.base import Identification
 from ..identify.ls import LeastSquares
-from ..identify.regression import RegressionProblem, prime_states
+from ..identify.regression import RegressionProblem, assemble_problems, prime_states
 from ..models.abkowitz import ManoeuvringModel
 from ..models.terms import DOFS
 from ..simulate.simulator import replay_many
@@ -214,24 +214,9 @@ def problems_from_estimates(model: ManoeuvringModel, vessel: Vessel, records, es
             rows = which == i
             w[rows] *= total / (len(records) * w[rows].sum())
     root = np.sqrt(w / w.mean())
-    problems = {}
-    for k, dof in enumerate(DOFS):
-        terms = model.terms_of(dof)
-        if not terms:
-            continue
-        free = [t for t in terms if t.name not in fixed]
-        y = lhs[:, k].copy()
-        for t in terms:
-            if t.name in fixed:
-                y -= fixed[t.name] * t.feature(primes)
-        theta = np.column_stack([t.feature(primes) for t in free]) if free else np.empty((len(y), 0))
-        theta = theta * root[:, None]
-        y = y * root
-        problem = RegressionProblem(dof, theta, y, [t.name for t in free],
-                                    {t.name: fixed[t.name] for t in terms if t.name in fixed},
-                                    which, times)
+    problems = assemble_problems(model, primes, lhs, fixed, which, times, row_weights=root)
+    for problem in problems.values():
         problem.meta = {"derivative": method, "weights": weights}
-        problems[dof] = problem
     return problems
 
 
