@@ -20,7 +20,7 @@ def _one(cause, seed, noise):
 
     from hydra import compose, initialize_config_module
 
-    from studies.discover.hidden import hidden_records
+    from studies.discover.hidden import hidden_records, parameters_match, write_records
     from studies.vessels import get_vessel
     from studies.workflows.discover import execute_discover, prepare_discover
 
@@ -28,37 +28,15 @@ def _one(cause, seed, noise):
     records, truth = hidden_records(vessel, cause, seed=seed, noise=noise)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        paths = []
-        for rec in records:
-            p = tmp / f"{rec.attrs['name']}.csv"
-            rec.to_csv(p, index=False)
-            paths.append(str(p))
+        paths = write_records(records, tmp)
         with initialize_config_module("studies.conf", version_base="1.3"):
             cfg = compose("discover", overrides=[f"data.path=[{paths[0]},{paths[1]}]",
                                                  f"validate.path=[{paths[2]}]", f"seed={seed}"])
         t0 = time.perf_counter()
         d, _ = execute_discover(prepare_discover(cfg, tmp), tmp / "out")
         elapsed = time.perf_counter() - t0
-    return cause, noise, seed, _hit(cause, d, truth), elapsed
-
-
-def _hit(cause, d, truth) -> bool:
-    if d["cause"] != cause:
-        return False
-    p = d["parameters"]
-    close = lambda a, b: abs(a - b) <= 0.2 * abs(b)  # noqa: E731
-    ang = lambda a, b: abs(np.angle(np.exp(1j * (a - b)))) <= 0.2  # noqa: E731
-    if cause in ("current", "wind_unmodelled"):
-        return close(p["speed"], truth["speed"]) and ang(p["direction"], truth["direction"])
-    if cause == "rudder_offset":
-        return close(p["delta0"], truth["delta0"])
-    if cause == "wind_speed_bias":
-        return close(p["k"], truth["k"])
-    if cause == "environmental_bias":
-        return np.hypot(p["bx"] - truth["bx"], p["by"] - truth["by"]) <= 0.2 * np.hypot(truth["bx"], truth["by"])
-    if cause == "missing_term":
-        return "Nrrr" in p["terms"] and close(p["terms"]["Nrrr"], truth["Nrrr"])
-    return True
+    hit = d["cause"] == cause and parameters_match(cause, d["parameters"], truth)
+    return cause, noise, seed, hit, elapsed
 
 
 def run() -> dict:

@@ -14,16 +14,12 @@ import pytest
 from hydra import compose, initialize_config_module
 
 from conftest import SHARED_DATA
-from studies.discover.hidden import hidden_records
+from studies.discover.hidden import hidden_records, parameters_match, write_records
 from studies.workflows.discover import execute_discover, prepare_discover
 
 
 def _discover(tmp_path, records, overrides=()):
-    paths = []
-    for rec in records:
-        p = tmp_path / f"{rec.attrs['name']}.csv"
-        rec.to_csv(p, index=False)
-        paths.append(str(p))
+    paths = write_records(records, tmp_path)
     with initialize_config_module("studies.conf", version_base="1.3"):
         cfg = compose("discover", overrides=[f"data.path=[{paths[0]},{paths[1]}]",
                                              f"validate.path=[{paths[2]}]", *overrides])
@@ -39,24 +35,9 @@ def _close(found, true, rel=0.2):
     return abs(found - true) <= rel * abs(true)
 
 
-def _angle_close(found, true, tol=0.2):
-    return abs(np.angle(np.exp(1j * (found - true)))) <= tol
-
-
 def check(cause, d, truth):
     assert d["cause"] == cause, (d["cause"], d["ranking"][:3])
-    p = d["parameters"]
-    if cause == "current" or cause == "wind_unmodelled":
-        assert _close(p["speed"], truth["speed"]) and _angle_close(p["direction"], truth["direction"])
-    elif cause == "rudder_offset":
-        assert _close(p["delta0"], truth["delta0"])
-    elif cause == "wind_speed_bias":
-        assert _close(p["k"], truth["k"])
-    elif cause == "environmental_bias":
-        assert _close(np.hypot(p["bx"], p["by"]), np.hypot(truth["bx"], truth["by"]))
-        assert np.hypot(p["bx"] - truth["bx"], p["by"] - truth["by"]) <= 0.2 * np.hypot(truth["bx"], truth["by"])
-    elif cause == "missing_term":
-        assert "Nrrr" in p["terms"] and _close(p["terms"]["Nrrr"], truth["Nrrr"])
+    assert parameters_match(cause, d["parameters"], truth), (d["parameters"], truth)
     if cause != "none":
         assert d["gain_pct"] > 50.0
         for name, interval in (d["uncertainty"].get("terms") or d["uncertainty"]).items():
@@ -132,11 +113,7 @@ def test_discover_command_writes_discovery_and_logs_a_run(tmp_path, vessel):
     from conftest import mlflow_runs, run_studies
 
     records, truth = hidden_records(vessel, "current", seed=2)
-    paths = []
-    for rec in records:
-        p = tmp_path / f"{rec.attrs['name']}.csv"
-        rec.to_csv(p, index=False)
-        paths.append(str(p))
+    paths = write_records(records, tmp_path)
     proc = run_studies(["discover", f"data.path=[{paths[0]},{paths[1]}]", f"validate.path=[{paths[2]}]",
                         f"hydra.run.dir={tmp_path / 'run'}"], cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr[-3000:]

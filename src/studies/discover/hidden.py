@@ -16,7 +16,7 @@ from ..models.abkowitz import abkowitz
 from ..models.terms import candidate_terms
 from ..simulate import simulate, turning, zigzag
 
-__all__ = ["HIDDEN_CAUSES", "hidden_records"]
+__all__ = ["HIDDEN_CAUSES", "hidden_records", "write_records", "parameters_match"]
 
 HIDDEN_CAUSES = ("none", "current", "rudder_offset", "wind_speed_bias", "environmental_bias",
                  "missing_term", "wind_unmodelled")
@@ -80,3 +80,40 @@ def hidden_records(vessel, cause: str, seed: int = 0, noise: float = 0.0,
         rec.attrs["name"] = man.name
         records.append(rec)
     return records, truth
+
+
+def write_records(records, folder) -> list[str]:
+    """Write records as CSV files named after them (what a user would hand over)."""
+    from pathlib import Path
+
+    paths = []
+    for rec in records:
+        path = Path(folder) / f"{rec.attrs['name']}.csv"
+        rec.to_csv(path, index=False)
+        paths.append(str(path))
+    return paths
+
+
+def parameters_match(cause: str, parameters: dict, truth: dict, rel: float = 0.2,
+                     angle: float = 0.2) -> bool:
+    """Whether a discovery's parameters are within ``rel`` of the hidden ones
+    (angles within ``angle`` rad; the horizontal bias as a vector)."""
+    def close(a, b):
+        return abs(a - b) <= rel * abs(b)
+
+    def near(a, b):
+        return abs(np.angle(np.exp(1j * (a - b)))) <= angle
+
+    p = parameters
+    if cause in ("current", "wind_unmodelled"):
+        return close(p["speed"], truth["speed"]) and near(p["direction"], truth["direction"])
+    if cause == "rudder_offset":
+        return close(p["delta0"], truth["delta0"])
+    if cause == "wind_speed_bias":
+        return close(p["k"], truth["k"])
+    if cause == "environmental_bias":
+        return bool(np.hypot(p["bx"] - truth["bx"], p["by"] - truth["by"])
+                    <= rel * np.hypot(truth["bx"], truth["by"]))
+    if cause == "missing_term":
+        return "Nrrr" in p["terms"] and close(p["terms"]["Nrrr"], truth["Nrrr"])
+    return True
