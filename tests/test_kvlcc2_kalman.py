@@ -47,7 +47,7 @@ NOISE = {"x0": 1.0, "y0": 1.0, "psi": np.deg2rad(0.1), "u": 0.02, "v": 0.02, "r"
 def case():
     vessel, model = get_vessel("mariner"), abkowitz()
     clean = simulate(model, vessel.coefficients, vessel, zigzag(20, 20, duration=600.0))
-    c = dense_coefficients(model.vector(vessel.coefficients), model.powers_array(), model.dof_array())[0]
+    c = dense_coefficients(model.vector(vessel.coefficients), model.powers_array(), model.dof_array())[0].ravel()
     states = np.column_stack([clean[k].to_numpy() for k in ("x0", "y0", "psi", "u", "v", "r")]
                              + [np.zeros((len(clean), 6))])
     acc = _model_rates(states, clean["delta"].to_numpy(), c, _model_constants(vessel))

@@ -3,7 +3,7 @@
 import numpy as np
 
 from studies.models import abkowitz, candidate_terms, monomial_name
-from studies.simulate.monomials import CUBIC_BASIS, cubic_forces, dense_coefficients
+from studies.simulate.monomials import CUBIC_BASIS, cubic_forces, dense_coefficients, scaled_forces
 from studies.vessels import MARINER_COEFFICIENTS
 
 
@@ -20,10 +20,26 @@ def test_compiled_force_basis_equals_term_features(model, vessel):
     values = vessel.coefficients
     expected = model.forces(primes, values)
     dense = dense_coefficients(model.vector(values), model.powers_array(), model.dof_array())[0]
-    work = np.empty(35)
-    got = np.array([cubic_forces(dense, *row, work) for row in primes])
+    got = np.array([cubic_forces(dense.ravel(), *row) for row in primes])
     np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-15)
     assert len(CUBIC_BASIS) == 35
+
+
+def test_every_monomial_of_the_compiled_basis_and_its_speed_scaling():
+    """All 105 coefficients of the dense basis, each monomial written out by hand in
+    monomials.py, against numpy powers; and the U^2 scaling of the dimensional form."""
+    rng = np.random.default_rng(5)
+    c = rng.normal(size=(3, 35))
+    powers = np.array(CUBIC_BASIS)
+    for _ in range(20):
+        du, v, rl, delta = rng.uniform(-2.0, 2.0, size=4)
+        speed = float(np.hypot(7.0 + du, v))
+        primes = np.array([du / speed, v / speed, rl / speed, delta])
+        monomials = np.prod(primes[None, :] ** powers, axis=1)
+        expected = c @ monomials
+        np.testing.assert_allclose(cubic_forces(c.ravel(), *primes), expected, rtol=1e-12, atol=1e-14)
+        scaled = scaled_forces(c.ravel(), du, v, rl, delta, speed, 1.0 / speed)
+        np.testing.assert_allclose(np.array(scaled) / speed**2, expected, rtol=1e-12, atol=1e-14)
 
 
 def test_candidate_library_names_follow_the_pattern():

@@ -22,7 +22,8 @@ import contextlib
 import signal
 import threading
 
-__all__ = ["Interrupted", "install", "critical", "job", "set_stopper", "received"]
+__all__ = ["Interrupted", "install", "critical", "deferred", "checkpoint", "job", "set_stopper",
+           "received"]
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
@@ -100,6 +101,23 @@ def critical():
     finally:
         _state["critical"] -= 1
     if _state["critical"] == 0 and _state["pending"] is not None:
+        signum, _state["pending"] = _state["pending"], None
+        raise Interrupted(signum)
+
+
+@contextlib.contextmanager
+def deferred():
+    """Hold signals back in the body; they are raised at the next
+    :func:`checkpoint` or when the body ends. For loops that run inside a
+    library which catches every exception of a callback and prints it (emcee
+    prints a traceback for a KeyboardInterrupt in the log-probability)."""
+    with critical():
+        yield
+
+
+def checkpoint() -> None:
+    """Raise a signal held back by :func:`deferred` (a safe point of a loop)."""
+    if _state["pending"] is not None:
         signum, _state["pending"] = _state["pending"], None
         raise Interrupted(signum)
 

@@ -74,7 +74,7 @@ import pandas as pd
 from numba import njit
 from scipy.signal import savgol_filter
 
-from ..simulate.monomials import cubic_forces, dense_coefficients
+from ..simulate.monomials import dense_coefficients, scaled_forces
 from .derivatives import DerivativeEstimate, _uniform_step
 
 __all__ = ["KalmanSettings", "KalmanResult", "kalman_smooth", "ekf_derivatives",
@@ -249,7 +249,7 @@ def measurement_variance(record: pd.DataFrame, channels, window: float = 10.0,
 # --------------------------------------------------------------- compiled filter
 
 @njit(cache=True)
-def _model_acc(u, v, r, delta, c, k, mwork):
+def _model_acc(u, v, r, delta, c, k):
     """Accelerations (u_dot, v_dot, r_dot) of the manoeuvring model.
 
     ``k``: speed0, length, 1/m11, m33/det, -m23/det, -m32/det, m22/det.
@@ -259,17 +259,17 @@ def _model_acc(u, v, r, delta, c, k, mwork):
     speed2 = u * u + v * v
     if speed2 < 1e-12:
         speed2 = 1e-12
-    inv = 1.0 / math.sqrt(speed2)
-    fx, fy, fn = cubic_forces(c, (u - speed0) * inv, v * inv, r * length * inv, delta, mwork)
-    g = speed2 / length
-    return (fx * k[2] * g, (k[3] * fy + k[4] * fn) * g, (k[5] * fy + k[6] * fn) * g / length)
+    speed = math.sqrt(speed2)
+    fx, fy, fn = scaled_forces(c, u - speed0, v, r * length, delta, speed, 1.0 / speed)
+    return (fx * k[2] / length, (k[3] * fy + k[4] * fn) / length,
+            (k[5] * fy + k[6] * fn) / (length * length))
 
 
 NS = 12  # compiled code's state size (see STATE_NAMES)
 
 
 @njit(cache=True)
-def _f(x, delta, mode, c, k, mwork, out):
+def _f(x, delta, mode, c, k, out):
     """Continuous dynamics of the filter's state (biases and accelerations are
     random walks: zero drift)."""
     psi, u, v, r = x[2], x[3], x[4], x[5]
@@ -281,7 +281,7 @@ def _f(x, delta, mode, c, k, mwork, out):
     out[1] = u * sp + v * cp
     out[2] = r
     if mode == 1:
-        au, av, ar = _model_acc(u, v, r, delta, c, k, mwork)
+        au, av, ar = _model_acc(u, v, r, delta, c, k)
         out[3] = au + x[6]
         out[4] = av + x[7]
         out[5] = ar + x[8]
@@ -292,7 +292,7 @@ def _f(x, delta, mode, c, k, mwork, out):
 
 
 @njit(cache=True)
-def _jacobian(x, delta, mode, c, k, mwork, J):
+def _jacobian(x, delta, mode, c, k, J):
     for i in range(NS):
         for j in range(NS):
             J[i, j] = 0.0
@@ -317,23 +317,23 @@ def _jacobian(x, delta, mode, c, k, mwork, J):
             xm = x[3:6].copy()
             xp[j] = base + h
             xm[j] = base - h
-            ap = _model_acc(xp[0], xp[1], xp[2], delta, c, k, mwork)
-            am = _model_acc(xm[0], xm[1], xm[2], delta, c, k, mwork)
+            ap = _model_acc(xp[0], xp[1], xp[2], delta, c, k)
+            am = _model_acc(xm[0], xm[1], xm[2], delta, c, k)
             for i in range(3):
                 J[3 + i, 3 + j] = (ap[i] - am[i]) / (2.0 * h)
 
 
 @njit(cache=True)
-def _rk4(x, d0, d1, dt, mode, c, k, mwork):
+def _rk4(x, d0, d1, dt, mode, c, k):
     k1 = np.empty(NS)
     k2 = np.empty(NS)
     k3 = np.empty(NS)
     k4 = np.empty(NS)
     dm = 0.5 * (d0 + d1)
-    _f(x, d0, mode, c, k, mwork, k1)
-    _f(x + 0.5 * dt * k1, dm, mode, c, k, mwork, k2)
-    _f(x + 0.5 * dt * k2, dm, mode, c, k, mwork, k3)
-    _f(x + dt * k3, d1, mode, c, k, mwork, k4)
+    _f(x, d0, mode, c, k, k1)
+    _f(x + 0.5 * dt * k1, dm, mode, c, k, k2)
+    _f(x + 0.5 * dt * k2, dm, mode, c, k, k3)
+    _f(x + dt * k3, d1, mode, c, k, k4)
     return x + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
 
 
@@ -353,7 +353,6 @@ def _filter_smooth(z, R, sel, bsel, delta, dt, x0, P0, qc, mode, c, k, smooth):
     xp = np.empty((n, NS))
     Pp = np.empty((n, NS, NS))
     Fs = np.empty((n, NS, NS))
-    mwork = np.empty(35)
     J = np.empty((NS, NS))
     Qc = np.diag(qc)
     eye = np.eye(NS)
@@ -362,12 +361,12 @@ def _filter_smooth(z, R, sel, bsel, delta, dt, x0, P0, qc, mode, c, k, smooth):
     loglik = 0.0
     for i in range(n):
         if i > 0:
-            _jacobian(x, delta[i - 1], mode, c, k, mwork, J)
+            _jacobian(x, delta[i - 1], mode, c, k, J)
             Jdt = J * dt
             F = eye + Jdt + 0.5 * (Jdt @ Jdt)
             JQ = J @ Qc
             Qd = Qc * dt + 0.5 * (JQ + JQ.T) * dt * dt + (JQ @ J.T) * dt ** 3 / 3.0
-            x = _rk4(x, delta[i - 1], delta[i], dt, mode, c, k, mwork)
+            x = _rk4(x, delta[i - 1], delta[i], dt, mode, c, k)
             P = F @ P @ F.T + Qd
             Fs[i - 1] = F
         xp[i] = x
@@ -416,9 +415,8 @@ def _filter_smooth(z, R, sel, bsel, delta, dt, x0, P0, qc, mode, c, k, smooth):
 def _model_rates(states, delta, c, k):
     n = states.shape[0]
     out = np.empty((n, 3))
-    mwork = np.empty(35)
     for i in range(n):
-        a = _model_acc(states[i, 3], states[i, 4], states[i, 5], delta[i], c, k, mwork)
+        a = _model_acc(states[i, 3], states[i, 4], states[i, 5], delta[i], c, k)
         out[i, 0] = a[0] + states[i, 6]
         out[i, 1] = a[1] + states[i, 7]
         out[i, 2] = a[2] + states[i, 8]
@@ -538,12 +536,12 @@ def kalman_smooth(record: pd.DataFrame, settings: KalmanSettings | None = None, 
         if values is None or vessel is None:
             raise ValueError("a ship model needs its coefficient values and the vessel")
         mode = 1
-        c = dense_coefficients(model.vector(values), model.powers_array(), model.dof_array())[0]
+        c = dense_coefficients(model.vector(values), model.powers_array(), model.dof_array())[0].ravel()
         k = _model_constants(vessel)
         qa = qa * settings.discrepancy
     else:
         mode = 0
-        c = np.zeros((3, 35))
+        c = np.zeros(105)
         k = np.zeros(7)
         k[1] = 1.0
     likelihoods = {}

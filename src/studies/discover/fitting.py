@@ -243,6 +243,8 @@ def posterior(ctx: Context, fit: CauseFit, walkers: int = 6, steps: int = 40, bu
     ``-n_eff / 2 sum_dof ln RSS_dof(theta)`` (flat prior within the bounds)."""
     import emcee
 
+    from ..identify.bayes import run_with_progress
+
     cause = fit.cause
     k = len(fit.theta)
     if k == 0:
@@ -262,7 +264,7 @@ def posterior(ctx: Context, fit: CauseFit, walkers: int = 6, steps: int = 40, bu
     start = fit.theta + scale * rng.standard_normal((walkers, k)) * 0.1
     start = np.clip(start, low + 1e-12, high - 1e-12)
     sampler = emcee.EnsembleSampler(walkers, k, log_prob)
-    sampler.run_mcmc(start, burn + steps, progress=False)
+    run_with_progress(sampler, start, burn + steps)
     chain = sampler.get_chain(discard=burn, flat=True)
     q05, q50, q95 = np.percentile(chain, [5, 50, 95], axis=0)
     return {"samples": chain, "q05": q05, "q50": q50, "q95": q95,

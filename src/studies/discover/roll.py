@@ -113,6 +113,8 @@ def roll_interval(best, train, simulation_fixed, steps: int = 80, seed: int = 0)
     """90 % interval of the winning term by emcee on the profile likelihood."""
     import emcee
 
+    from ..identify.bayes import run_with_progress
+
     term = ROLL_CAUSES[best["cause"]][0]
     if term is None:
         return {}
@@ -133,6 +135,6 @@ def roll_interval(best, train, simulation_fixed, steps: int = 80, seed: int = 0)
     rng = np.random.default_rng(seed)
     start = value * (1 + 0.01 * rng.standard_normal((6, 1)))
     sampler = emcee.EnsembleSampler(6, 1, log_prob)
-    sampler.run_mcmc(start, steps, progress=False)
+    run_with_progress(sampler, start, steps)
     chain = sampler.get_chain(discard=steps // 3, flat=True)[:, 0]
     return {term: [float(np.percentile(chain, 5)), float(np.percentile(chain, 95))]}

@@ -106,6 +106,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import interrupt
 from ..errors import ConfigError
 from .base import Identification
 from .ls import regression_diagnostics
@@ -160,15 +161,20 @@ class ChainDiagnostics:
 
 
 
-def run_with_progress(sampler, start, steps: int, label: str):
-    """``sampler.run_mcmc`` that logs its progress five times (long runs show progress)."""
+def run_with_progress(sampler, start, steps: int, label: str | None = None):
+    """``sampler.run_mcmc`` that logs its progress five times when given a
+    ``label``, and stops on SIGINT/SIGTERM between steps: inside emcee a
+    signal would be caught and printed as a traceback."""
     every = max(1, steps // 5)
     state = None
-    for i, state in enumerate(sampler.sample(start, iterations=steps), 1):
-        if i % every == 0 or i == steps:
-            logger.info("%s: emcee step %d/%d, mean acceptance %.2f", label, i, steps,
-                        float(np.mean(sampler.acceptance_fraction)))
+    with interrupt.deferred():
+        for i, state in enumerate(sampler.sample(start, iterations=steps), 1):
+            interrupt.checkpoint()
+            if label and (i % every == 0 or i == steps):
+                logger.info("%s: emcee step %d/%d, mean acceptance %.2f", label, i, steps,
+                            float(np.mean(sampler.acceptance_fraction)))
     return state
+
 
 def residual_autocorr_time(residual: np.ndarray) -> float:
     """Integrated autocorrelation time of a residual series [rows].
@@ -696,7 +702,7 @@ class BayesianRegression:
         first = self.trajectory_burn_in // 2
         sampler = emcee.EnsembleSampler(walkers, ndim, log_prob, vectorize=True, moves=moves)
         sampler.random_state = np.random.RandomState(seed).get_state()
-        state = sampler.run_mcmc(x0, first, progress=False) if first else None
+        state = run_with_progress(sampler, x0, first) if first else None
         coords = state.coords if state is not None else x0
         if self.trajectory_autocorr_correction:
             best = coords[np.argmax(state.log_prob)] if state is not None else x_start

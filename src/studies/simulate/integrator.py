@@ -41,7 +41,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..environment.wind import wind_load
-from .monomials import cubic_forces, dense_coefficients
+from .monomials import coefficient_tuple, dense_coefficients, scaled_forces
 
 __all__ = ["rk4_simulate", "rk4_simulate_many", "N_STATES"]
 
@@ -50,69 +50,59 @@ DIVERGED_SPEED_FACTOR = 5.0
 
 
 @njit(cache=True, inline="always")
-def _rhs(du, v, r, cpsi, spsi, delta, c, k, mwork):
-    """State derivative. ``k`` packs the constants (see ``_constants``)."""
-    speed0 = k[0]
-    u = speed0 + du
+def _derivatives(du, v, r, cpsi, spsi, delta, delta_c, prescribed_rate, prescribed, c, k, wp,
+                 e0, e1, e2, e3, e4, e5, has_ext):
+    """State derivative at one RK4 stage. ``c`` is :func:`coefficient_tuple`,
+    ``k`` the tuple of :func:`_constants`, ``e0..e5`` this step's external
+    forces (prime: earth-fixed X, Y, N bias then body X, Y, N noise). Only
+    scalars and tuples come in: no array reference counting per stage."""
+    u = k[0] + du
     speed2 = u * u + v * v
-    inv_speed = 1.0 / math.sqrt(speed2)
-    length = k[1]
-    fx, fy, fn = cubic_forces(c, du * inv_speed, v * inv_speed, r * length * inv_speed, delta, mwork)
+    speed = math.sqrt(speed2)
+    # forces times U^2 (prime x U^2): the hydrodynamic sums do not wait for the square root
+    fx, fy, fn = scaled_forces(c, du, v, r * k[1], delta, speed, 1.0 / speed)
     # current (earth-fixed components k[11], k[12]) seen in the body frame
     uc = cpsi * k[11] + spsi * k[12]
-    vc = -spsi * k[11] + cpsi * k[12]
-    return fx, fy, fn, cpsi, spsi, uc, vc, speed2
-
-
-@njit(cache=True, inline="always")
-def _derivatives(du, v, r, cpsi, spsi, delta, delta_c, prescribed_rate, prescribed, c, k, wp, ext,
-                 mwork):
-    fx, fy, fn, cpsi, spsi, uc, vc, speed2 = _rhs(du, v, r, cpsi, spsi, delta, c, k, mwork)
-    u = k[0] + du
+    vc = cpsi * k[12] - spsi * k[11]
     if k[9] != 0.0:
         wx, wy, wn = wind_load(u + uc, v + vc, math.atan2(spsi, cpsi), k[9], k[10], wp)
-        inv_q = k[13] / speed2
-        fx += wx * inv_q
-        fy += wy * inv_q
-        fn += wn * inv_q * k[14]
-    # earth-fixed slowly varying bias rotated into the body, plus body noise
-    fx += cpsi * ext[0] + spsi * ext[1] + ext[3]
-    fy += -spsi * ext[0] + cpsi * ext[1] + ext[4]
-    fn += ext[2] + ext[5]
-    g = speed2 * k[14]  # U^2 / L
-    du_dot = fx * k[2] * g
-    v_dot = (k[5] * fy + k[6] * fn) * g
-    r_dot = (k[7] * fy + k[8] * fn) * g * k[14]
+        fx += wx * k[13]
+        fy += wy * k[13]
+        fn += wn * k[13] * k[14]
+    if has_ext:
+        # earth-fixed slowly varying bias rotated into the body, plus body noise
+        fx += (cpsi * e0 + spsi * e1 + e3) * speed2
+        fy += (cpsi * e1 - spsi * e0 + e4) * speed2
+        fn += (e2 + e5) * speed2
+    du_dot = fx * k[2]
+    v_dot = k[5] * fy + k[6] * fn
+    r_dot = k[7] * fy + k[8] * fn
     x_dot = cpsi * (u + uc) - spsi * (v + vc)
     y_dot = spsi * (u + uc) + cpsi * (v + vc)
     if prescribed:
         delta_dot = prescribed_rate
     else:
-        dc = delta_c
-        if dc > k[15]:
-            dc = k[15]
-        elif dc < -k[15]:
-            dc = -k[15]
-        delta_dot = (dc - delta) * k[17]
-        if delta_dot > k[16]:
-            delta_dot = k[16]
-        elif delta_dot < -k[16]:
-            delta_dot = -k[16]
+        dc = min(max(delta_c, -k[15]), k[15])
+        delta_dot = min(max((dc - delta) * k[17], -k[16]), k[16])
     return du_dot, v_dot, r_dot, x_dot, y_dot, r, delta_dot
 
 
-def _constants(mass, length, speed0, env, rho, servo):
-    """Pack the constants of the right-hand side, reciprocals precomputed."""
+def _constants(mass, length, speed0, env, rho, servo) -> tuple:
+    """Pack the constants of the right-hand side, reciprocals precomputed.
+
+    The mass-matrix inverse is scaled so that ``U^2``-scaled prime forces give
+    ``du_dot``, ``v_dot`` [m/s^2] and ``r_dot`` [rad/s^2] directly.
+    """
     det = mass[1, 1] * mass[2, 2] - mass[1, 2] * mass[2, 1]
     k = np.zeros(18)
     k[0] = speed0
     k[1] = length
-    k[2] = 1.0 / mass[0, 0]
-    # inverse of the sway-yaw block [[m22, m23], [m32, m33]]
-    k[5] = mass[2, 2] / det
-    k[6] = -mass[1, 2] / det
-    k[7] = -mass[2, 1] / det
-    k[8] = mass[1, 1] / det
+    k[2] = 1.0 / (mass[0, 0] * length)
+    # inverse of the sway-yaw block [[m22, m23], [m32, m33]], over L (sway) and L^2 (yaw)
+    k[5] = mass[2, 2] / det / length
+    k[6] = -mass[1, 2] / det / length
+    k[7] = -mass[2, 1] / det / length ** 2
+    k[8] = mass[1, 1] / det / length ** 2
     k[9] = env[0]
     k[10] = env[1]
     k[11] = env[2] * math.cos(env[3])
@@ -122,7 +112,7 @@ def _constants(mass, length, speed0, env, rho, servo):
     k[15] = servo[0]
     k[16] = servo[1]
     k[17] = 1.0 / servo[2]
-    return k
+    return tuple(float(x) for x in k)
 
 
 @njit(cache=True, inline="always")
@@ -135,92 +125,112 @@ def _small_rotation(a):
 
 
 @njit(cache=True, inline="always")
-def _command(mode, step, state, psi0, cmd, params, memory):
-    """Commanded rudder for ``step`` (held over the step). ``memory[0]`` keeps
-    the zig-zag sign / the turning phase between steps."""
+def _command(mode, cmd_i, psi, r, psi0, p0, p1, p2, memory):
+    """Commanded rudder held over a step, and the updated ``memory`` (the
+    zig-zag sign / the turning phase carried between steps)."""
     if mode == 0:
-        return cmd[step]
+        return cmd_i, memory
     if mode == 1:
-        s = memory[0]
-        if s * params[2] * (state[5] - psi0) >= params[1]:
-            s = -s
-            memory[0] = s
-        return s * params[0]
+        if memory * p2 * (psi - psi0) >= p1:
+            memory = -memory
+        return memory * p0, memory
     if mode == 2:
-        e = cmd[step] - state[5]
-        return params[2] * (params[0] * e - params[1] * state[2])
+        return p2 * (p0 * (cmd_i - psi) - p1 * r), memory
     if mode == 4:
-        if memory[0] > 0.0 and params[1] > 0.0 and abs(state[5] - psi0) >= params[1]:
-            memory[0] = 0.0
-        return memory[0] * params[0]
-    return 0.0
+        if memory > 0.0 and p1 > 0.0 and abs(psi - psi0) >= p1:
+            memory = 0.0
+        return memory * p0, memory
+    return 0.0, memory
 
 
-# reassociation/contraction only: NaN and inf semantics are kept for the divergence check
-_FAST = {"reassoc", "contract", "arcp", "nsz"}
+# contraction only: NaN and inf semantics are kept for the divergence check, and no
+# reassociation (it would turn the balanced force sums back into one long chain)
+_FAST = {"contract", "arcp", "nsz"}
 
 
 @njit(cache=True, error_model="numpy", fastmath=_FAST)
-def _integrate(c, k, x0, dt, cmd, mode, params, wp, ext, out):
+def _integrate(cm, k, x0, dt, cmd, mode, params, wp, ext, out):
+    """RK4 over ``out.shape[0] - 1`` steps; ``ext`` with no rows means no
+    external forces. Returns -1, or the first step that left the physical range."""
+    c = coefficient_tuple(cm)
     n = out.shape[0]
-    state = x0.copy()
+    s0, s1, s2, s3, s4, s5, s6 = x0[0], x0[1], x0[2], x0[3], x0[4], x0[5], x0[6]
     for j in range(N_STATES):
-        out[0, j] = state[j]
-    psi0 = x0[5]
-    memory = np.empty(1)
-    memory[0] = params[3] if mode == 1 else 1.0
+        out[0, j] = x0[j]
+    psi0 = s5
+    p0, p1, p2 = params[0], params[1], params[2]
+    memory = params[3] if mode == 1 else 1.0
     prescribed = mode == 3
     limit = DIVERGED_SPEED_FACTOR * k[0]
-    mwork = np.empty(35)
+    has_ext = ext.shape[0] > 0
+    e0 = e1 = e2 = e3 = e4 = e5 = 0.0
     h = 0.5 * dt
     sixth = dt / 6.0
     for i in range(n - 1):
-        dc = _command(mode, i, state, psi0, cmd, params, memory)
+        dc, memory = _command(mode, cmd[i], s5, s2, psi0, p0, p1, p2, memory)
         rate = 0.0
         if prescribed:
-            state[6] = cmd[i]
+            s6 = cmd[i]
             rate = (cmd[i + 1] - cmd[i]) / dt
-        e = ext[i]
-        s0, s1, s2, s5, s6 = state[0], state[1], state[2], state[5], state[6]
+        if has_ext:
+            e0, e1, e2, e3, e4, e5 = ext[i, 0], ext[i, 1], ext[i, 2], ext[i, 3], ext[i, 4], ext[i, 5]
         # one cosine/sine per step: the stages rotate it by their small heading increments
         cp = math.cos(s5)
         sp = math.sin(s5)
-        k1 = _derivatives(s0, s1, s2, cp, sp, s6, dc, rate, prescribed, c, k, wp, e, mwork)
+        k1 = _derivatives(s0, s1, s2, cp, sp, s6, dc, rate, prescribed, c, k, wp,
+                          e0, e1, e2, e3, e4, e5, has_ext)
         ca, sa = _small_rotation(h * k1[5])
         k2 = _derivatives(s0 + h * k1[0], s1 + h * k1[1], s2 + h * k1[2], cp * ca - sp * sa,
-                          sp * ca + cp * sa, s6 + h * k1[6], dc, rate, prescribed, c, k, wp, e, mwork)
+                          sp * ca + cp * sa, s6 + h * k1[6], dc, rate, prescribed, c, k, wp,
+                          e0, e1, e2, e3, e4, e5, has_ext)
         ca, sa = _small_rotation(h * k2[5])
         k3 = _derivatives(s0 + h * k2[0], s1 + h * k2[1], s2 + h * k2[2], cp * ca - sp * sa,
-                          sp * ca + cp * sa, s6 + h * k2[6], dc, rate, prescribed, c, k, wp, e, mwork)
+                          sp * ca + cp * sa, s6 + h * k2[6], dc, rate, prescribed, c, k, wp,
+                          e0, e1, e2, e3, e4, e5, has_ext)
         ca, sa = _small_rotation(dt * k3[5])
         k4 = _derivatives(s0 + dt * k3[0], s1 + dt * k3[1], s2 + dt * k3[2], cp * ca - sp * sa,
-                          sp * ca + cp * sa, s6 + dt * k3[6], dc, rate, prescribed, c, k, wp, e, mwork)
-        state[0] = s0 + sixth * (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0])
-        state[1] = s1 + sixth * (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1])
-        state[2] = s2 + sixth * (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2])
-        state[3] += sixth * (k1[3] + 2.0 * (k2[3] + k3[3]) + k4[3])
-        state[4] += sixth * (k1[4] + 2.0 * (k2[4] + k3[4]) + k4[4])
-        state[5] = s5 + sixth * (k1[5] + 2.0 * (k2[5] + k3[5]) + k4[5])
-        state[6] = s6 + sixth * (k1[6] + 2.0 * (k2[6] + k3[6]) + k4[6])
+                          sp * ca + cp * sa, s6 + dt * k3[6], dc, rate, prescribed, c, k, wp,
+                          e0, e1, e2, e3, e4, e5, has_ext)
+        s0 += sixth * (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0])
+        s1 += sixth * (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1])
+        s2 += sixth * (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2])
+        s3 += sixth * (k1[3] + 2.0 * (k2[3] + k3[3]) + k4[3])
+        s4 += sixth * (k1[4] + 2.0 * (k2[4] + k3[4]) + k4[4])
+        s5 += sixth * (k1[5] + 2.0 * (k2[5] + k3[5]) + k4[5])
+        s6 += sixth * (k1[6] + 2.0 * (k2[6] + k3[6]) + k4[6])
         if prescribed:
-            state[6] = cmd[i + 1]
-        u_tot = k[0] + state[0]
-        if not (u_tot > 0.0 and u_tot < limit and abs(state[1]) < limit and abs(state[2]) < 1.0
-                and math.isfinite(state[3]) and math.isfinite(state[4])):
+            s6 = cmd[i + 1]
+        u_tot = k[0] + s0
+        if not (u_tot > 0.0 and u_tot < limit and abs(s1) < limit and abs(s2) < 1.0
+                and math.isfinite(s3) and math.isfinite(s4)):
             for m in range(i + 1, n):
                 for j in range(N_STATES):
                     out[m, j] = np.nan
             return i + 1
-        for j in range(N_STATES):
-            out[i + 1, j] = state[j]
+        out[i + 1, 0] = s0
+        out[i + 1, 1] = s1
+        out[i + 1, 2] = s2
+        out[i + 1, 3] = s3
+        out[i + 1, 4] = s4
+        out[i + 1, 5] = s5
+        out[i + 1, 6] = s6
     return -1
 
 
 def _ext_rows(ext, n):
+    """External forces per step, or an empty array when there are none."""
     ext = np.ascontiguousarray(ext, dtype=float)
+    if not ext.any():
+        return np.zeros((0, 6))
     if ext.shape[0] < n - 1:
         raise ValueError(f"external forces cover {ext.shape[0]} steps, need {n - 1}")
     return ext
+
+
+def _wind_tuple(wp):
+    """Wind particulars as a tuple of 9 (zeros for a vessel without them)."""
+    wp = np.asarray(wp, dtype=float)
+    return tuple(float(x) for x in wp) if wp.size else (0.0,) * 9
 
 
 def rk4_simulate(coef, powers, dofs, mass, length, speed0, x0, dt, cmd, mode, params,
@@ -236,7 +246,7 @@ def rk4_simulate(coef, powers, dofs, mass, length, speed0, x0, dt, cmd, mode, pa
     k = _constants(mass, length, speed0, env, rho, servo)
     out = np.empty((n, N_STATES))
     diverged = _integrate(c, k, np.asarray(x0, float), float(dt), cmd, int(mode),
-                          np.asarray(params, float), wp, _ext_rows(ext, n), out)
+                          np.asarray(params, float), _wind_tuple(wp), _ext_rows(ext, n), out)
     return out, diverged
 
 
@@ -258,5 +268,5 @@ def rk4_simulate_many(coefs, powers, dofs, mass, length, speed0, x0, dt, cmd, mo
     out = np.empty((cs.shape[0], n, N_STATES))
     diverged = np.empty(cs.shape[0], dtype=np.int64)
     _integrate_many(cs, k, np.asarray(x0, float), float(dt), cmd, int(mode),
-                    np.asarray(params, float), wp, _ext_rows(ext, n), out, diverged)
+                    np.asarray(params, float), _wind_tuple(wp), _ext_rows(ext, n), out, diverged)
     return out, diverged
