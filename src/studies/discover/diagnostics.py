@@ -41,7 +41,8 @@ def phase_errors(record: pd.DataFrame, prediction: pd.DataFrame, name: str) -> p
 
 def residual_structure(problems: dict, residuals: list, vessel) -> pd.DataFrame:
     """Per DOF: bias of the regression residual and its correlation with sin/cos
-    of the heading, the rudder sign and amplitude, the speeds, and the wind angle."""
+    of the heading, the rudder sign and amplitude, the speeds, and sin/cos of
+    the wind angle off the bow when the records carry wind."""
     rows = []
     for k, dof in enumerate(("X", "Y", "N")):
         r = residuals[k]
@@ -52,6 +53,11 @@ def residual_structure(problems: dict, residuals: list, vessel) -> pd.DataFrame:
             "sign(delta)": np.sign(s["delta"]), "|delta|": np.abs(s["delta"]),
             "u": s["u"], "v": s["v"], "r": s["r"], "|r|": np.abs(s["r"]),
         }
+        if "wind_direction" in s:
+            # angle of the wind off the bow (where it comes from, relative to the heading)
+            off_bow = s["wind_direction"] - s["psi"]
+            candidates["sin(wind off bow)"] = np.sin(off_bow)
+            candidates["cos(wind off bow)"] = np.cos(off_bow)
         row = {"dof": dof, "bias/std": float(np.mean(r) / sd), "rms": float(np.sqrt(np.mean(r ** 2)))}
         for name, x in candidates.items():
             row[f"corr {name}"] = float(np.corrcoef(r, x)[0, 1]) if np.std(x) > 0 else 0.0

@@ -36,7 +36,8 @@ from ..identify import LeastSquares, build_problems
 from ..simulate.simulator import replay
 from .causes import Cause, Setup
 
-__all__ = ["Context", "CauseFit", "regression_fit", "fit_cause", "validate", "posterior"]
+__all__ = ["Context", "CauseFit", "regression_fit", "scored_fit", "nominal_residuals", "fit_cause",
+           "validate", "posterior"]
 
 log = logging.getLogger(__name__)
 
@@ -74,7 +75,7 @@ class CauseFit:
 
 
 def regression_fit(ctx: Context, setup: Setup):
-    """LS on the setup's records; returns (params incl. fixed, residual per DOF, problems)."""
+    """LS on the setup's records; returns (params incl. fixed, prime residual per DOF, problems)."""
     problems = build_problems(setup.model, ctx.vessel, setup.fit_records, ctx.derivative, setup.fixed)
     if setup.bias is not None:
         bx, by, bn = setup.bias
@@ -97,6 +98,27 @@ def regression_fit(ctx: Context, setup: Setup):
     return params, residuals, problems
 
 
+def nominal_residuals(ctx: Context, residuals: list, problems: dict) -> list:
+    """Prime residuals re-expressed at the vessel's nominal speed U0.
+
+    Prime forces are over ``0.5 rho L^2 U^2`` with the speed through the
+    water *as the cause reads it*; scoring them at ``U0`` makes causes that
+    read that speed differently comparable: otherwise a cause could shrink
+    the residual by making the ship faster through the water (a current).
+    """
+    out = []
+    for r, dof in zip(residuals, ("X", "Y", "N")):
+        s = problems[dof].states
+        out.append(r * (s["u"] ** 2 + s["v"] ** 2) / ctx.vessel.speed ** 2)
+    return out
+
+
+def scored_fit(ctx: Context, setup: Setup):
+    """:func:`regression_fit` with its residuals at the nominal speed (what causes are scored on)."""
+    params, residuals, problems = regression_fit(ctx, setup)
+    return params, nominal_residuals(ctx, residuals, problems), problems
+
+
 def integrated_time(x: np.ndarray) -> float:
     """Integrated autocorrelation time of a residual series (>= 1)."""
     import emcee
@@ -109,10 +131,11 @@ def integrated_time(x: np.ndarray) -> float:
 
 def calibrate(ctx: Context) -> tuple[dict, list]:
     """Baseline fit: sets the residual scales, ``n_eff`` and ``tau`` of ``ctx``."""
-    params, residuals, _ = regression_fit(ctx, Setup(ctx.model, ctx.train))
-    ctx.sigma = np.array([max(np.std(r), 1e-300) for r in residuals])
-    ctx.n_rows = len(residuals[0])
-    ctx.tau = max(integrated_time(r) for r in residuals)
+    params, residuals, problems = regression_fit(ctx, Setup(ctx.model, ctx.train))
+    scored = nominal_residuals(ctx, residuals, problems)
+    ctx.sigma = np.array([max(np.std(r), 1e-300) for r in scored])
+    ctx.n_rows = len(scored[0])
+    ctx.tau = max(integrated_time(r) for r in scored)
     ctx.n_eff = max(10.0, ctx.n_rows / ctx.tau)
     return params, residuals
 
@@ -122,7 +145,7 @@ def _score(ctx: Context, rss: np.ndarray, k: int) -> float:
 
 
 def _vector(ctx: Context, cause: Cause, theta) -> np.ndarray:
-    _, residuals, _ = regression_fit(ctx, cause.setup(ctx, theta))
+    _, residuals, _ = scored_fit(ctx, cause.setup(ctx, theta))
     return np.concatenate([r / s for r, s in zip(residuals, ctx.sigma)])
 
 
@@ -156,7 +179,7 @@ def fit_cause(ctx: Context, cause: Cause) -> CauseFit:
                 best = res
         theta = best.x if best is not None else np.zeros(len(cause.nl_params))
     setup = cause.setup(ctx, theta)
-    params, residuals, _ = regression_fit(ctx, setup)
+    params, residuals, _ = scored_fit(ctx, setup)
     rss = np.array([float(np.sum(r ** 2)) for r in residuals])
     fit = CauseFit(cause, np.asarray(theta, float), params, rss, setup=setup)
     fit.score = _score(ctx, rss, cause.n_params())
@@ -255,7 +278,7 @@ def posterior(ctx: Context, fit: CauseFit, walkers: int = 6, steps: int = 40, bu
     def log_prob(theta):
         if np.any(theta < low) or np.any(theta > high):
             return -np.inf
-        _, residuals, _ = regression_fit(ctx, cause.setup(ctx, theta))
+        _, residuals, _ = scored_fit(ctx, cause.setup(ctx, theta))
         rss = np.array([np.sum(r ** 2) for r in residuals])
         return -0.5 * ctx.n_eff * float(np.sum(np.log(rss)))
 

@@ -97,6 +97,7 @@ def _one_record(record: pd.DataFrame, vessel: Vessel, derivative: str):
         lhs = lhs - wind_loads_prime(s["u"], s["v"], s["psi"],
                                      record["wind_speed"].to_numpy(float)[rows],
                                      record["wind_direction"].to_numpy(float)[rows], vessel)
+        s = {**s, "wind_direction": record["wind_direction"].to_numpy(float)[rows]}
     return primes, lhs, record["t"].to_numpy(float)[est.index], est.method, s
 
 
@@ -150,7 +151,8 @@ def build_problems(model: ManoeuvringModel, vessel: Vessel, records, derivative:
     lhs = np.vstack([p[1] for p in parts])
     time = np.concatenate([p[2] for p in parts])
     which = np.concatenate([np.full(len(p[2]), i) for i, p in enumerate(parts)])
-    states = {k: np.concatenate([p[4][k] for p in parts]) for k in parts[0][4]}
+    keys = [k for k in parts[0][4] if all(k in p[4] for p in parts)]
+    states = {k: np.concatenate([p[4][k] for p in parts]) for k in keys}
     problems = assemble_problems(model, primes, lhs, fixed, which, time, states)
     problems_meta = {"derivative": parts[0][3]}
     for p in problems.values():
