@@ -5,7 +5,9 @@ Hit rate: over seeds (magnitudes drawn at random per seed, see
 :mod:`studies.discover.hidden`), the fraction of discoveries that name the
 right cause with the parameter within 20 % (angles within 0.2 rad). Set
 ``STUDIES_BENCH_SEEDS`` (default 2) and ``STUDIES_BENCH_NOISE`` (default
-"0,0.05") to choose the effort; the runs use all cores.
+"0,0.05") to choose the effort; the runs use all cores. Roll decays
+(``roll_quadratic_damping``, ``roll_cubic_damping``) are scored the same way
+at 1 % and 5 % noise (``STUDIES_BENCH_ROLL_SEEDS``, default 10).
 """
 
 import os
@@ -39,6 +41,38 @@ def _one(cause, seed, noise):
     return cause, noise, seed, hit, elapsed
 
 
+ROLL_CAUSES = (("roll_quadratic_damping", "b2", 0.4), ("roll_cubic_damping", "b3", 0.8))
+
+
+def _one_roll(cause, term, value, seed, noise):
+    """A hidden roll damping term (magnitude drawn within +-20 % of ``value``)."""
+    import tempfile
+    from pathlib import Path
+
+    from hydra import compose, initialize_config_module
+
+    from studies.workflows.discover import execute_discover, prepare_discover
+    from studies.workflows.roll import simulate_decay_record
+
+    rng = np.random.default_rng(seed)
+    value = value * rng.uniform(0.8, 1.2)
+    params = {"omega0": 2.5, "b1": 0.05, term: value}
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        paths = []
+        for i, phi0 in enumerate((10.0, 8.0)):
+            path = tmp / f"decay_{i}.csv"
+            simulate_decay_record(params, ["b1", term], 40.0, 0.01, np.deg2rad(phi0), noise,
+                                  seed * 10 + i, path)
+            paths.append(path)
+        with initialize_config_module("studies.conf", version_base="1.3"):
+            cfg = compose("discover", overrides=["model=roll", f"data.path=[{paths[0]}]",
+                                                 f"validate.path=[{paths[1]}]"])
+        d, _ = execute_discover(prepare_discover(cfg, tmp), tmp / "out")
+    found = d["parameters"].get(term)
+    return cause, float(noise), bool(d["cause"] == cause and found is not None and abs(found - value) <= 0.2 * value)
+
+
 def run() -> dict:
     from joblib import Parallel, delayed
 
@@ -53,5 +87,12 @@ def run() -> dict:
     for cause in HIDDEN_CAUSES:
         for n in noises:
             hits = [r[3] for r in results if r[0] == cause and r[1] == n]
+            out[f"discover_hit_rate/{cause}/noise={n:g}"] = float(np.mean(hits))
+    roll_seeds = int(os.environ.get("STUDIES_BENCH_ROLL_SEEDS", "10"))
+    roll = Parallel(n_jobs=-1)(delayed(_one_roll)(c, term, v, 100 + s, n) for c, term, v in ROLL_CAUSES
+                               for n in (0.01, 0.05) for s in range(roll_seeds))
+    for cause, _, _ in ROLL_CAUSES:
+        for n in (0.01, 0.05):
+            hits = [r[2] for r in roll if r[0] == cause and r[1] == n]
             out[f"discover_hit_rate/{cause}/noise={n:g}"] = float(np.mean(hits))
     return out

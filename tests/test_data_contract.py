@@ -279,3 +279,13 @@ def test_message_states_units_fix():
     err = info.value
     assert err.file == "zz.csv" and err.column == "delta" and err.row == 0
     assert "angles must be in radians" in str(err)
+
+
+def test_data_error_survives_pickling():
+    """A refusal raised in a sweep worker process is sent back to the launcher pickled."""
+    import pickle
+
+    from studies.errors import DataError
+
+    err = pickle.loads(pickle.dumps(DataError("run.csv", "not increasing", "t", 12)))
+    assert str(err) == "run.csv, column 't', row 12: not increasing"

@@ -74,9 +74,14 @@ def _roll_study(tmp_path, data, validate=None, simulation=None):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("cause,term,value", [("roll_quadratic_damping", "b2", 0.4),
-                                              ("roll_cubic_damping", "b3", 0.8)])
-def test_hidden_roll_damping_is_named(tmp_path, cause, term, value):
+@pytest.mark.parametrize("cause,term,value,noise,min_gain", [
+    ("roll_quadratic_damping", "b2", 0.4, 0.01, 50.0),
+    ("roll_cubic_damping", "b3", 0.8, 0.01, 50.0),
+    # at 5 % noise the validation error has a floor of the noise itself, so the gain is
+    # smaller; cubic damping is then mostly taken for quadratic (hit rates in bench_discover)
+    ("roll_quadratic_damping", "b2", 0.4, 0.05, 5.0),
+])
+def test_hidden_roll_damping_is_named(tmp_path, cause, term, value, noise, min_gain):
     from studies.workflows.roll import simulate_decay_record
 
     rng = np.random.default_rng(3)
@@ -85,12 +90,12 @@ def test_hidden_roll_damping_is_named(tmp_path, cause, term, value):
     paths = []
     for i, phi0 in enumerate((10.0, 8.0)):
         p = tmp_path / f"decay_{i}.csv"
-        simulate_decay_record(params, ["b1", term], 40.0, 0.01, np.deg2rad(phi0), 0.01, i, p)
+        simulate_decay_record(params, ["b1", term], 40.0, 0.01, np.deg2rad(phi0), noise, i, p)
         paths.append(p)
     d = _roll_study(tmp_path, [paths[0]], [paths[1]])
     assert d["cause"] == cause, d["ranking"]
     assert _close(d["parameters"][term], value)
-    assert d["gain_pct"] > 50.0
+    assert d["gain_pct"] > min_gain
 
 
 ROLL = SHARED_DATA / "kvlcc2_roll_decay"

@@ -242,3 +242,15 @@ def test_the_part_before_release_of_a_measured_record_is_refused(tmp_path):
     before.to_csv(path, index=False)
     with pytest.raises(DataError, match="before_release.csv"):
         load_roll_decay(path)
+
+
+def test_a_noisy_decay_is_not_taken_for_noise(tmp_path):
+    """5 % noise: once the amplitude has sunk into the noise the zero crossings are
+    random, which must not make the decay itself look irregular (this record was
+    refused with "half-periods vary by 37 %")."""
+    from studies.workflows.roll import simulate_decay_record
+
+    path = tmp_path / "decay.csv"
+    simulate_decay_record({"omega0": 2.5, "b1": 0.05, "b2": 0.4542}, ["b1", "b2"], 40.0, 0.01,
+                          np.deg2rad(10.0), 0.05, 1040, path)
+    assert load_roll_decay(path)["phi"].abs().max() > np.deg2rad(8.0)

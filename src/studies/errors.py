@@ -37,6 +37,10 @@ class DataError(StudiesError):
         self.row = row
         super().__init__(str(self))
 
+    def __reduce__(self):
+        # picklable with its fields, so that a refusal inside a sweep worker reaches the launcher
+        return (DataError, (self.file, self.message, self.column, self.row))
+
     def __str__(self) -> str:
         where = [self.file]
         if self.column is not None:

@@ -178,7 +178,11 @@ def find_release(t, phi, file: str = "<array>", min_peaks: int = 3) -> int:
         raise DataError(file, f"oscillation amplitude {amp[k]:.3g} rad is not above the noise "
                               f"({noise:.3g} rad): not a roll decay", column="phi")
     seq = amp[k:]
-    half = np.diff(ex.t[k + 1:])  # the interval from a held plateau to the first extremum is not one
+    # regularity over the extrema that stand out of the noise (later ones are noise crossings);
+    # the interval from a held plateau to the first extremum is not a half-period
+    lost = np.flatnonzero(amp[k + 1:] < 5.0 * noise)
+    end = k + 1 + (int(lost[0]) if lost.size else amp.size - k - 1)
+    half = np.diff(ex.t[k + 1:end])
     if half.size >= 2:
         cv = float(np.std(half) / np.mean(half))
         if cv > 0.25:
