@@ -1,5 +1,6 @@
-"""Naming the cause: candidate terms by sparse regression, all causes fitted,
-ranked, the best checked on unseen data, and a second cause tried on top."""
+"""Naming the cause: candidate terms by sparse regression and forward
+selection, all causes fitted, ranked, the best checked on unseen data, and a
+second cause tried on top."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from ..identify.regression import prime_states
 from .causes import Combined, MissingTerm, manoeuvring_causes, extended_library
 from .fitting import CauseFit, Context, calibrate, fit_cause, posterior, validate
 
-__all__ = ["select_missing_terms", "search"]
+__all__ = ["select_missing_terms", "forward_select", "search"]
 
 log = logging.getLogger(__name__)
 
@@ -57,6 +58,29 @@ def select_missing_terms(ctx: Context, residuals, problems, threshold: float = 0
     return chosen
 
 
+def forward_select(ctx: Context, candidates: list) -> list:
+    """The candidate terms worth adding, by forward selection on the score.
+
+    Starting from none, the term that lowers the score most is added while it
+    lowers it at all (each term costs ``ln n_eff``); the sparse regression's
+    picks are only the candidates. At least the best single term is returned
+    (so that the ranking shows what adding a term could do).
+    """
+    chosen, best_score = [], fit_cause(ctx, MissingTerm([])).score
+    remaining = list(candidates)
+    while remaining:
+        trials = [(fit_cause(ctx, MissingTerm(chosen + [t])).score, t) for t in remaining]
+        score, term = min(trials, key=lambda x: x[0])
+        if chosen and score >= best_score:
+            break
+        chosen.append(term)
+        remaining.remove(term)
+        if score >= best_score:
+            break
+        best_score = score
+    return chosen
+
+
 #: a cause must lower the score by this much to be preferred to a simpler
 #: explanation ("very strong" evidence on the 2 ln Bayes-factor scale)
 EVIDENCE = 10.0
@@ -75,7 +99,8 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
     from .causes import Setup
 
     _, _, problems = regression_fit(ctx, Setup(ctx.model, ctx.train))
-    terms = select_missing_terms(ctx, residuals, problems, threshold, max_terms)
+    candidates = select_missing_terms(ctx, residuals, problems, threshold, max_terms)
+    terms = forward_select(ctx, candidates) if candidates else []
     fits = []
     for cause in manoeuvring_causes(ctx, terms):
         fit = fit_cause(ctx, cause)
@@ -87,7 +112,8 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
     eligible = [f for f in fits if f is baseline or (
         f.score < baseline.score - EVIDENCE and f.validation_rmse < baseline.validation_rmse)]
     best = min(eligible, key=lambda f: f.score)
-    out = {"baseline": baseline, "fits": fits, "best": best, "terms": terms, "second": None}
+    out = {"baseline": baseline, "fits": fits, "best": best, "terms": terms, "candidates": candidates,
+           "second": None}
     if second and best is not baseline:
         pairs = []
         # second causes worth trying: the two that alone explain most (BIC clearly better than none)

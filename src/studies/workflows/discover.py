@@ -178,7 +178,8 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
                                                                           result["second"].params),
                           "validation_rmse": result["second"].validation_rmse}
                          if result.get("second") else None),
-        "candidate_terms": [t.name for t in result["terms"]],
+        "candidate_terms": [t.name for t in result["candidates"]],
+        "selected_terms": [t.name for t in result["terms"]],
         "notes": study.notes,
     }
     # what the baseline gets wrong
