@@ -65,6 +65,7 @@ class CauseFit:
     params: dict
     rss: np.ndarray
     score: float = np.inf
+    tau: float = np.inf
     validation: dict = field(default_factory=dict)
     setup: Setup | None = None
     seconds: float = 0.0
@@ -140,6 +141,25 @@ def calibrate(ctx: Context) -> tuple[dict, list]:
     return params, residuals
 
 
+def rescore(ctx: Context, fits: list) -> None:
+    """Re-estimate the residuals' autocorrelation time from the fit that whitens
+    them most, and score every fit again with it.
+
+    The baseline's residual carries whatever effect the baseline lacks: a
+    slowly varying, heading-dependent error makes its autocorrelation time
+    hundreds of rows long, and ``n_eff`` measured on it would hide the very
+    effect that causes it. The residual of the cause that explains the effect
+    shows the correlation of the measurement errors alone.
+    """
+    tau = min([f.tau for f in fits if np.isfinite(f.tau)] + [ctx.tau])
+    if tau < ctx.tau:
+        log.info("residual autocorrelation time %.1f rows (baseline's %.1f)", tau, ctx.tau)
+        ctx.tau = tau
+        ctx.n_eff = max(10.0, ctx.n_rows / tau)
+    for f in fits:
+        f.score = _score(ctx, f.rss, f.cause.n_params())
+
+
 def _score(ctx: Context, rss: np.ndarray, k: int) -> float:
     return float(ctx.n_eff * np.sum(np.log(rss / ctx.n_rows)) + k * np.log(ctx.n_eff))
 
@@ -181,7 +201,8 @@ def fit_cause(ctx: Context, cause: Cause) -> CauseFit:
     setup = cause.setup(ctx, theta)
     params, residuals, _ = scored_fit(ctx, setup)
     rss = np.array([float(np.sum(r ** 2)) for r in residuals])
-    fit = CauseFit(cause, np.asarray(theta, float), params, rss, setup=setup)
+    fit = CauseFit(cause, np.asarray(theta, float), params, rss, setup=setup,
+                   tau=max(integrated_time(r) for r in residuals))
     fit.score = _score(ctx, rss, cause.n_params())
     fit.seconds = time.perf_counter() - t0
     return fit

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..identify.regression import prime_states
 from .causes import Combined, MissingTerm, manoeuvring_causes, extended_library
-from .fitting import CauseFit, Context, calibrate, fit_cause, posterior, validate
+from .fitting import CauseFit, Context, calibrate, fit_cause, posterior, rescore, validate
 
 __all__ = ["select_missing_terms", "forward_select", "search"]
 
@@ -108,6 +108,7 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
         log.info("cause %-18s score %.1f validation %.4g (%.1f s)", cause.id, fit.score,
                  fit.validation_rmse, fit.seconds)
         fits.append(fit)
+    rescore(ctx, fits)
     baseline = fits[0]
     eligible = [f for f in fits if f is baseline or (
         f.score < baseline.score - EVIDENCE and f.validation_rmse < baseline.validation_rmse)]

@@ -4,10 +4,11 @@ Measurement noise (Sutulo & Guedes Soares 2014; Li et al. 2023 eq. 22)::
 
     zeta_i = zeta_0i + zeta_max * k0 * k_zeta * xi_i,   xi_i ~ N(0, 1)
 
-for the recorded ``u`` (about U0), ``v``, ``r``, ``psi`` and ``delta``;
-``zeta_max`` is the largest absolute clean value (``u - U0`` for surge), the
-reduction factor ``k_zeta`` is 0.05 for the rudder angle and the surge
-velocity and 1 for the others.
+for the recorded ``u`` (about U0), ``v``, ``r`` and ``delta``, the outputs
+that eq. 22 names (the speed U follows from u and v; the heading and the
+track are not polluted); ``zeta_max`` is the largest absolute clean value
+(``u - U0`` for surge), the reduction factor ``k_zeta`` is 0.05 for the
+rudder angle and the surge velocity and 1 for the others.
 
 Wind-speed measurement error (thesis eq. 4.1): the record carries
 ``V_p = V_w (1 + accuracy)`` while the true ``V_w`` acted on the ship.
@@ -47,7 +48,7 @@ __all__ = ["NOISE_LEVELS", "REDUCTION_FACTORS", "add_measurement_noise", "record
 NOISE_LEVELS = {0: 0.0, 1: 0.05, 2: 0.10, 3: 0.20}
 
 #: k_zeta of Li et al. (2023) eq. 22 per recorded channel
-REDUCTION_FACTORS = {"u": 0.05, "v": 1.0, "r": 1.0, "psi": 1.0, "delta": 0.05}
+REDUCTION_FACTORS = {"u": 0.05, "v": 1.0, "r": 1.0, "delta": 0.05}
 
 #: k_i of Wang et al. (2021) eq. 14 per DOF (surge, sway, yaw)
 DISTURBANCE_FACTORS = np.array([0.2, 1.0, 1.0])
