@@ -81,14 +81,15 @@ def _to_record(states: np.ndarray, inputs: SimulationInputs, environment: Enviro
     states = states[:: inputs.substeps]
     t = np.arange(states.shape[0]) * inputs.step * inputs.substeps
     psi = states[:, 5]
-    u_w = inputs.speed0 + states[:, 0]
-    v_w = states[:, 1]
-    uc = environment.current_speed * np.cos(environment.current_direction - psi)
-    vc = environment.current_speed * np.sin(environment.current_direction - psi)
-    record = pd.DataFrame({
-        "t": t, "x0": states[:, 3], "y0": states[:, 4], "psi": psi,
-        "u": u_w + uc, "v": v_w + vc, "r": states[:, 2], "delta": states[:, 6],
-    })
+    u = inputs.speed0 + states[:, 0]
+    v = states[:, 1]
+    if environment.current_speed:
+        u = u + environment.current_speed * np.cos(environment.current_direction - psi)
+        v = v + environment.current_speed * np.sin(environment.current_direction - psi)
+    # one float block (the columns are stacked once, not consolidated by pandas)
+    columns = ("t", "x0", "y0", "psi", "u", "v", "r", "delta")
+    block = np.column_stack([t, states[:, 3], states[:, 4], psi, u, v, states[:, 2], states[:, 6]])
+    record = pd.DataFrame(block, columns=list(columns), copy=False)
     if environment.wind_speed > 0:
         record["wind_speed"] = environment.wind_speed
         record["wind_direction"] = environment.wind_direction
