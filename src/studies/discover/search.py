@@ -1,5 +1,5 @@
-"""Naming the cause: candidate terms by sparse regression and forward
-selection, all causes fitted, ranked, the best checked on unseen data, and a
+"""Naming the cause: candidate terms by sparse regression and single-term
+screening, chosen by forward selection, all causes fitted, ranked, the best checked on unseen data, and a
 second cause tried on top."""
 
 from __future__ import annotations
@@ -58,6 +58,24 @@ def select_missing_terms(ctx: Context, residuals, problems, threshold: float = 0
     return chosen
 
 
+def screen_terms(ctx: Context, per_dof: int = 2) -> list:
+    """The library terms that lower the score most when added alone, ``per_dof``
+    per DOF (only those that lower it at all).
+
+    Sparse regression on the residual picks the terms with the largest
+    coefficients; with noisy records those are often the ones that fit the
+    noise-induced bias of the regression, while the missing term lowers the
+    residual most. Screening every single term by the score catches it.
+    """
+    base = fit_cause(ctx, MissingTerm([])).score
+    out = []
+    for dof in ("X", "Y", "N"):
+        trials = sorted((fit_cause(ctx, MissingTerm([t])).score, i, t)
+                        for i, t in enumerate(extended_library(ctx.model, 3)) if t.dof == dof)
+        out += [t for score, _, t in trials[:per_dof] if score < base]
+    return out
+
+
 def forward_select(ctx: Context, candidates: list) -> list:
     """The candidate terms worth adding, by forward selection on the score.
 
@@ -100,6 +118,8 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
 
     _, _, problems = regression_fit(ctx, Setup(ctx.model, ctx.train))
     candidates = select_missing_terms(ctx, residuals, problems, threshold, max_terms)
+    have = {t.name for t in candidates}
+    candidates += [t for t in screen_terms(ctx) if t.name not in have]
     terms = forward_select(ctx, candidates) if candidates else []
     fits = []
     for cause in manoeuvring_causes(ctx, terms):
