@@ -41,42 +41,29 @@ def _one(cause, seed, noise):
     return cause, noise, seed, hit, elapsed
 
 
-ROLL_CAUSES = (("roll_quadratic_damping", "b2", 0.4), ("roll_cubic_damping", "b3", 0.8))
-
-
-def _one_roll(cause, term, value, seed, noise):
-    """A hidden roll damping term (magnitude drawn within +-20 % of ``value``)."""
+def _one_roll(cause, seed, noise):
     import tempfile
     from pathlib import Path
 
     from hydra import compose, initialize_config_module
 
+    from studies.discover.hidden import hidden_roll_decays, parameters_match
     from studies.workflows.discover import execute_discover, prepare_discover
-    from studies.workflows.roll import simulate_decay_record
 
-    rng = np.random.default_rng(seed)
-    value = value * rng.uniform(0.8, 1.2)
-    params = {"omega0": 2.5, "b1": 0.05, term: value}
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        paths = []
-        for i, phi0 in enumerate((10.0, 8.0)):
-            path = tmp / f"decay_{i}.csv"
-            simulate_decay_record(params, ["b1", term], 40.0, 0.01, np.deg2rad(phi0), noise,
-                                  seed * 10 + i, path)
-            paths.append(path)
+        paths, truth = hidden_roll_decays(cause, tmp, seed, noise)
         with initialize_config_module("studies.conf", version_base="1.3"):
             cfg = compose("discover", overrides=["model=roll", f"data.path=[{paths[0]}]",
                                                  f"validate.path=[{paths[1]}]"])
         d, _ = execute_discover(prepare_discover(cfg, tmp), tmp / "out")
-    found = d["parameters"].get(term)
-    return cause, float(noise), bool(d["cause"] == cause and found is not None and abs(found - value) <= 0.2 * value)
+    return cause, float(noise), bool(d["cause"] == cause and parameters_match(cause, d["parameters"], truth))
 
 
 def run() -> dict:
     from joblib import Parallel, delayed
 
-    from studies.discover.hidden import HIDDEN_CAUSES
+    from studies.discover.hidden import HIDDEN_CAUSES, HIDDEN_ROLL_CAUSES
 
     seeds = int(os.environ.get("STUDIES_BENCH_SEEDS", "2"))
     noises = [float(x) for x in os.environ.get("STUDIES_BENCH_NOISE", "0,0.05").split(",")]
@@ -89,9 +76,9 @@ def run() -> dict:
             hits = [r[3] for r in results if r[0] == cause and r[1] == n]
             out[f"discover_hit_rate/{cause}/noise={n:g}"] = float(np.mean(hits))
     roll_seeds = int(os.environ.get("STUDIES_BENCH_ROLL_SEEDS", "10"))
-    roll = Parallel(n_jobs=-1)(delayed(_one_roll)(c, term, v, 100 + s, n) for c, term, v in ROLL_CAUSES
+    roll = Parallel(n_jobs=-1)(delayed(_one_roll)(c, 100 + s, n) for c in HIDDEN_ROLL_CAUSES
                                for n in (0.01, 0.05) for s in range(roll_seeds))
-    for cause, _, _ in ROLL_CAUSES:
+    for cause in HIDDEN_ROLL_CAUSES:
         for n in (0.01, 0.05):
             hits = [r[2] for r in roll if r[0] == cause and r[1] == n]
             out[f"discover_hit_rate/{cause}/noise={n:g}"] = float(np.mean(hits))

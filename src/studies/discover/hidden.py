@@ -16,10 +16,15 @@ from ..models.abkowitz import abkowitz
 from ..models.terms import candidate_terms
 from ..simulate import simulate, turning, zigzag
 
-__all__ = ["HIDDEN_CAUSES", "hidden_records", "write_records", "parameters_match"]
+__all__ = ["HIDDEN_CAUSES", "HIDDEN_ROLL_CAUSES", "hidden_records", "hidden_roll_decays", "write_records",
+           "parameters_match"]
 
 HIDDEN_CAUSES = ("none", "current", "rudder_offset", "wind_speed_bias", "environmental_bias",
                  "missing_term", "wind_unmodelled")
+
+
+#: roll-decay causes: the damping term hidden and the centre of its drawn magnitude
+HIDDEN_ROLL_CAUSES = {"roll_quadratic_damping": ("b2", 0.4), "roll_cubic_damping": ("b3", 0.8)}
 
 
 def _draw(cause: str, rng) -> dict:
@@ -82,6 +87,27 @@ def hidden_records(vessel, cause: str, seed: int = 0, noise: float = 0.0,
     return records, truth
 
 
+def hidden_roll_decays(cause: str, folder, seed: int = 0, noise: float = 0.01) -> tuple[list, dict]:
+    """Two roll decays (released from 10 and 8 deg, 40 s at 0.01 s, omega0 2.5 rad/s,
+    b1 0.05) with the damping term of ``cause`` hidden, its magnitude drawn within
+    +-20 % of :data:`HIDDEN_ROLL_CAUSES`; ``noise`` is a fraction of the release
+    angle. Written as CSV files in ``folder``; returns ``(paths, {term: value})``.
+    """
+    from pathlib import Path
+
+    from ..workflows.roll import simulate_decay_record
+
+    term, centre = HIDDEN_ROLL_CAUSES[cause]
+    value = centre * np.random.default_rng(seed).uniform(0.8, 1.2)
+    params = {"omega0": 2.5, "b1": 0.05, term: value}
+    paths = []
+    for i, phi0 in enumerate((10.0, 8.0)):
+        path = Path(folder) / f"decay_{i}.csv"
+        simulate_decay_record(params, ["b1", term], 40.0, 0.01, np.deg2rad(phi0), noise, seed * 10 + i, path)
+        paths.append(str(path))
+    return paths, {term: value}
+
+
 def write_records(records, folder) -> list[str]:
     """Write records as CSV files named after them (what a user would hand over)."""
     from pathlib import Path
@@ -116,4 +142,7 @@ def parameters_match(cause: str, parameters: dict, truth: dict, rel: float = 0.2
                     <= rel * np.hypot(truth["bx"], truth["by"]))
     if cause == "missing_term":
         return "Nrrr" in p["terms"] and close(p["terms"]["Nrrr"], truth["Nrrr"])
+    if cause in HIDDEN_ROLL_CAUSES:
+        term = HIDDEN_ROLL_CAUSES[cause][0]
+        return p.get(term) is not None and close(p[term], truth[term])
     return True

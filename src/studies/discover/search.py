@@ -58,16 +58,15 @@ def select_missing_terms(ctx: Context, residuals, problems, threshold: float = 0
     return chosen
 
 
-def screen_terms(ctx: Context, per_dof: int = 2) -> list:
+def screen_terms(ctx: Context, base: float, per_dof: int = 2) -> list:
     """The library terms that lower the score most when added alone, ``per_dof``
-    per DOF (only those that lower it at all).
+    per DOF (only those that lower it below the baseline's score ``base``).
 
     Sparse regression on the residual picks the terms with the largest
     coefficients; with noisy records those are often the ones that fit the
     noise-induced bias of the regression, while the missing term lowers the
     residual most. Screening every single term by the score catches it.
     """
-    base = fit_cause(ctx, MissingTerm([])).score
     out = []
     for dof in ("X", "Y", "N"):
         trials = sorted((fit_cause(ctx, MissingTerm([t])).score, i, t)
@@ -76,15 +75,16 @@ def screen_terms(ctx: Context, per_dof: int = 2) -> list:
     return out
 
 
-def forward_select(ctx: Context, candidates: list) -> list:
+def forward_select(ctx: Context, candidates: list, base: float) -> list:
     """The candidate terms worth adding, by forward selection on the score.
 
-    Starting from none, the term that lowers the score most is added while it
-    lowers it at all (each term costs ``ln n_eff``); the sparse regression's
-    picks are only the candidates. At least the best single term is returned
+    Starting from the baseline's score ``base``, the term that lowers the
+    score most is added while it lowers it at all (each term costs
+    ``ln n_eff``); the candidates come from the sparse regression and the
+    screening. At least the best single term is returned
     (so that the ranking shows what adding a term could do).
     """
-    chosen, best_score = [], fit_cause(ctx, MissingTerm([])).score
+    chosen, best_score = [], base
     remaining = list(candidates)
     while remaining:
         trials = [(fit_cause(ctx, MissingTerm(chosen + [t])).score, t) for t in remaining]
@@ -118,9 +118,10 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
 
     _, _, problems = regression_fit(ctx, Setup(ctx.model, ctx.train))
     candidates = select_missing_terms(ctx, residuals, problems, threshold, max_terms)
+    base = fit_cause(ctx, MissingTerm([])).score
     have = {t.name for t in candidates}
-    candidates += [t for t in screen_terms(ctx) if t.name not in have]
-    terms = forward_select(ctx, candidates) if candidates else []
+    candidates += [t for t in screen_terms(ctx, base) if t.name not in have]
+    terms = forward_select(ctx, candidates, base) if candidates else []
     fits = []
     for cause in manoeuvring_causes(ctx, terms):
         fit = fit_cause(ctx, cause)
