@@ -100,9 +100,8 @@ def critical():
         yield
     finally:
         _state["critical"] -= 1
-    if _state["critical"] == 0 and _state["pending"] is not None:
-        signum, _state["pending"] = _state["pending"], None
-        raise Interrupted(signum)
+    if _state["critical"] == 0:
+        checkpoint()
 
 
 @contextlib.contextmanager

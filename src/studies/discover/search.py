@@ -1,6 +1,6 @@
 """Naming the cause: candidate terms by sparse regression and single-term
-screening, chosen by forward selection, all causes fitted, ranked, the best checked on unseen data, and a
-second cause tried on top."""
+screening, chosen by forward selection; all causes fitted, ranked, the best
+checked on unseen data, and a second cause tried on top."""
 
 from __future__ import annotations
 

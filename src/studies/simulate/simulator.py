@@ -61,8 +61,8 @@ def prepare(model: ManoeuvringModel, vessel: Vessel, manoeuvre: Manoeuvre,
     environment = environment or Environment()
     mode, cmd, params = manoeuvre.rudder_programme(yaw_sign)
     n_steps = cmd.shape[0] - 1
-    ext = np.zeros((max(n_steps, 1), 6)) if external is None else np.asarray(external, float)
-    if ext.shape[0] < n_steps:
+    ext = np.zeros((0, 6)) if external is None else np.asarray(external, float)
+    if external is not None and ext.shape[0] < n_steps:
         raise ValueError(f"external forces cover {ext.shape[0]} steps, need {n_steps}")
     x0 = np.zeros(7)
     if initial:
