@@ -11,6 +11,7 @@ import numpy as np
 from ..identify.regression import prime_states
 from .causes import Combined, MissingTerm, manoeuvring_causes, extended_library
 from .fitting import CauseFit, Context, calibrate, fit_cause, posterior, rescore, validate
+from .output_error import noise_levels, refine, training_windows
 
 __all__ = ["select_missing_terms", "forward_select", "search"]
 
@@ -105,12 +106,16 @@ EVIDENCE = 10.0
 
 
 def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: bool = True,
-           posterior_steps: int = 40, seed: int = 0) -> dict:
+           posterior_steps: int = 40, seed: int = 0, output_error: bool = True) -> dict:
     """Fit every applicable cause, rank them, pick one, try a second, get intervals.
 
-    A cause is chosen over ``none`` only when its score is lower by
-    :data:`EVIDENCE` and its prediction error on the validation records is
-    lower than the baseline's; among those, the lowest score wins.
+    Causes are fitted and scored by equation error (:mod:`.fitting`). The
+    baseline and every cause whose score beats it by :data:`EVIDENCE` are then
+    refined by output error (:func:`.output_error.refine`; ``output_error=False``
+    skips it) and replayed on the validation records. A cause is chosen over
+    ``none`` only when its score is lower by :data:`EVIDENCE` and its
+    prediction error on the validation records is lower than the baseline's;
+    among those, the lowest score wins.
     """
     baseline_params, residuals = calibrate(ctx)
     from .fitting import regression_fit
@@ -125,17 +130,23 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
     fits = []
     for cause in manoeuvring_causes(ctx, terms):
         fit = fit_cause(ctx, cause)
-        validate(ctx, fit)
-        log.info("cause %-18s score %.1f validation %.4g (%.1f s)", cause.id, fit.score,
-                 fit.validation_rmse, fit.seconds)
         fits.append(fit)
     rescore(ctx, fits)
+    windows = sigma = None
+    if output_error:
+        windows, sigma = training_windows(ctx, ctx.train), noise_levels(ctx, ctx.train)
+    for i, fit in enumerate(fits):
+        if output_error and (i == 0 or fit.score < fits[0].score - EVIDENCE):
+            fit = fits[i] = refine(ctx, fit, windows, sigma)
+        validate(ctx, fit)
+        log.info("cause %-18s score %.1f validation %.4g (%.1f s)", fit.cause.id, fit.score,
+                 fit.validation_rmse, fit.seconds)
     baseline = fits[0]
     eligible = [f for f in fits if f is baseline or (
         f.score < baseline.score - EVIDENCE and f.validation_rmse < baseline.validation_rmse)]
     best = min(eligible, key=lambda f: f.score)
     out = {"baseline": baseline, "fits": fits, "best": best, "terms": terms, "candidates": candidates,
-           "second": None}
+           "second": None, "output_error": output_error}
     if second and best is not baseline:
         pairs = []
         # second causes worth trying: the two that alone explain most (BIC clearly better than none)
@@ -149,6 +160,8 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
             combo = Combined(first.cause, second_.cause,
                              starts=[np.concatenate([first.theta, second_.theta])])
             fit = fit_cause(ctx, combo)
+            if output_error and fit.score < best.score - EVIDENCE:
+                fit = refine(ctx, fit, windows, sigma)
             validate(ctx, fit)
             pairs.append(fit)
         gaining = [f for f in pairs

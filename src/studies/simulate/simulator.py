@@ -155,7 +155,7 @@ def simulate_many(model: ManoeuvringModel, vectors: np.ndarray, vessel: Vessel,
 
 def _replay_inputs(model: ManoeuvringModel, vessel: Vessel, record: pd.DataFrame,
                    environment: Environment | None, yaw_sign: float,
-                   external=None) -> SimulationInputs:
+                   external=None, initial: dict | None = None) -> SimulationInputs:
     t = record["t"].to_numpy(float)
     dt = float(np.median(np.diff(t)))
     duration = dt * (len(t) - 1)
@@ -164,7 +164,7 @@ def _replay_inputs(model: ManoeuvringModel, vessel: Vessel, record: pd.DataFrame
     delta = np.interp(grid, t - t[0], record["delta"].to_numpy(float))
     environment = environment or Environment()
     first = record.iloc[0]
-    initial = {k: float(first[k]) for k in ("u", "v", "r", "x0", "y0", "psi", "delta")}
+    initial = {**{k: float(first[k]) for k in ("u", "v", "r", "x0", "y0", "psi", "delta")}, **(initial or {})}
     if environment.current_speed:
         initial["u"] -= environment.current_speed * np.cos(environment.current_direction - initial["psi"])
         initial["v"] -= environment.current_speed * np.sin(environment.current_direction - initial["psi"])
@@ -211,15 +211,18 @@ def replay(model: ManoeuvringModel, values: dict, vessel: Vessel, record: pd.Dat
 
 
 def replay_many(model: ManoeuvringModel, vectors: np.ndarray, vessel: Vessel,
-                record: pd.DataFrame, environment: Environment | None = None, external=None):
+                record: pd.DataFrame, environment: Environment | None = None, external=None,
+                initial: dict | None = None):
     """:func:`replay` for many coefficient vectors (rows, model term order), in parallel.
 
+    ``initial`` overrides the record's first-row states (``{"u": ..., "v": ...}``,
+    over ground as recorded, m/s and rad/s).
     Returns ``(states, diverged)``: states ``(n_sets, n_samples, 7)`` at the
     record's samples in the integrator's order (du, v, r, x0, y0, psi,
     delta; velocities through the water), and the first diverged step per
     set (-1 when bounded).
     """
     environment = environment or record_environment(record)
-    inputs = _replay_inputs(model, vessel, record, environment, -1.0, external)
+    inputs = _replay_inputs(model, vessel, record, environment, -1.0, external, initial)
     states, diverged = rk4_simulate_many(np.atleast_2d(vectors), *inputs.args())
     return states[:, :: inputs.substeps], diverged
