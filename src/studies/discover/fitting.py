@@ -69,6 +69,8 @@ class CauseFit:
     validation: dict = field(default_factory=dict)
     setup: Setup | None = None
     seconds: float = 0.0
+    #: the output-error refinement's solution (:func:`studies.discover.output_error.refine`), if any
+    refined: dict | None = None
 
     @property
     def validation_rmse(self) -> float:

@@ -121,10 +121,15 @@ def write_report(out_dir: Path, discovery: dict, explanation: str, sections: lis
         verdict.append("Estimated parameters (90 % interval):")
         verdict.append("")
         unc = d.get("uncertainty") or {}
+        def line(name, value, interval):
+            iv = f" [{interval[0]:.4g}, {interval[1]:.4g}]" if isinstance(interval, (list, tuple)) else ""
+            return f"- `{name}` = {value if not isinstance(value, float) else f'{value:.4g}'}{iv}"
+
         for k, v in d["parameters"].items():
-            interval = unc.get(k)
-            iv = f" [{interval[0]:.4g}, {interval[1]:.4g}]" if interval else ""
-            verdict.append(f"- `{k}` = {v if not isinstance(v, float) else f'{v:.4g}'}{iv}")
+            if isinstance(v, dict):     # added terms: one line per term
+                verdict += [line(name, value, (unc.get(k) or {}).get(name)) for name, value in v.items()]
+            else:
+                verdict.append(line(k, v, unc.get(k)))
         verdict.append("")
     b, e = d["baseline"]["validation_rmse"], d["extended"]["validation_rmse"]
     verdict.append(f"Prediction error on data not used for fitting: baseline {b:.4g}, extended {e:.4g} "

@@ -11,7 +11,7 @@ import numpy as np
 from ..identify.regression import prime_states
 from .causes import Combined, MissingTerm, manoeuvring_causes, extended_library
 from .fitting import CauseFit, Context, calibrate, fit_cause, posterior, rescore, validate
-from .output_error import noise_levels, refine, training_windows
+from .output_error import noise_levels, refine, refined_posterior, training_windows
 
 __all__ = ["select_missing_terms", "forward_select", "search"]
 
@@ -168,5 +168,8 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
                    if f.score < best.score - EVIDENCE and f.validation_rmse < best.validation_rmse]
         out["pairs"] = pairs
         out["second"] = min(gaining, key=lambda f: f.score) if gaining else None
-    out["posterior"] = posterior(ctx, best, steps=posterior_steps, seed=seed) if len(best.theta) else {}
+    if best.refined is not None and best is not baseline:
+        out["posterior"] = refined_posterior(ctx, best, steps=posterior_steps, seed=seed)
+    else:
+        out["posterior"] = posterior(ctx, best, steps=posterior_steps, seed=seed) if len(best.theta) else {}
     return out
