@@ -11,7 +11,7 @@ import numpy as np
 from ..identify.regression import prime_states
 from .causes import Combined, MissingTerm, manoeuvring_causes, extended_library
 from .fitting import CauseFit, Context, calibrate, fit_cause, posterior, rescore, validate
-from .output_error import noise_levels, refine, refined_posterior, training_windows
+from .output_error import needs_refinement, noise_levels, refine, refined_posterior, training_windows
 
 __all__ = ["select_missing_terms", "forward_select", "search"]
 
@@ -106,13 +106,14 @@ EVIDENCE = 10.0
 
 
 def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: bool = True,
-           posterior_steps: int = 40, seed: int = 0, output_error: bool = True) -> dict:
+           posterior_steps: int = 40, seed: int = 0, output_error="auto") -> dict:
     """Fit every applicable cause, rank them, pick one, try a second, get intervals.
 
     Causes are fitted and scored by equation error (:mod:`.fitting`). The
     baseline and every cause whose score beats it by :data:`EVIDENCE` are then
-    refined by output error (:func:`.output_error.refine`; ``output_error=False``
-    skips it) and replayed on the validation records. A cause is chosen over
+    refined by output error (:func:`.output_error.refine`) when ``output_error``
+    asks for it (:func:`.output_error.needs_refinement`: ``"auto"`` on noisy
+    records) and replayed on the validation records. A cause is chosen over
     ``none`` only when its score is lower by :data:`EVIDENCE` and its
     prediction error on the validation records is lower than the baseline's;
     among those, the lowest score wins.
@@ -132,9 +133,11 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
         fit = fit_cause(ctx, cause)
         fits.append(fit)
     rescore(ctx, fits)
-    windows = sigma = None
+    windows = None
+    sigma = noise_levels(ctx, ctx.train)
+    output_error = needs_refinement(ctx, output_error, sigma)
     if output_error:
-        windows, sigma = training_windows(ctx, ctx.train), noise_levels(ctx, ctx.train)
+        windows = training_windows(ctx, ctx.train)
     for i, fit in enumerate(fits):
         if output_error and (i == 0 or fit.score < fits[0].score - EVIDENCE):
             fit = fits[i] = refine(ctx, fit, windows, sigma)

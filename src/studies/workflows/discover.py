@@ -78,6 +78,9 @@ def prepare_discover(cfg, root: Path) -> DiscoverStudy:
     validate = as_path_list(OmegaConf.select(cfg, "validate.path"))
     simulation = OmegaConf.select(cfg, "simulation.path")
     share = float(cfg.discover.holdout)
+    refine = cfg.discover.get("output_error", "auto")
+    if not (isinstance(refine, bool) or str(refine).lower() in ("auto", "true", "false")):
+        raise ConfigError(f"discover.output_error must be auto, true or false, got {refine!r}")
     if not 0.05 <= share <= 0.8:
         raise ConfigError(f"discover.holdout must be in [0.05, 0.8], got {share}")
     if str(cfg.model.name) == "roll":
@@ -142,7 +145,7 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
     ctx = Context(study.vessel, study.model, study.train, study.validation, derivative)
     ctx.horizon = float(opts.horizon) if opts.horizon else None
     result = search(ctx, float(opts.terms_threshold), int(opts.max_terms), bool(opts.second_cause),
-                    int(opts.posterior_steps), int(study.cfg.seed))
+                    int(opts.posterior_steps), int(study.cfg.seed), opts.get("output_error", "auto"))
     best, baseline = result["best"], result["baseline"]
     # whole-record predictions for the figures and the characteristics
     for fit in (baseline, best):
@@ -178,6 +181,7 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
                                                                           result["second"].params),
                           "validation_rmse": result["second"].validation_rmse}
                          if result.get("second") else None),
+        "fit": "output error" if result["output_error"] else "equation error",
         "candidate_terms": [t.name for t in result["candidates"]],
         "selected_terms": [t.name for t in result["terms"]],
         "notes": study.notes,
