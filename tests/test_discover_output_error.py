@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from studies.discover.causes import NoCause, RudderOffset
+from studies.errors import ConfigError
 from studies.discover.fitting import Context, calibrate, fit_cause, validate
 from studies.discover.hidden import hidden_records
 from studies.discover.output_error import needs_refinement, refine, refined_posterior
@@ -29,7 +30,7 @@ def test_auto_refines_noisy_records_only(vessel):
     noisy, _ = _context(vessel, "none", 100, 0.05)
     assert not needs_refinement(clean, "auto") and needs_refinement(noisy, "auto")
     assert needs_refinement(clean, True) and not needs_refinement(noisy, "false")
-    with pytest.raises(ValueError, match="output_error"):
+    with pytest.raises(ConfigError, match="output_error"):
         needs_refinement(clean, "sometimes")
 
 

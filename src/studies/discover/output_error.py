@@ -40,10 +40,10 @@ from scipy.optimize import least_squares
 from scipy.signal import savgol_filter
 
 from ..simulate.simulator import replay_many
-from .fitting import CauseFit, Context
+from .fitting import CauseFit, Context, smoothed
 
-__all__ = ["Window", "training_windows", "noise_levels", "relative_noise", "needs_refinement", "refine",
-           "refined_posterior"]
+__all__ = ["Window", "training_windows", "noise_levels", "relative_noise", "refinement_setting",
+           "needs_refinement", "refine", "refined_posterior"]
 
 #: ``output_error=auto`` refines when the noise of v or r exceeds this share of
 #: the signal's standard deviation (the Mariner records give about 0.017 at 1 %
@@ -103,20 +103,29 @@ def relative_noise(ctx: Context, records, sigma: np.ndarray | None = None) -> np
     return sigma[3:6] / np.maximum(spread, 1e-300)
 
 
+def refinement_setting(value):
+    """``discover.output_error`` as ``"auto"``, True or False (ConfigError otherwise)."""
+    from ..errors import ConfigError
+
+    if isinstance(value, bool):
+        return value
+    text = str(value).lower()
+    if text not in ("auto", "true", "false"):
+        raise ConfigError(f"discover.output_error must be auto, true or false, got {value!r}")
+    return "auto" if text == "auto" else text == "true"
+
+
 def needs_refinement(ctx: Context, setting, sigma: np.ndarray | None = None) -> bool:
     """Whether ``discover.output_error`` (``auto``, ``true`` or ``false``) asks for
     the output-error refinement on these training records: ``auto`` when the
     sway or yaw-rate noise exceeds :data:`AUTO_NOISE` of the signal (below that
     the equation-error coefficients are not noise-limited, and on the MARIN
     KVLCC2 zig-zags the refinement predicts the turning circle worse)."""
-    if isinstance(setting, str) and setting.lower() == "auto":
+    setting = refinement_setting(setting)
+    if setting == "auto":
         rel = relative_noise(ctx, ctx.train, sigma)
         return bool(max(rel[1], rel[2]) > AUTO_NOISE)
-    if isinstance(setting, str):
-        if setting.lower() not in ("true", "false"):
-            raise ValueError(f"discover.output_error must be auto, true or false, got {setting!r}")
-        return setting.lower() == "true"
-    return bool(setting)
+    return setting
 
 
 def training_windows(ctx: Context, records, spacing: float = 0.5) -> list[Window]:
@@ -125,10 +134,10 @@ def training_windows(ctx: Context, records, spacing: float = 0.5) -> list[Window
     compared every ``spacing`` seconds (or every sample when sampled coarser)."""
     out = []
     for rec in records:
-        n = _window_length(rec)
         t = rec["t"].to_numpy(float)
         stride = max(1, int(round(spacing / float(np.median(np.diff(t))))))
-        smooth = {c: _smooth(rec[c].to_numpy(float), n) for c in ("u", "v", "r")}
+        sm = smoothed(rec)
+        smooth = {c: sm[c].to_numpy(float) for c in ("u", "v", "r")}
         psi = np.unwrap(rec["psi"].to_numpy(float))
         h = ctx.horizon or (t[-1] - t[0])
         edges = list(np.arange(t[0], t[-1] - 0.5 * h + 1e-9, h)) or [t[0]]
@@ -274,7 +283,7 @@ def refine(ctx: Context, fit: CauseFit, windows: list[Window] | None = None,
     return out
 
 
-def _autocorrelation_time(res: np.ndarray, n_windows: int) -> float:
+def _autocorrelation_time(res: np.ndarray) -> float:
     """Largest integrated autocorrelation time over the channels of the data residual."""
     from .fitting import integrated_time
 
@@ -306,7 +315,7 @@ def refined_posterior(ctx: Context, fit: CauseFit, walkers: int = 6, steps: int 
     jac = prob.jacobian(x_star)
     r_star = prob.residuals(x_star)
     n_data = len(r_star) - prob.nb
-    tau = _autocorrelation_time(r_star[:n_data], prob.nw)
+    tau = _autocorrelation_time(r_star[:n_data])
     s2 = float(np.sum(r_star ** 2)) / max(1, len(r_star) - jac.shape[1]) * tau
     nuisance = np.r_[0: prob.nb, prob.nb + prob.nt: jac.shape[1]]
     if prob.nt == 0:

@@ -78,9 +78,9 @@ def prepare_discover(cfg, root: Path) -> DiscoverStudy:
     validate = as_path_list(OmegaConf.select(cfg, "validate.path"))
     simulation = OmegaConf.select(cfg, "simulation.path")
     share = float(cfg.discover.holdout)
-    refine = cfg.discover.get("output_error", "auto")
-    if not (isinstance(refine, bool) or str(refine).lower() in ("auto", "true", "false")):
-        raise ConfigError(f"discover.output_error must be auto, true or false, got {refine!r}")
+    from ..discover.output_error import refinement_setting
+
+    refinement_setting(cfg.discover.get("output_error", "auto"))     # ConfigError before the run exists
     if not 0.05 <= share <= 0.8:
         raise ConfigError(f"discover.holdout must be in [0.05, 0.8], got {share}")
     if str(cfg.model.name) == "roll":
