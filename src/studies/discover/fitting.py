@@ -210,16 +210,21 @@ def fit_cause(ctx: Context, cause: Cause) -> CauseFit:
     return fit
 
 
-def smoothed(record):
-    """The record with u, v, r, psi smoothed (Savitzky-Golay, window by the
-    discrepancy principle) for use as initial states of replays."""
-    from scipy.signal import savgol_filter
-
+def smoothing_window(record) -> int:
+    """Savitzky-Golay window [samples] of a record's u, v, r by the discrepancy principle."""
     from ..data.derivatives import choose_window
 
     t = record["t"].to_numpy(float)
     dt = float(np.median(np.diff(t)))
-    n = choose_window([record[c] for c in ("u", "v", "r")], dt)
+    return choose_window([record[c] for c in ("u", "v", "r")], dt)
+
+
+def smoothed(record):
+    """The record with u, v, r, psi smoothed (Savitzky-Golay, window by
+    :func:`smoothing_window`) for use as initial states of replays."""
+    from scipy.signal import savgol_filter
+
+    n = smoothing_window(record)
     if n >= len(record):
         return record
     out = record.copy()

@@ -40,7 +40,7 @@ from scipy.optimize import least_squares
 from scipy.signal import savgol_filter
 
 from ..simulate.simulator import replay_many
-from .fitting import CauseFit, Context, smoothed
+from .fitting import CauseFit, Context, smoothed, smoothing_window
 
 __all__ = ["Window", "training_windows", "noise_levels", "relative_noise", "refinement_setting",
            "needs_refinement", "refine", "refined_posterior"]
@@ -66,14 +66,6 @@ class Window:
         self.measured = measured[self.rows]                # (n, 6) in CHANNELS order, heading unwrapped
 
 
-def _window_length(record) -> int:
-    from ..data.derivatives import choose_window
-
-    t = record["t"].to_numpy(float)
-    dt = float(np.median(np.diff(t)))
-    return choose_window([record[c] for c in ("u", "v", "r")], dt)
-
-
 def _smooth(x: np.ndarray, n: int) -> np.ndarray:
     return savgol_filter(x, n, 3, mode="interp") if n < len(x) else x
 
@@ -86,7 +78,7 @@ def noise_levels(ctx: Context, records) -> np.ndarray:
     floors = np.array([1e-4 * L, 1e-4 * L, 1e-4, 1e-4 * U, 1e-4 * U, 1e-4 * U / L])
     sums, count = np.zeros(len(CHANNELS)), 0
     for rec in records:
-        n = _window_length(rec)
+        n = smoothing_window(rec)
         for k, c in enumerate(CHANNELS):
             x = rec[c].to_numpy(float)
             if c == "psi":
@@ -234,7 +226,7 @@ class _Problem:
         h = 1e-4
         blocks = []
         for i, w in enumerate(self.windows):
-            betas = np.vstack([b] + [b + h * self.beta_scale[j] * np.eye(self.nb)[j] for j in range(self.nb)])
+            betas = np.vstack([b, b + np.diag(h * self.beta_scale)])
             r = self._window(w, betas, th, st[i])
             base = r[0]
             block = np.zeros((len(base), len(x)))
