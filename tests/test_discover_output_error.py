@@ -6,11 +6,11 @@ carries intervals that cover the hidden value."""
 import numpy as np
 import pytest
 
-from studies.discover.causes import NoCause, RudderOffset
+from studies.discover.causes import NoCause, RudderOffset, extended_library
 from studies.errors import ConfigError
 from studies.discover.fitting import Context, calibrate, fit_cause, validate
 from studies.discover.hidden import hidden_records
-from studies.discover.output_error import needs_refinement, refine, refined_posterior
+from studies.discover.output_error import needs_refinement, refine, refined_posterior, score_terms
 from studies.models.abkowitz import abkowitz
 
 
@@ -66,3 +66,22 @@ def test_refined_rudder_offset_beats_the_refined_baseline_and_its_interval_cover
     post = refined_posterior(ctx, offset, steps=20)
     assert post["q05"][0] <= truth["delta0"] <= post["q95"][0], (post["q05"], post["q95"], truth)
     assert post["q95"][0] - post["q05"][0] < 0.5 * abs(truth["delta0"])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("cause", ["missing_term", "none"])
+def test_score_test_names_the_hidden_term_and_nothing_when_none_is_hidden(vessel, cause):
+    """At 5 % noise the equation-error score cannot tell a hidden Nrrr from the noise
+    (adding it scores worse than the baseline); at the refined baseline the score
+    test ranks Nrrr first, far above the BIC price of a term, and with nothing
+    hidden no library term reaches that price."""
+    ctx, truth = _context(vessel, cause, 100, 0.05)
+    base = refine(ctx, fit_cause(ctx, NoCause()))
+    ranked = score_terms(ctx, base, extended_library(ctx.model, 3))
+    price = np.log(base.refined["n"] / base.refined["tau"])
+    top, evidence, value = ranked[0]
+    if cause == "none":
+        assert evidence < price, [(t.name, e) for t, e, _ in ranked[:3]]
+    else:
+        assert top.name == "Nrrr" and evidence > price + 10, [(t.name, e) for t, e, _ in ranked[:3]]
+        assert np.sign(value) == np.sign(truth["Nrrr"])

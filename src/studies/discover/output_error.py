@@ -43,7 +43,7 @@ from ..simulate.simulator import replay_many
 from .fitting import CauseFit, Context, smoothed, smoothing_window
 
 __all__ = ["Window", "training_windows", "noise_levels", "relative_noise", "refinement_setting",
-           "needs_refinement", "refine", "refined_posterior"]
+           "needs_refinement", "refine", "output_error_scores", "score_terms", "refined_posterior"]
 
 #: ``output_error=auto`` refines when the noise of v or r exceeds this share of
 #: the signal's standard deviation (the Mariner records give about 0.017 at 1 %
@@ -204,12 +204,15 @@ class _Problem:
             self._setups[key] = self.cause.setup(self.ctx, theta)
         return self._setups[key]
 
-    def _window(self, w: Window, betas: np.ndarray, theta, state) -> np.ndarray:
+    def _window(self, w: Window, betas: np.ndarray, theta, state, model=None) -> np.ndarray:
+        """Residuals (noise units) of one window for every row of ``betas``
+        (coefficients of ``model``, the fit's model by default)."""
         setup = self._setup(theta)
         rec = setup.sim_record(w.record)
         env = setup.environment(w.record)
         initial = {c: w.initial[c] + d for c, d in zip(("u", "v", "r"), state)}
-        states, _ = replay_many(self.model, betas, self.ctx.vessel, rec, env, setup.external(), initial)
+        states, _ = replay_many(model or self.model, betas, self.ctx.vessel, rec, env, setup.external(),
+                                initial)
         rows = w.rows[w.rows < states.shape[1]]
         current = (env.current_speed, env.current_direction) if env.current_speed else None
         out = _outputs(states[:, rows], float(self.ctx.vessel.speed), current)
@@ -246,20 +249,29 @@ class _Problem:
 
 
 def refine(ctx: Context, fit: CauseFit, windows: list[Window] | None = None,
-           sigma: np.ndarray | None = None, max_nfev: int = 30) -> CauseFit:
+           sigma: np.ndarray | None = None, max_nfev: int = 30,
+           states: np.ndarray | None = None) -> CauseFit:
     """The cause's fit refined by output error on the training records.
 
     Returns a new :class:`CauseFit` with the refined coefficients and cause
-    parameters (the equation-error score and ``rss`` are kept for ranking);
-    ``fit.validation`` is not recomputed. ``windows`` and ``sigma`` may be
-    shared between causes (:func:`training_windows`, :func:`noise_levels` of
-    the training records).
+    parameters, started from ``fit.params`` and ``fit.theta`` (and from the
+    windows' initial-state corrections ``states``, noise units, when given:
+    the ``refined["states"]`` of a related fit). ``fit.score`` and ``rss``
+    are kept (the equation-error ones); ``fit.validation`` is not
+    recomputed. ``refined`` holds the solution: ``cost`` (half the sum of
+    squares, prior included), ``rss`` / ``n`` / ``tau`` of the data residual
+    (noise units; ``tau`` its integrated autocorrelation time), ``states``,
+    ``windows`` and ``sigma``. ``windows`` and ``sigma`` may be shared between
+    causes (:func:`training_windows`, :func:`noise_levels` of the training
+    records).
     """
     t0 = time.perf_counter()
     windows = windows if windows is not None else training_windows(ctx, ctx.train)
     sigma = sigma if sigma is not None else noise_levels(ctx, ctx.train)
     prob = _Problem(ctx, fit, windows, sigma)
     x0 = np.zeros(prob.nb + prob.nt + 3 * prob.nw)
+    if states is not None and len(states) == 3 * prob.nw:
+        x0[prob.nb + prob.nt:] = states
     lo, hi = prob.bounds()
     x0 = np.clip(x0, lo, hi)
     res = least_squares(prob.residuals, x0, jac=prob.jacobian, bounds=(lo, hi), method="trf",
@@ -267,12 +279,99 @@ def refine(ctx: Context, fit: CauseFit, windows: list[Window] | None = None,
     beta, theta, _ = prob.split(res.x)
     params = {**fit.params, **dict(zip(prob.names, beta.tolist()))}
     out = replace(fit, theta=theta, params=params, validation={}, setup=prob._setup(theta))
+    data = res.fun[: len(res.fun) - prob.nb]
     out.refined = {"states": res.x[prob.nb + prob.nt:].copy(), "cost": float(res.cost),
-                   "windows": windows, "sigma": sigma}
+                   "rss": float(data @ data), "n": len(data), "tau": _autocorrelation_time(data),
+                   "n_unknowns": len(res.x), "windows": windows, "sigma": sigma}
     out.seconds = fit.seconds + time.perf_counter() - t0
-    log.info("cause %-18s output error: cost %.4g -> %.4g in %d evaluations (%.1f s)", fit.cause.id,
-             0.5 * np.sum(prob.residuals(x0) ** 2), res.cost, res.nfev, time.perf_counter() - t0)
+    log.info("cause %-18s output error: cost %.4g in %d evaluations (%.1f s)", fit.cause.id,
+             res.cost, res.nfev, time.perf_counter() - t0)
     return out
+
+
+def _scale(refined: dict) -> tuple[float, float]:
+    """``(s2, n_eff)`` of a refined fit's data residual: the variance per
+    residual times its autocorrelation time (the residuals of a replay are
+    not independent samples), and the number of independent ones."""
+    tau = max(1.0, refined["tau"])
+    s2 = refined["rss"] / max(1, refined["n"] - refined["n_unknowns"]) * tau
+    return max(s2, 1e-300), max(10.0, refined["n"] / tau)
+
+
+def output_error_scores(fits: list, scale: tuple | None = None) -> tuple | None:
+    """Score the refined fits by output error (BIC on the replay's residual).
+
+    ``score = rss / s2 + k ln n_eff`` with ``rss`` the sum of squares of the
+    data residual (noise units; the coefficients' prior is a regulariser and
+    not counted), ``k`` the parameters the cause
+    adds and ``(s2, n_eff)`` = ``scale``, by default those of the refined fit
+    whose residual is whitest (shortest autocorrelation time; as with the
+    equation-error score, the residual of a model that lacks an effect is
+    correlated by that effect and would hide it). Differences are on the
+    2 ln Bayes-factor scale of the equation-error score. The equation-error
+    score is kept in ``refined["equation_score"]``. Returns the scale used
+    (None when no fit is refined).
+    """
+    refined = [f for f in fits if f.refined is not None]
+    if not refined:
+        return scale
+    if scale is None:
+        scale = _scale(min(refined, key=lambda f: f.refined["tau"]).refined)
+    s2, n_eff = scale
+    for f in refined:
+        f.refined.setdefault("equation_score", f.score)
+        f.score = f.refined["rss"] / s2 + f.cause.n_params() * np.log(n_eff)
+    return scale
+
+
+def score_terms(ctx: Context, fit: CauseFit, terms: list) -> list[tuple]:
+    """Score (Lagrange-multiplier) test of candidate terms at a refined fit.
+
+    For every candidate term the replayed outputs' derivative with respect to
+    its coefficient (at zero) is projected off the Jacobian of the fit's own
+    unknowns (coefficients, cause parameters, initial states); the squared
+    projection of the residual on it is the drop in the sum of squares that
+    adding the term alone would give to first order. Returned as
+    ``(term, evidence, coefficient)`` sorted by evidence, largest first, where
+    ``evidence`` is that drop over ``s2`` (the fit's residual variance times
+    its autocorrelation time, so on the scale of :func:`output_error_scores`)
+    and ``coefficient`` the term's prime value of the linearised step (a
+    start for the refinement). Costs one replay of all candidates per window
+    and the fit's Jacobian.
+    """
+    from ..identify.regression import prime_states
+
+    ref = fit.refined
+    prob = _Problem(ctx, fit, ref["windows"], ref["sigma"])
+    x = np.concatenate([np.zeros(prob.nb + prob.nt), ref["states"]])
+    jac, res = prob.jacobian(x), prob.residuals(x)
+    b, theta, states = prob.split(x)
+    model = prob.model.extended(terms, f"{prob.model.name}+candidates")
+    names = [t.name for t in model.terms]
+    beta = model.vector(dict(zip(prob.names, b)), 0.0)
+    # perturbation of each coefficient: a tenth of the regression residual's force level
+    rows = [w.record for w in prob.windows]
+    primes = prime_states(*(np.concatenate([r[c].to_numpy(float) for r in rows]) for c in ("u", "v", "r", "delta")),
+                          ctx.vessel)
+    level = dict(zip(("X", "Y", "N"), ctx.sigma))
+    step = np.array([0.1 * level[t.dof] / max(float(np.sqrt(np.mean(t.feature(primes) ** 2))), 1e-12)
+                     for t in terms])
+    index = [names.index(t.name) for t in terms]
+    pert = np.zeros((len(terms), len(names)))
+    pert[np.arange(len(terms)), index] = step
+    cols = []
+    for i, w in enumerate(prob.windows):
+        y = prob._window(w, np.vstack([beta, beta + pert]), theta, states[i], model)
+        cols.append(((y[1:] - y[0]) / step[:, None]).T)
+    g = np.vstack(cols + [np.zeros((prob.nb, len(terms)))])
+    q, _ = np.linalg.qr(jac)
+    g = g - q @ (q.T @ g)
+    r = res - q @ (q.T @ res)
+    gg = np.maximum(np.sum(g ** 2, axis=0), 1e-300)
+    gr = g.T @ r
+    s2, _ = _scale(ref)
+    out = [(t, float(gr[j] ** 2 / gg[j] / s2), float(-gr[j] / gg[j])) for j, t in enumerate(terms)]
+    return sorted(out, key=lambda x: -x[1])
 
 
 def _autocorrelation_time(res: np.ndarray) -> float:

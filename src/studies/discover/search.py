@@ -11,9 +11,10 @@ import numpy as np
 from ..identify.regression import prime_states
 from .causes import Combined, MissingTerm, manoeuvring_causes, extended_library
 from .fitting import CauseFit, Context, calibrate, fit_cause, posterior, rescore, validate
-from .output_error import needs_refinement, noise_levels, refine, refined_posterior, training_windows
+from .output_error import (needs_refinement, noise_levels, output_error_scores, refine, refined_posterior,
+                           score_terms, training_windows)
 
-__all__ = ["select_missing_terms", "forward_select", "search"]
+__all__ = ["select_missing_terms", "forward_select", "terms_by_output_error", "search"]
 
 log = logging.getLogger(__name__)
 
@@ -105,20 +106,90 @@ def forward_select(ctx: Context, candidates: list, base: float) -> list:
 EVIDENCE = 10.0
 
 
-def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: bool = True,
-           posterior_steps: int = 40, seed: int = 0, output_error="auto") -> dict:
-    """Fit every applicable cause, rank them, pick one, try a second, get intervals.
+def _with_terms(ctx: Context, parent: CauseFit, terms: list, start: dict, windows, sigma) -> CauseFit:
+    """``missing_term`` with ``terms`` refined by output error, started from the
+    refined ``parent`` (its coefficients and initial states) and the terms'
+    values ``start`` (prime)."""
+    from dataclasses import replace
 
-    Causes are fitted and scored by equation error (:mod:`.fitting`). The
-    baseline and every cause whose score beats it by :data:`EVIDENCE` are then
-    refined by output error (:func:`.output_error.refine`) when ``output_error``
-    asks for it (:func:`.output_error.needs_refinement`: ``"auto"`` on noisy
-    records) and replayed on the validation records. A cause is chosen over
-    ``none`` only when its score is lower by :data:`EVIDENCE` and its
-    prediction error on the validation records is lower than the baseline's;
-    among those, the lowest score wins.
+    fit = fit_cause(ctx, MissingTerm(terms))
+    fit = replace(fit, params={**fit.params, **parent.params, **start})
+    return refine(ctx, fit, windows, sigma, states=parent.refined["states"])
+
+
+def terms_by_output_error(ctx: Context, baseline: CauseFit, windows, sigma, max_terms: int = 3,
+                          rivals: list = ()) -> tuple[list, CauseFit | None, list]:
+    """The missing terms chosen by output error: forward selection on score tests.
+
+    At the refined ``baseline`` every term of the extended library is scored
+    (:func:`.output_error.score_terms`); the best one is added and the
+    extension refined. A further term is tried while its score-test evidence
+    exceeds ``ln n_eff + EVIDENCE`` and kept when the refined extension lowers
+    the output-error score by :data:`EVIDENCE`; at most ``max_terms`` terms,
+    and only while the terms explain the records better than every refined
+    fit of ``rivals`` (other causes).
+    With noisy records this replaces the equation-error selection, which
+    cannot see a cubic yaw damping through the noise-induced bias of the
+    regression. Returns ``(terms, refined missing_term fit or None,
+    candidate terms whose evidence exceeds ln n_eff)``.
     """
-    baseline_params, residuals = calibrate(ctx)
+    library = extended_library(ctx.model, 3)
+    ranked = score_terms(ctx, baseline, library)
+    n_eff = baseline.refined["n"] / max(1.0, baseline.refined["tau"])
+    candidates = [t for t, evidence, _ in ranked if evidence > np.log(n_eff)]
+    if not ranked:
+        return [], None, candidates
+    term, evidence, value = ranked[0]
+    log.info("output-error score test: %s", ", ".join(f"{t.name} {e:.1f}" for t, e, _ in ranked[:5]))
+    chosen, start = [term], {term.name: value}
+    best = _with_terms(ctx, baseline, chosen, start, windows, sigma)
+    while len(chosen) < max_terms:
+        if rivals:
+            output_error_scores(list(rivals) + [best])
+            if best.score >= min(f.score for f in rivals):
+                break
+        ranked = score_terms(ctx, best, [t for t in library if t.name not in start])
+        if not ranked:
+            break
+        term, evidence, value = ranked[0]
+        n_eff = best.refined["n"] / max(1.0, best.refined["tau"])
+        if evidence < np.log(n_eff) + EVIDENCE:
+            break
+        trial = _with_terms(ctx, best, chosen + [term], {**start, term.name: value}, windows, sigma)
+        output_error_scores([best, trial])
+        if trial.score >= best.score - EVIDENCE:
+            break
+        chosen, start, best = chosen + [term], {**start, term.name: value}, trial
+    return chosen, best, candidates
+
+
+def _refined_pair(ctx: Context, first: CauseFit, second: CauseFit, windows, sigma) -> CauseFit:
+    """Two refined causes at once, refined again from their joint solution."""
+    from dataclasses import replace
+
+    theta = np.concatenate([first.theta, second.theta])
+    combo = fit_cause(ctx, Combined(first.cause, second.cause, starts=[theta]))
+    combo = replace(combo, theta=theta, params={**combo.params, **second.params, **first.params},
+                    setup=combo.cause.setup(ctx, theta))
+    return refine(ctx, combo, windows, sigma, states=first.refined["states"])
+
+
+def _candidate_fits(ctx: Context, threshold: float, max_terms: int, refined: bool, windows, sigma):
+    """Every applicable cause fitted (and refined, when ``refined``); returns
+    ``(fits, selected terms, candidate terms)``, the baseline first."""
+    _, residuals = calibrate(ctx)
+    if refined:
+        fits = [fit_cause(ctx, cause) for cause in manoeuvring_causes(ctx)]
+        rescore(ctx, fits)
+        base = refine(ctx, fits[0], windows, sigma)
+        # once more from its own solution: the prior then centres where the
+        # extensions by terms start (see terms_by_output_error), a fair comparison
+        base = refine(ctx, base, windows, sigma, states=base.refined["states"])
+        fits = [base] + [refine(ctx, f, windows, sigma, states=base.refined["states"]) for f in fits[1:]]
+        terms, missing, candidates = terms_by_output_error(ctx, base, windows, sigma, max_terms, fits)
+        if missing is not None:
+            fits.append(missing)
+        return fits, terms, candidates
     from .fitting import regression_fit
     from .causes import Setup
 
@@ -128,19 +199,37 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
     have = {t.name for t in candidates}
     candidates += [t for t in screen_terms(ctx, base) if t.name not in have]
     terms = forward_select(ctx, candidates, base) if candidates else []
-    fits = []
-    for cause in manoeuvring_causes(ctx, terms):
-        fit = fit_cause(ctx, cause)
-        fits.append(fit)
+    fits = [fit_cause(ctx, cause) for cause in manoeuvring_causes(ctx, terms)]
     rescore(ctx, fits)
-    windows = None
+    return fits, terms, candidates
+
+
+def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: bool = True,
+           posterior_steps: int = 40, seed: int = 0, output_error="auto") -> dict:
+    """Fit every applicable cause, rank them, pick one, try a second, get intervals.
+
+    Two ways of fitting and scoring, chosen by ``output_error``
+    (:func:`.output_error.needs_refinement`: ``"auto"`` takes the second on
+    noisy records):
+
+    - equation error (:mod:`.fitting`): causes are fitted by regression and
+      scored by BIC on the force residual; missing terms come from sparse
+      regression and single-term screening;
+    - output error (:mod:`.output_error`): every cause is then refined by
+      replaying the training records and scored by BIC on the replay's
+      residual; missing terms come from score tests at the refined baseline.
+
+    Every fit is replayed on the validation records. A cause is chosen over
+    ``none`` only when its score is lower by :data:`EVIDENCE` and its
+    prediction error on the validation records is lower than the baseline's;
+    among those, the lowest score wins.
+    """
     sigma = noise_levels(ctx, ctx.train)
     output_error = needs_refinement(ctx, output_error, sigma)
-    if output_error:
-        windows = training_windows(ctx, ctx.train)
-    for i, fit in enumerate(fits):
-        if output_error and (i == 0 or fit.score < fits[0].score - EVIDENCE):
-            fit = fits[i] = refine(ctx, fit, windows, sigma)
+    windows = training_windows(ctx, ctx.train) if output_error else None
+    fits, terms, candidates = _candidate_fits(ctx, threshold, max_terms, output_error, windows, sigma)
+    scale = output_error_scores(fits) if output_error else None
+    for fit in fits:
         validate(ctx, fit)
         log.info("cause %-18s score %.1f validation %.4g (%.1f s)", fit.cause.id, fit.score,
                  fit.validation_rmse, fit.seconds)
@@ -152,19 +241,21 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
            "second": None, "output_error": output_error}
     if second and best is not baseline:
         pairs = []
-        # second causes worth trying: the two that alone explain most (BIC clearly better than none)
+        # second causes worth trying: the two that alone explain most (score clearly better than none)
         others = sorted([f for f in fits if f is not baseline and f is not best], key=lambda f: f.score)[:2]
         for other in others:
-            if other is baseline or other is best or other.score >= baseline.score - EVIDENCE:
+            if other.score >= baseline.score - EVIDENCE:
                 continue
             if isinstance(best.cause, Combined) or other.cause.id == best.cause.id:
                 continue
             first, second_ = (best, other) if not isinstance(best.cause, MissingTerm) else (other, best)
-            combo = Combined(first.cause, second_.cause,
-                             starts=[np.concatenate([first.theta, second_.theta])])
-            fit = fit_cause(ctx, combo)
-            if output_error and fit.score < best.score - EVIDENCE:
-                fit = refine(ctx, fit, windows, sigma)
+            if output_error:
+                fit = _refined_pair(ctx, first, second_, windows, sigma)
+                output_error_scores([fit], scale)
+            else:
+                combo = Combined(first.cause, second_.cause,
+                                 starts=[np.concatenate([first.theta, second_.theta])])
+                fit = fit_cause(ctx, combo)
             validate(ctx, fit)
             pairs.append(fit)
         gaining = [f for f in pairs
