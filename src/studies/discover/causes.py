@@ -262,8 +262,9 @@ class MissingTerm(Cause):
 
     id = "missing_term"
     explanation = ("A hydrodynamic effect the model's polynomial does not contain (e.g. a cubic yaw "
-                   "damping Nrrr in tight turns): sparse regression over the monomials of u', v', r', "
-                   "delta up to third order names the terms that the residual needs.")
+                   "damping Nrrr in tight turns): the monomials of u', v', r', delta up to third order "
+                   "are searched for the terms the records need (sparse regression on the force "
+                   "residual; on noisy records, score tests on the replayed records).")
 
     def __init__(self, terms=()):
         self.terms = list(terms)

@@ -134,6 +134,10 @@ def write_report(out_dir: Path, discovery: dict, explanation: str, sections: lis
     b, e = d["baseline"]["validation_rmse"], d["extended"]["validation_rmse"]
     verdict.append(f"Prediction error on data not used for fitting: baseline {b:.4g}, extended {e:.4g} "
                    f"{d.get('units', '')} -> gain {d['gain_pct']:.1f} %.")
+    if d.get("fit"):
+        how = ("replays of the training records (output error)" if d["fit"] == "output error"
+               else "the regression residual (equation error)")
+        verdict.append(f"\nCauses fitted and ranked by BIC on {how}.")
     if d.get("second_cause"):
         verdict.append(f"\nA second cause still gains: **{d['second_cause']['cause']}** "
                        f"(validation {d['second_cause']['validation_rmse']:.4g}).")
