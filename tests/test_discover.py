@@ -109,6 +109,29 @@ def test_hidden_roll_damping_is_named(tmp_path, cause, noise, min_gain):
     assert d["gain_pct"] > min_gain
 
 
+@pytest.mark.slow
+def test_roll_damping_forms_the_data_cannot_tell_apart_are_reported(tmp_path):
+    """Seed 101, cubic damping hidden, 5 % noise: over 10 to 1 deg, |phi'| phi' and phi'^3
+    decay alike and the two scores differ by less than one, so the report must say that
+    the choice between them is not established."""
+    paths, _ = hidden_roll_decays("roll_cubic_damping", tmp_path, seed=101, noise=0.05)
+    d = _roll_study(tmp_path, [paths[0]], [paths[1]])
+    pair = {"roll_quadratic_damping", "roll_cubic_damping"}
+    assert d["cause"] in pair, d["ranking"]
+    assert d["indistinguishable_from"] == sorted(pair - {d["cause"]}), d["ranking"]
+    assert "do not tell it apart" in (tmp_path / "out" / "report.md").read_text()
+
+
+def test_indistinguishable_causes_are_those_within_two_of_the_winner():
+    from studies.discover.report import indistinguishable
+
+    ranking = [{"cause": "a", "score": 0.0}, {"cause": "none", "score": 1.0}, {"cause": "b", "score": 1.9},
+               {"cause": "c", "score": 2.5}]
+    assert indistinguishable(ranking, "a") == ["b"]
+    assert indistinguishable(ranking, "b") == ["a", "c"]
+    assert indistinguishable(ranking, "none") == []
+
+
 ROLL = SHARED_DATA / "kvlcc2_roll_decay"
 
 

@@ -34,6 +34,22 @@ def _clean(x):
     return x
 
 
+#: causes whose scores differ by less than this are not told apart by the data
+#: (2 on the 2 ln Bayes-factor scale: "not worth more than a bare mention")
+INDISTINGUISHABLE = 2.0
+
+
+def indistinguishable(ranking: list, cause: str, margin: float = INDISTINGUISHABLE) -> list[str]:
+    """The other causes (``none`` excepted) whose score lies within ``margin`` of
+    the named cause's in ``ranking`` (``[{"cause", "score"}, ...]``): the data
+    explain them as well, e.g. quadratic and cubic roll damping over a narrow
+    range of amplitudes. Empty for ``none``."""
+    scores = {r["cause"]: float(r["score"]) for r in ranking}
+    if cause == "none" or cause not in scores:
+        return []
+    return [c for c, s in scores.items() if c not in (cause, "none") and abs(s - scores[cause]) < margin]
+
+
 def write_discovery(path: Path, discovery: dict) -> None:
     Path(path).write_text(json.dumps(_clean(discovery), indent=1))
 
@@ -134,6 +150,10 @@ def write_report(out_dir: Path, discovery: dict, explanation: str, sections: lis
     b, e = d["baseline"]["validation_rmse"], d["extended"]["validation_rmse"]
     verdict.append(f"Prediction error on data not used for fitting: baseline {b:.4g}, extended {e:.4g} "
                    f"{d.get('units', '')} -> gain {d['gain_pct']:.1f} %.")
+    if d.get("indistinguishable_from"):
+        others = ", ".join(f"**{c}**" for c in d["indistinguishable_from"])
+        verdict.append(f"\nThe training data do not tell it apart from {others} (scores within "
+                       f"{INDISTINGUISHABLE:g}): the choice between them is not established by these records.")
     if d.get("fit"):
         how = ("replays of the training records (output error)" if d["fit"] == "output error"
                else "the regression residual (equation error)")

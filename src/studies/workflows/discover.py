@@ -133,8 +133,8 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
     from ..discover import diagnostics as dg
     from ..discover.causes import Setup
     from ..discover.fitting import Context, regression_fit, validate
-    from ..discover.report import (plot_predictions, plot_ranking, plot_residuals, write_discovery,
-                                   write_report)
+    from ..discover.report import (indistinguishable, plot_predictions, plot_ranking, plot_residuals,
+                                   write_discovery, write_report)
     from ..discover.search import search
 
     opts = study.cfg.discover
@@ -186,6 +186,7 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
         "selected_terms": [t.name for t in result["terms"]],
         "notes": study.notes,
     }
+    discovery["indistinguishable_from"] = indistinguishable(discovery["ranking"], discovery["cause"])
     # what the baseline gets wrong
     base_params, residuals, problems = regression_fit(ctx, Setup(ctx.model, ctx.train))
     sections = [("Ranking of the causes",
@@ -227,7 +228,7 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
 
 
 def _execute_roll(study: DiscoverStudy, out_dir: Path):
-    from ..discover.report import write_discovery, write_report
+    from ..discover.report import indistinguishable, write_discovery, write_report
     from ..discover.roll import ROLL_CAUSES, _simulate, roll_interval, roll_search
 
     t0 = time.perf_counter()
@@ -249,6 +250,7 @@ def _execute_roll(study: DiscoverStudy, out_dir: Path):
                      "validation_rmse": f["validation_rmse_deg"]} for f in ranked],
         "second_cause": None, "notes": study.notes,
     }
+    discovery["indistinguishable_from"] = indistinguishable(discovery["ranking"], discovery["cause"])
     figures = []
     import matplotlib
 
