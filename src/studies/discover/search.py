@@ -1,10 +1,13 @@
-"""Naming the cause: candidate terms by sparse regression and single-term
-screening, chosen by forward selection; all causes fitted, ranked, the best
-checked on unseen data, and a second cause tried on top."""
+"""Naming the cause: all causes fitted (by regression, and on noisy records
+refined by replaying them), ranked, the best checked on unseen data, and a
+second cause tried on top. Missing terms come from sparse regression and
+single-term screening, or on noisy records from score tests at the refined
+baseline, chosen by forward selection."""
 
 from __future__ import annotations
 
 import logging
+from dataclasses import replace
 
 import numpy as np
 
@@ -110,8 +113,6 @@ def _with_terms(ctx: Context, parent: CauseFit, terms: list, start: dict, window
     """``missing_term`` with ``terms`` refined by output error, started from the
     refined ``parent`` (its coefficients and initial states) and the terms'
     values ``start`` (prime)."""
-    from dataclasses import replace
-
     fit = fit_cause(ctx, MissingTerm(terms))
     fit = replace(fit, params={**fit.params, **parent.params, **start})
     return refine(ctx, fit, windows, sigma, states=parent.refined["states"])
@@ -165,8 +166,6 @@ def terms_by_output_error(ctx: Context, baseline: CauseFit, windows, sigma, max_
 
 def _refined_pair(ctx: Context, first: CauseFit, second: CauseFit, windows, sigma) -> CauseFit:
     """Two refined causes at once, refined again from their joint solution."""
-    from dataclasses import replace
-
     theta = np.concatenate([first.theta, second.theta])
     combo = fit_cause(ctx, Combined(first.cause, second.cause, starts=[theta]))
     combo = replace(combo, theta=theta, params={**combo.params, **second.params, **first.params},
