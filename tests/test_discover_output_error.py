@@ -85,3 +85,19 @@ def test_score_test_names_the_hidden_term_and_nothing_when_none_is_hidden(vessel
     else:
         assert top.name == "Nrrr" and evidence > price + 10, [(t.name, e) for t, e, _ in ranked[:3]]
         assert np.sign(value) == np.sign(truth["Nrrr"])
+
+
+@pytest.mark.slow
+def test_noisy_search_refines_every_cause_and_claims_no_second_cause_when_one_is_hidden(vessel):
+    """Wind not modelled, 5 % noise, seed 100: every cause and every pair tried is
+    refined and ranked by output error; the wind wins, and no pair gains on it by the
+    evidence margin (only one effect is hidden)."""
+    from studies.discover.search import search
+
+    records, truth = hidden_records(vessel, "wind_unmodelled", seed=100, noise=0.05)
+    ctx = Context(vessel, abkowitz(), records[:2], records[2:])
+    res = search(ctx, posterior_steps=10)
+    assert res["output_error"] and all(f.refined is not None for f in res["fits"] + res["pairs"])
+    assert res["best"].cause.id == "wind_unmodelled", [(f.cause.id, f.score) for f in res["fits"]]
+    assert abs(res["best"].theta[0] - truth["speed"]) < 0.2 * truth["speed"]
+    assert res["pairs"] and res["second"] is None, [(f.cause.id, f.score) for f in res["pairs"]]
