@@ -351,8 +351,8 @@ def score_terms(ctx: Context, fit: CauseFit, terms: list) -> list[tuple]:
     beta = model.vector(dict(zip(prob.names, b)), 0.0)
     # perturbation of each coefficient: a tenth of the regression residual's force level
     rows = [w.record for w in prob.windows]
-    primes = prime_states(*(np.concatenate([r[c].to_numpy(float) for r in rows]) for c in ("u", "v", "r", "delta")),
-                          ctx.vessel)
+    columns = (np.concatenate([r[c].to_numpy(float) for r in rows]) for c in ("u", "v", "r", "delta"))
+    primes = prime_states(*columns, ctx.vessel)
     level = dict(zip(("X", "Y", "N"), ctx.sigma))
     step = np.array([0.1 * level[t.dof] / max(float(np.sqrt(np.mean(t.feature(primes) ** 2))), 1e-12)
                      for t in terms])
