@@ -315,6 +315,7 @@ def posterior(ctx: Context, fit: CauseFit, walkers: int = 6, steps: int = 40, bu
     start = fit.theta + scale * rng.standard_normal((walkers, k)) * 0.1
     start = np.clip(start, low + 1e-12, high - 1e-12)
     sampler = emcee.EnsembleSampler(walkers, k, log_prob)
+    sampler.random_state = np.random.RandomState(seed).get_state()   # emcee's moves: reproducible
     run_with_progress(sampler, start, burn + steps)
     chain = sampler.get_chain(discard=burn, flat=True)
     q05, q50, q95 = np.percentile(chain, [5, 50, 95], axis=0)

@@ -439,6 +439,7 @@ def refined_posterior(ctx: Context, fit: CauseFit, walkers: int = 6, steps: int 
     start = prob.theta0 + 0.5 * sd * rng.standard_normal((walkers, k))
     start = np.clip(start, low + 1e-12, high - 1e-12)
     sampler = emcee.EnsembleSampler(walkers, k, log_prob)
+    sampler.random_state = np.random.RandomState(seed).get_state()   # emcee's moves: reproducible
     run_with_progress(sampler, start, burn + steps)
     chain = sampler.get_chain(discard=burn, flat=True)
     q05, q50, q95 = np.percentile(chain, [5, 50, 95], axis=0)

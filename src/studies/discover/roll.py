@@ -135,6 +135,7 @@ def roll_interval(best, train, simulation_fixed, steps: int = 80, seed: int = 0)
     rng = np.random.default_rng(seed)
     start = value * (1 + 0.01 * rng.standard_normal((6, 1)))
     sampler = emcee.EnsembleSampler(6, 1, log_prob)
+    sampler.random_state = np.random.RandomState(seed).get_state()   # emcee's moves: reproducible
     run_with_progress(sampler, start, steps)
     chain = sampler.get_chain(discard=steps // 3, flat=True)[:, 0]
     return {term: [float(np.percentile(chain, 5)), float(np.percentile(chain, 95))]}

@@ -236,7 +236,8 @@ def _execute_roll(study: DiscoverStudy, out_dir: Path):
     best, base = res["best"], res["baseline"]
     term = ROLL_CAUSES[best["cause"]][0]
     params = {term: float(best["params"][term])} if term else {}
-    interval = roll_interval(best, study.train, res["simulation_params"]) if term else {}
+    interval = roll_interval(best, study.train, res["simulation_params"],
+                             seed=int(study.cfg.seed)) if term else {}
     b, e = base["validation_rmse_deg"], best["validation_rmse_deg"]
     ranked = sorted(res["fits"], key=lambda f: f["score"])
     discovery = {
