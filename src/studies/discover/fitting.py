@@ -37,7 +37,7 @@ from ..simulate.simulator import replay
 from .causes import Cause, Setup
 
 __all__ = ["Context", "CauseFit", "regression_fit", "scored_fit", "nominal_residuals", "fit_cause",
-           "validate", "posterior"]
+           "validate", "posterior", "sample_intervals"]
 
 log = logging.getLogger(__name__)
 
@@ -292,10 +292,6 @@ def posterior(ctx: Context, fit: CauseFit, walkers: int = 6, steps: int = 40, bu
               seed: int = 0) -> dict:
     """90 % intervals of the cause's parameters from emcee on the profile likelihood
     ``-n_eff / 2 sum_dof ln RSS_dof(theta)`` (flat prior within the bounds)."""
-    import emcee
-
-    from ..identify.bayes import run_with_progress
-
     cause = fit.cause
     k = len(fit.theta)
     if k == 0:
@@ -314,8 +310,20 @@ def posterior(ctx: Context, fit: CauseFit, walkers: int = 6, steps: int = 40, bu
     rng = np.random.default_rng(seed)
     start = fit.theta + scale * rng.standard_normal((walkers, k)) * 0.1
     start = np.clip(start, low + 1e-12, high - 1e-12)
-    sampler = emcee.EnsembleSampler(walkers, k, log_prob)
-    sampler.random_state = np.random.RandomState(seed).get_state()   # emcee's moves: reproducible
+    return sample_intervals(log_prob, start, burn, steps, seed)
+
+
+def sample_intervals(log_prob, start: np.ndarray, burn: int, steps: int, seed: int) -> dict:
+    """emcee from the walkers' ``start`` (walkers, k) for ``burn + steps`` steps,
+    its own moves seeded by ``seed`` (so that the intervals do not depend on
+    numpy's global state); the chain after ``burn`` and its 5, 50 and 95 %
+    quantiles per parameter."""
+    import emcee
+
+    from ..identify.bayes import run_with_progress
+
+    sampler = emcee.EnsembleSampler(start.shape[0], start.shape[1], log_prob)
+    sampler.random_state = np.random.RandomState(seed).get_state()
     run_with_progress(sampler, start, burn + steps)
     chain = sampler.get_chain(discard=burn, flat=True)
     q05, q50, q95 = np.percentile(chain, [5, 50, 95], axis=0)

@@ -396,9 +396,7 @@ def refined_posterior(ctx: Context, fit: CauseFit, walkers: int = 6, steps: int 
     nonlinear parameter: their intervals are the Gaussian (Laplace) ones of
     the linearised fit.
     """
-    import emcee
-
-    from ..identify.bayes import run_with_progress
+    from .fitting import sample_intervals
 
     ref = fit.refined
     prob = _Problem(ctx, fit, ref["windows"], ref["sigma"])
@@ -438,10 +436,4 @@ def refined_posterior(ctx: Context, fit: CauseFit, walkers: int = 6, steps: int 
     rng = np.random.default_rng(seed)
     start = prob.theta0 + 0.5 * sd * rng.standard_normal((walkers, k))
     start = np.clip(start, low + 1e-12, high - 1e-12)
-    sampler = emcee.EnsembleSampler(walkers, k, log_prob)
-    sampler.random_state = np.random.RandomState(seed).get_state()   # emcee's moves: reproducible
-    run_with_progress(sampler, start, burn + steps)
-    chain = sampler.get_chain(discard=burn, flat=True)
-    q05, q50, q95 = np.percentile(chain, [5, 50, 95], axis=0)
-    return {"samples": chain, "q05": q05, "q50": q50, "q95": q95, "tau": tau,
-            "acceptance_fraction": float(np.mean(sampler.acceptance_fraction))}
+    return {**sample_intervals(log_prob, start, burn, steps, seed), "tau": tau}

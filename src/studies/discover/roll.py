@@ -111,9 +111,7 @@ def roll_search(train, validation, simulation=None) -> dict:
 
 def roll_interval(best, train, simulation_fixed, steps: int = 80, seed: int = 0) -> dict:
     """90 % interval of the winning term by emcee on the profile likelihood."""
-    import emcee
-
-    from ..identify.bayes import run_with_progress
+    from .fitting import sample_intervals
 
     term = ROLL_CAUSES[best["cause"]][0]
     if term is None:
@@ -134,8 +132,5 @@ def roll_interval(best, train, simulation_fixed, steps: int = 80, seed: int = 0)
     value = best["params"][term]
     rng = np.random.default_rng(seed)
     start = value * (1 + 0.01 * rng.standard_normal((6, 1)))
-    sampler = emcee.EnsembleSampler(6, 1, log_prob)
-    sampler.random_state = np.random.RandomState(seed).get_state()   # emcee's moves: reproducible
-    run_with_progress(sampler, start, steps)
-    chain = sampler.get_chain(discard=steps // 3, flat=True)[:, 0]
+    chain = sample_intervals(log_prob, start, steps // 3, steps - steps // 3, seed)["samples"][:, 0]
     return {term: [float(np.percentile(chain, 5)), float(np.percentile(chain, 95))]}
