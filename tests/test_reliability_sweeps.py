@@ -137,6 +137,23 @@ def _status(root: Path) -> list[str]:
         return []
 
 
+def _running_before_outputs(root: Path) -> bool:
+    """A FINISHED run exists and a RUNNING one has not started logging its
+    outputs: a signal now lands in that job's body, never in its last store
+    write (which, once begun, is allowed to finish)."""
+    db = root / "mlruns" / "mlflow.db"
+    if not db.exists():
+        return False
+    try:
+        with sqlite3.connect(db, timeout=1) as con:
+            statuses = dict(con.execute("select run_uuid, status from runs").fetchall())
+            logged = {r for (r,) in con.execute("select distinct run_uuid from latest_metrics")}
+    except sqlite3.OperationalError:       # locked for a moment by a writer
+        return False
+    return ("FINISHED" in statuses.values()
+            and any(s == "RUNNING" and r not in logged for r, s in statuses.items()))
+
+
 def _group_members(pgid: int) -> list[int]:
     members = []
     for stat in Path("/proc").glob("[0-9]*/stat"):
@@ -163,8 +180,8 @@ def test_killed_sweep_keeps_finished_runs_and_resume_runs_the_rest(tmp_path):
              "tracking.experiment=resumable", f"hydra.sweep.dir={tmp_path / 'multirun'}", *SMALL]
     proc, lines, reader = _launch(sweep, tmp_path)
     try:
-        # after the first job finished, and while another one has its run open
-        _wait(lambda: "FINISHED" in _status(tmp_path) and "RUNNING" in _status(tmp_path), proc)
+        # after the first job finished, and while another one is computing
+        _wait(lambda: _running_before_outputs(tmp_path), proc)
         os.killpg(proc.pid, signal.SIGTERM)
         proc.wait(timeout=120)
     finally:
