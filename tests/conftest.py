@@ -22,6 +22,16 @@ SHARED_DATA = REPO.parent / "shared" / "data"
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 
+def marin_file(manoeuvre: str) -> Path:
+    """A MARIN KVLCC2 free-running record (``zz_10``, ``zz_20``, ``tc_35``) of
+    the shared data folder; the test is skipped when it is absent."""
+    path = SHARED_DATA / "kvlcc2_free_running" / f"MARIN_FREE_KVLCC2_{manoeuvre}_m.dat"
+    if not path.is_file():
+        pytest.skip(f"MARIN KVLCC2 data not available: {path} is absent "
+                    "(the shared data folder is not mounted next to the repo)")
+    return path
+
+
 @pytest.fixture(scope="session")
 def vessel():
     from studies.vessels import get_vessel

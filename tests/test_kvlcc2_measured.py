@@ -30,7 +30,6 @@ Measured figures (full scale; the asserts below check what holds):
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -45,22 +44,15 @@ from studies.workflows.measured import (identify_measured, load_measured, mirror
                                         posterior_band, posterior_vectors, steady_turn,
                                         steady_turn_errors)
 
-DATA = Path(__file__).resolve().parents[1].parent / "shared/data/kvlcc2_free_running"
+from conftest import marin_file
+
 NAMES = ("zz_10", "zz_20", "tc_35")
 MEASURED = {"advance_m": 1000.0, "tactical_diameter_m": 980.0}       # README, full scale
 
 
-def marin(name: str) -> Path:
-    path = DATA / f"MARIN_FREE_KVLCC2_{name}_m.dat"
-    if not path.is_file():
-        pytest.skip(f"MARIN KVLCC2 data not available: {path} is absent "
-                    "(the shared data folder is not mounted next to the repo)")
-    return path
-
-
 @pytest.fixture(scope="module")
 def records():
-    recs = load_measured([marin(n) for n in NAMES])
+    recs = load_measured([marin_file(n) for n in NAMES])
     return dict(zip(NAMES, recs))
 
 
@@ -86,7 +78,7 @@ def test_loader_keeps_every_row_on_a_uniform_axis(records):
         dt = np.diff(t)
         assert np.allclose(dt, dt[0], rtol=1e-9)
         assert dt[0] == pytest.approx(0.02 * np.sqrt(45.7), rel=2e-3)    # 50 Hz at model scale
-        raw = [line for line in marin(name).read_text().splitlines()[2:] if line.strip()]
+        raw = [line for line in marin_file(name).read_text().splitlines()[2:] if line.strip()]
         assert len(rec) == len(raw)
         assert rec.attrs["name"] == f"MARIN_FREE_KVLCC2_{name}_m"
 
@@ -240,7 +232,7 @@ def test_studies_run_on_the_marin_files(tmp_path):
     """``studies run vessel=kvlcc2 data.path=[zz_10,zz_20] validate.path=[tc_35] method=ls``."""
     from conftest import REPO, run_studies
 
-    zz10, zz20, tc = (marin(n) for n in NAMES)
+    zz10, zz20, tc = (marin_file(n) for n in NAMES)
     out = tmp_path / "run"
     proc = run_studies(["run", "vessel=kvlcc2", f"data.path=[{zz10},{zz20}]", f"validate.path=[{tc}]",
                         "method=ls", f"hydra.run.dir={out}", f"tracking.uri=sqlite:///{tmp_path}/m.db"],

@@ -13,18 +13,11 @@ from studies.data import (REQUIRED_COLUMNS, load_manoeuvre, read_marin,
                           validate_manoeuvre)
 from studies.errors import ConfigError, DataError
 
-DATA = Path(__file__).resolve().parents[1].parent / "shared/data/kvlcc2_free_running"
+from conftest import marin_file
+
 MANOEUVRES = ("tc_35", "zz_10", "zz_20")
 SCALE = 45.7
 APPROACH_SPEED = 7.97        # m/s, 15.5 kn full scale
-
-
-def marin_file(manoeuvre: str) -> Path:
-    path = DATA / f"MARIN_FREE_KVLCC2_{manoeuvre}_m.dat"
-    if not path.is_file():
-        pytest.skip(f"MARIN KVLCC2 data not available: {path} is absent "
-                    "(the shared data folder is not mounted next to the repo)")
-    return path
 
 
 _cache: dict[tuple, pd.DataFrame] = {}

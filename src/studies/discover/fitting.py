@@ -71,6 +71,8 @@ class CauseFit:
     seconds: float = 0.0
     #: the output-error refinement's solution (:func:`studies.discover.output_error.refine`), if any
     refined: dict | None = None
+    #: :func:`validate` of the whole validation records (one replay each, no windows)
+    whole: dict = field(default_factory=dict)
 
     @property
     def validation_rmse(self) -> float:
@@ -245,12 +247,13 @@ def validate(ctx: Context, fit: CauseFit, keep: bool = False, whole: bool = Fals
     dynamics are predicted without letting one early error grow for the rest
     of a long record (``whole=True``: one replay per record). A replay that
     diverges counts as the RMS distance from the window's start over the
-    window (as wrong as a prediction that the ship does not move).
+    window (as wrong as a prediction that the ship does not move);
+    ``validation["diverged"]`` names the records with such a replay.
     """
     horizon = None if whole else ctx.horizon
     setup = fit.setup
     errors = {"position_rmse": [], "rmse_u": [], "rmse_v": [], "rmse_r": []}
-    predictions = []
+    predictions, diverged = [], []
     for rec in ctx.validation:
         smooth = smoothed(rec)
         t = rec["t"].to_numpy(float)
@@ -270,6 +273,7 @@ def validate(ctx: Context, fit: CauseFit, keep: bool = False, whole: bool = Fals
             if keep and len(starts) == 1:
                 predictions.append(pred)
             if "diverged_at" in pred.attrs:
+                diverged.append(str(rec.attrs.get("name", "record")))
                 x, y = part["x0"].to_numpy(), part["y0"].to_numpy()
                 lost = float(np.sqrt(np.mean((x - x[0]) ** 2 + (y - y[0]) ** 2)))
                 errors["position_rmse"].append(lost)
@@ -283,6 +287,7 @@ def validate(ctx: Context, fit: CauseFit, keep: bool = False, whole: bool = Fals
                 errors[f"rmse_{c}"].append(
                     float(np.sqrt(np.mean((pred[c].to_numpy() - part[c].to_numpy()) ** 2))))
     fit.validation = {k: float(np.mean(v)) for k, v in errors.items()}
+    fit.validation["diverged"] = sorted(set(diverged))
     if keep:
         fit.validation["predictions"] = predictions
     return fit.validation

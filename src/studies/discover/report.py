@@ -8,6 +8,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..report.tables import markdown_table
+
 __all__ = ["write_discovery", "write_report", "plot_predictions", "plot_ranking", "plot_residuals"]
 
 
@@ -112,20 +114,11 @@ def plot_residuals(problems: dict, residuals: list, path: Path) -> None:
 
 
 def _md_table(df: pd.DataFrame) -> str:
+    """A report section's table: its index (or, unnamed, its first column) first."""
     if df is None or df.empty:
-        return "_(none)_\n"
-    df = df.reset_index() if df.index.name else df
-    cols = [str(c) for c in df.columns]
-    lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
-    for _, row in df.iterrows():
-        cells = []
-        for v in row.tolist():
-            if isinstance(v, float):
-                cells.append("-" if not np.isfinite(v) else f"{v:.4g}")
-            else:
-                cells.append(str(v))
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines) + "\n"
+        return markdown_table(pd.DataFrame())
+    table = df if df.index.name else df.set_index(df.columns[0])
+    return markdown_table(table, str(table.index.name))
 
 
 def write_report(out_dir: Path, discovery: dict, explanation: str, sections: list, figures: list) -> None:
@@ -163,6 +156,8 @@ def write_report(out_dir: Path, discovery: dict, explanation: str, sections: lis
                        f"(validation {d['second_cause']['validation_rmse']:.4g}).")
     elif d["cause"] != "none":
         verdict.append("\nNo second cause gains on top of it.")
+    if d.get("notes"):
+        verdict += ["", "Notes:"] + [f"- {note}" for note in d["notes"]]
     md = "\n".join(verdict) + "\n"
     for title, table in sections:
         md += f"\n## {title}\n\n" + (_md_table(table) if isinstance(table, pd.DataFrame) else str(table) + "\n")

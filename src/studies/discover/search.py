@@ -17,7 +17,7 @@ from .fitting import CauseFit, Context, calibrate, fit_cause, posterior, rescore
 from .output_error import (needs_refinement, noise_levels, output_error_scores, refine, refined_posterior,
                            score_terms, training_windows)
 
-__all__ = ["select_missing_terms", "forward_select", "terms_by_output_error", "search"]
+__all__ = ["select_missing_terms", "forward_select", "terms_by_output_error", "breaks_down", "search"]
 
 log = logging.getLogger(__name__)
 
@@ -173,6 +173,28 @@ def _refined_pair(ctx: Context, first: CauseFit, second: CauseFit, windows, sigm
     return refine(ctx, combo, windows, sigma, states=first.refined["states"])
 
 
+def _validated(ctx: Context, fit: CauseFit) -> CauseFit:
+    """Prediction error on the validation records: whole records (``fit.whole``)
+    and windows (``fit.validation``)."""
+    fit.whole = dict(validate(ctx, fit, whole=True))
+    validate(ctx, fit)
+    return fit
+
+
+def breaks_down(fit: CauseFit, reference: CauseFit) -> list:
+    """Validation records whose whole replay diverges with ``fit`` but not with
+    ``reference``: such an extension predicts a few minutes well and then
+    loses the ship, and is not named whatever its windowed error."""
+    return sorted(set(fit.whole.get("diverged", [])) - set(reference.whole.get("diverged", [])))
+
+
+def _gains(fit: CauseFit, reference: CauseFit) -> bool:
+    """``fit`` is preferred to ``reference``: score lower by :data:`EVIDENCE`,
+    windowed validation error lower, and no validation record lost."""
+    return (fit.score < reference.score - EVIDENCE and fit.validation_rmse < reference.validation_rmse
+            and not breaks_down(fit, reference))
+
+
 def _candidate_fits(ctx: Context, threshold: float, max_terms: int, refined: bool, windows, sigma):
     """Every applicable cause fitted (and refined, when ``refined``); returns
     ``(fits, selected terms, candidate terms)``, the baseline first."""
@@ -218,10 +240,12 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
       replaying the training records and scored by BIC on the replay's
       residual; missing terms come from score tests at the refined baseline.
 
-    Every fit is replayed on the validation records. A cause is chosen over
-    ``none`` only when its score is lower by :data:`EVIDENCE` and its
-    prediction error on the validation records is lower than the baseline's;
-    among those, the lowest score wins.
+    Every fit is replayed on the validation records, in windows and whole. A
+    cause is chosen over ``none`` only when its score is lower by
+    :data:`EVIDENCE`, its windowed prediction error on the validation
+    records is lower than the baseline's, and its whole replay of no
+    validation record diverges where the baseline's does not
+    (:func:`breaks_down`); among those, the lowest score wins.
     """
     sigma = noise_levels(ctx, ctx.train)
     output_error = needs_refinement(ctx, output_error, sigma)
@@ -229,12 +253,13 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
     fits, terms, candidates = _candidate_fits(ctx, threshold, max_terms, output_error, windows, sigma)
     scale = output_error_scores(fits) if output_error else None
     for fit in fits:
-        validate(ctx, fit)
-        log.info("cause %-18s score %.1f validation %.4g (%.1f s)", fit.cause.id, fit.score,
-                 fit.validation_rmse, fit.seconds)
+        _validated(ctx, fit)
+        log.info("cause %-18s score %.1f validation %.4g, whole records %.4g%s (%.1f s)", fit.cause.id,
+                 fit.score, fit.validation_rmse, fit.whole["position_rmse"],
+                 f" (diverges on {', '.join(fit.whole['diverged'])})" if fit.whole["diverged"] else "",
+                 fit.seconds)
     baseline = fits[0]
-    eligible = [f for f in fits if f is baseline or (
-        f.score < baseline.score - EVIDENCE and f.validation_rmse < baseline.validation_rmse)]
+    eligible = [f for f in fits if f is baseline or _gains(f, baseline)]
     best = min(eligible, key=lambda f: f.score)
     out = {"baseline": baseline, "fits": fits, "best": best, "terms": terms, "candidates": candidates,
            "second": None, "output_error": output_error}
@@ -255,10 +280,9 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
                 combo = Combined(first.cause, second_.cause,
                                  starts=[np.concatenate([first.theta, second_.theta])])
                 fit = fit_cause(ctx, combo)
-            validate(ctx, fit)
+            _validated(ctx, fit)
             pairs.append(fit)
-        gaining = [f for f in pairs
-                   if f.score < best.score - EVIDENCE and f.validation_rmse < best.validation_rmse]
+        gaining = [f for f in pairs if _gains(f, best)]
         out["pairs"] = pairs
         out["second"] = min(gaining, key=lambda f: f.score) if gaining else None
     if best.refined is not None and best is not baseline:

@@ -135,7 +135,7 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
     from ..discover.fitting import Context, regression_fit, validate
     from ..discover.report import (indistinguishable, plot_predictions, plot_ranking, plot_residuals,
                                    write_discovery, write_report)
-    from ..discover.search import search
+    from ..discover.search import breaks_down, search
 
     opts = study.cfg.discover
     t0 = time.perf_counter()
@@ -175,7 +175,9 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
         "gain_pct": 100.0 * (b_rmse - e_rmse) / b_rmse if b_rmse > 0 else 0.0,
         "units": "m (position RMSE over prediction windows)",
         "ranking": [{"cause": f.cause.id, "score": float(f.score - top),
-                     "validation_rmse": f.validation_rmse} for f in ranked],
+                     "validation_rmse": f.validation_rmse,
+                     "validation_rmse_whole_records": f.whole["position_rmse"],
+                     "diverges_on": breaks_down(f, baseline)} for f in ranked],
         "second_cause": ({"cause": result["second"].cause.id,
                           "parameters": result["second"].cause.parameters(result["second"].theta,
                                                                           result["second"].params),
@@ -186,11 +188,17 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
         "selected_terms": [t.name for t in result["terms"]],
         "notes": study.notes,
     }
+    for f in ranked:
+        lost = breaks_down(f, baseline)
+        if lost and f.score < baseline.score and f.validation_rmse < baseline.validation_rmse:
+            study.notes.append(f"{f.cause.id} not named: its prediction of {', '.join(lost)} diverges "
+                               f"(the baseline's does not), although its windowed error is lower")
     discovery["indistinguishable_from"] = indistinguishable(discovery["ranking"], discovery["cause"])
     # what the baseline gets wrong
     base_params, residuals, problems = regression_fit(ctx, Setup(ctx.model, ctx.train))
-    sections = [("Ranking of the causes",
-                 pd.DataFrame(discovery["ranking"]).set_index("cause"))]
+    ranking = pd.DataFrame(discovery["ranking"]).set_index("cause")
+    ranking["diverges_on"] = [", ".join(names) for names in ranking["diverges_on"]]
+    sections = [("Ranking of the causes (validation: windowed and whole-record position RMSE, m)", ranking)]
     phase_tables, char_tables, figures = [], [], []
     for rec, pb, pe in zip(ctx.validation, full_base["predictions"], full_best["predictions"]):
         name = str(rec.attrs.get("name", "record"))
