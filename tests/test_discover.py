@@ -15,6 +15,7 @@ from hydra import compose, initialize_config_module
 
 from conftest import SHARED_DATA, marin_file
 from studies.discover.hidden import hidden_records, hidden_roll_decays, parameters_match, write_records
+from studies.errors import ConfigError
 from studies.workflows.discover import execute_discover, prepare_discover
 
 
@@ -62,6 +63,34 @@ def test_hidden_effect_is_named_under_5_percent_noise(tmp_path, vessel, cause):
     assert d["cause"] == cause, (d["cause"], d["ranking"][:3])
     assert parameters_match(cause, d["parameters"], truth), (d["parameters"], truth)
     assert d["gain_pct"] > 5.0
+
+
+@pytest.mark.slow
+def test_every_record_held_out_in_turn_names_the_same_hidden_offset(tmp_path, vessel):
+    """``discover.splits``: each of the three records is held out once, the cause
+    fitted on the other two; a real offset is found in every split."""
+    records, truth = hidden_records(vessel, "rudder_offset", seed=11)
+    d = _discover(tmp_path, records, ["discover.second_cause=false", "discover.posterior_steps=15",
+                                      "discover.splits=true"])
+    check("rudder_offset", d, truth)
+    names = [str(r.attrs["name"]) for r in records[:3]]
+    assert [row["held_out"] for row in d["splits"]] == names
+    for row in d["splits"]:
+        assert row["cause"] == "rudder_offset", row
+        assert parameters_match("rudder_offset", row["parameters"], truth), (row, truth)
+        assert row["gain_pct"] > 50.0 and row["extended_validation_rmse"] < row["baseline_validation_rmse"]
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert "the same cause as above in 3 of 3 splits." in report
+    assert "## Every record held out in turn" in report
+
+
+def test_splits_need_two_records(tmp_path, vessel):
+    records, _ = hidden_records(vessel, "none", seed=11)
+    paths = write_records(records[:1], tmp_path)
+    with initialize_config_module("studies.conf", version_base="1.3"):
+        cfg = compose("discover", overrides=[f"data.path=[{paths[0]}]", "discover.splits=true"])
+    with pytest.raises(ConfigError, match="discover.splits=true needs two or more records"):
+        prepare_discover(cfg, tmp_path)
 
 
 @pytest.mark.slow

@@ -147,6 +147,16 @@ def write_report(out_dir: Path, discovery: dict, explanation: str, sections: lis
         others = ", ".join(f"**{c}**" for c in d["indistinguishable_from"])
         verdict.append(f"\nThe training data do not tell it apart from {others} (scores within "
                        f"{INDISTINGUISHABLE:g}): the choice between them is not established by these records.")
+    if d.get("splits"):
+        named = {}
+        for row in d["splits"]:
+            named[row["cause"]] = named.get(row["cause"], 0) + 1
+        agree = named.get(d["cause"], 0)
+        verdict.append(f"\nHolding out each of the {len(d['splits'])} records in turn names "
+                       + ", ".join(f"**{c}** {k} time{'s' if k > 1 else ''}" for c, k in named.items())
+                       + f": the same cause as above in {agree} of {len(d['splits'])}"
+                       + (" splits." if agree == len(d["splits"]) else
+                          " splits, so the verdict depends on which manoeuvre is held out."))
     if d.get("fit"):
         how = ("replays of the training records (output error)" if d["fit"] == "output error"
                else "the regression residual (equation error)")

@@ -226,7 +226,7 @@ def _candidate_fits(ctx: Context, threshold: float, max_terms: int, refined: boo
 
 
 def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: bool = True,
-           posterior_steps: int = 40, seed: int = 0, output_error="auto") -> dict:
+           posterior_steps: int = 40, seed: int = 0, output_error="auto", intervals: bool = True) -> dict:
     """Fit every applicable cause, rank them, pick one, try a second, get intervals.
 
     Two ways of fitting and scoring, chosen by ``output_error``
@@ -245,7 +245,8 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
     :data:`EVIDENCE`, its windowed prediction error on the validation
     records is lower than the baseline's, and its whole replay of no
     validation record diverges where the baseline's does not
-    (:func:`breaks_down`); among those, the lowest score wins.
+    (:func:`breaks_down`); among those, the lowest score wins. The winner's
+    90 % intervals come from emcee unless ``intervals`` is false.
     """
     sigma = noise_levels(ctx, ctx.train)
     output_error = needs_refinement(ctx, output_error, sigma)
@@ -285,7 +286,9 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
         gaining = [f for f in pairs if _gains(f, best)]
         out["pairs"] = pairs
         out["second"] = min(gaining, key=lambda f: f.score) if gaining else None
-    if best.refined is not None and best is not baseline:
+    if not intervals:
+        out["posterior"] = {}
+    elif best.refined is not None and best is not baseline:
         out["posterior"] = refined_posterior(ctx, best, steps=posterior_steps, seed=seed)
     else:
         out["posterior"] = posterior(ctx, best, steps=posterior_steps, seed=seed) if len(best.theta) else {}

@@ -10,6 +10,7 @@ run exists (:func:`prepare_discover`); :func:`execute_discover` writes
 
 from __future__ import annotations
 
+import logging
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -22,7 +23,9 @@ from ..errors import ConfigError
 from ..vessels import get_vessel
 from .settings import as_path_list
 
-__all__ = ["DiscoverStudy", "prepare_discover", "execute_discover", "holdout"]
+__all__ = ["DiscoverStudy", "prepare_discover", "execute_discover", "holdout", "split_discoveries"]
+
+log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -35,6 +38,8 @@ class DiscoverStudy:
     validation: list
     simulation: object = None
     notes: list = field(default_factory=list)
+    #: every whole record given (data.path, then validate.path), for ``discover.splits``
+    records: list = field(default_factory=list)
 
 
 def smooth_measured(record: pd.DataFrame) -> pd.DataFrame:
@@ -107,7 +112,10 @@ def prepare_discover(cfg, root: Path) -> DiscoverStudy:
     sim = load_measured([str(simulation)])[0] if simulation else None
     if str(cfg.data.get("derivative", "auto")) in ("ekf", "ekf_kinematic"):
         records = [smooth_measured(r) for r in records]
-    study = DiscoverStudy(cfg, "manoeuvring", vessel, model, records, val, sim)
+    study = DiscoverStudy(cfg, "manoeuvring", vessel, model, records, val, sim, records=records + val)
+    if bool(cfg.discover.get("splits", False)) and len(study.records) < 2:
+        raise ConfigError("discover.splits=true needs two or more records (data.path + validate.path) "
+                          "to hold out in turn")
     if not val:
         study.train, study.validation, note = holdout(records, share)
         study.notes.append(note)
@@ -127,6 +135,42 @@ def execute_discover(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
     if study.kind == "roll":
         return _execute_roll(study, out_dir)
     return _execute_manoeuvring(study, out_dir)
+
+
+def _compact(params: dict) -> str:
+    """A cause's parameters on one line (added terms by name)."""
+    flat = {}
+    for key, value in params.items():
+        flat.update(value if isinstance(value, dict) else {key: value})
+    return ", ".join(f"{k} = {v:.4g}" if isinstance(v, float) else f"{k} = {v}" for k, v in flat.items())
+
+
+def split_discoveries(study: DiscoverStudy, ctx, opts) -> list[dict]:
+    """Every record held out in turn: the cause each split names, fitted on the
+    other records and judged on the held-out one (no second cause, no
+    intervals). Shows whether the named cause depends on which manoeuvre
+    was kept for validation."""
+    from ..discover.fitting import Context
+    from ..discover.search import search
+
+    rows = []
+    for k, held in enumerate(study.records):
+        train = [r for j, r in enumerate(study.records) if j != k]
+        split = Context(ctx.vessel, ctx.model, train, [held], ctx.derivative)
+        split.horizon = ctx.horizon
+        result = search(split, float(opts.terms_threshold), int(opts.max_terms), second=False,
+                        seed=int(study.cfg.seed), output_error=opts.get("output_error", "auto"),
+                        intervals=False)
+        best, base = result["best"], result["baseline"]
+        b, e = base.validation_rmse, best.validation_rmse
+        rows.append({"held_out": str(held.attrs.get("name", f"record {k + 1}")), "cause": best.cause.id,
+                     "parameters": best.cause.parameters(best.theta, best.params),
+                     "baseline_validation_rmse": b, "extended_validation_rmse": e,
+                     "gain_pct": 100.0 * (b - e) / b if b > 0 else 0.0,
+                     "fit": "output error" if result["output_error"] else "equation error"})
+        log.info("split holding out %s: %s, gain %.1f %%", rows[-1]["held_out"], best.cause.id,
+                 rows[-1]["gain_pct"])
+    return rows
 
 
 def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
@@ -194,6 +238,8 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
             study.notes.append(f"{f.cause.id} not named: its prediction of {', '.join(lost)} diverges "
                                f"(the baseline's does not), although its windowed error is lower")
     discovery["indistinguishable_from"] = indistinguishable(discovery["ranking"], discovery["cause"])
+    if bool(opts.get("splits", False)):
+        discovery["splits"] = split_discoveries(study, ctx, opts)
     # what the baseline gets wrong
     base_params, residuals, problems = regression_fit(ctx, Setup(ctx.model, ctx.train))
     ranking = pd.DataFrame(discovery["ranking"]).set_index("cause")
@@ -214,6 +260,10 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
         if cause.id != "none":
             phase_tables.append(dg.phase_errors(rec, pe, name).assign(model="extended"))
         char_tables.append(dg.characteristic_table(rec, preds, name))
+    if discovery.get("splits"):
+        table = pd.DataFrame(discovery["splits"]).set_index("held_out")
+        table["parameters"] = [_compact(p) for p in table["parameters"]]
+        sections.append(("Every record held out in turn (validation: windowed position RMSE, m)", table))
     sections.append(("Prediction error per manoeuvre phase (u, v in m/s, r in deg/s)",
                      pd.concat(phase_tables, ignore_index=True) if phase_tables else pd.DataFrame()))
     for table in char_tables:
@@ -232,6 +282,9 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
                "runtime/total_s": time.perf_counter() - t0}
     for f in result["fits"]:
         metrics[f"discover/score/{f.cause.id}"] = float(f.score - top)
+    if discovery.get("splits"):
+        metrics["discover/splits_agreeing"] = float(sum(r["cause"] == cause.id for r in discovery["splits"]))
+        metrics["discover/splits"] = float(len(discovery["splits"]))
     return discovery, metrics
 
 
