@@ -196,6 +196,18 @@ def test_discover_command_writes_discovery_and_logs_a_run(tmp_path, vessel):
 
 
 
+def _discover_kvlcc2(tmp_path, training: tuple, held_out: str) -> dict:
+    """The MARIN KVLCC2 records: a symmetric baseline from ``training``, judged on ``held_out``."""
+    train = [marin_file(m) for m in training]
+    with initialize_config_module("studies.conf", version_base="1.3"):
+        cfg = compose("discover", overrides=["vessel=kvlcc2", "model=symmetric",
+                                             f"data.path=[{','.join(str(f) for f in train)}]",
+                                             f"validate.path=[{marin_file(held_out)}]",
+                                             "discover.second_cause=false", "discover.posterior_steps=15"])
+    d, _ = execute_discover(prepare_discover(cfg, tmp_path), tmp_path / "out")
+    return d
+
+
 @pytest.mark.slow
 def test_kvlcc2_symmetric_baseline_judged_on_the_turning_circle(tmp_path):
     """Real data: a symmetric baseline identified from the two zig-zags, judged on the
@@ -204,13 +216,7 @@ def test_kvlcc2_symmetric_baseline_judged_on_the_turning_circle(tmp_path):
     that only reads the ship faster through the water: before the residuals were
     scored at the nominal speed, a 'current' won the regression score by about 13 000
     while predicting the turning circle twice as badly."""
-    files = [marin_file(m) for m in ("zz_10", "zz_20", "tc_35")]
-    with initialize_config_module("studies.conf", version_base="1.3"):
-        cfg = compose("discover", overrides=["vessel=kvlcc2", "model=symmetric",
-                                             f"data.path=[{files[0]},{files[1]}]",
-                                             f"validate.path=[{files[2]}]",
-                                             "discover.second_cause=false", "discover.posterior_steps=15"])
-    d, _ = execute_discover(prepare_discover(cfg, tmp_path), tmp_path / "out")
+    d = _discover_kvlcc2(tmp_path, ("zz_10", "zz_20"), "tc_35")
     print(json.dumps({k: d[k] for k in ("cause", "parameters", "gain_pct", "ranking", "candidate_terms")}))
     scores = {r["cause"]: r["score"] for r in d["ranking"]}
     assert scores["current"] > scores["none"] - 10.0, scores
@@ -229,13 +235,7 @@ def test_a_cause_whose_prediction_diverges_is_not_named(tmp_path):
     than the baseline, but replayed over the whole zig-zag each loses the ship
     (the baseline does not): before whole replays were checked, 'current' was
     named with a 78 % gain."""
-    files = [marin_file(m) for m in ("zz_10", "tc_35", "zz_20")]
-    with initialize_config_module("studies.conf", version_base="1.3"):
-        cfg = compose("discover", overrides=["vessel=kvlcc2", "model=symmetric",
-                                             f"data.path=[{files[0]},{files[1]}]",
-                                             f"validate.path=[{files[2]}]",
-                                             "discover.second_cause=false", "discover.posterior_steps=15"])
-    d, _ = execute_discover(prepare_discover(cfg, tmp_path), tmp_path / "out")
+    d = _discover_kvlcc2(tmp_path, ("zz_10", "tc_35"), "zz_20")
     rows = {r["cause"]: r for r in d["ranking"]}
     base = rows["none"]
     lost = [c for c, r in rows.items() if r["diverges_on"]]
