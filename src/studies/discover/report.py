@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -148,9 +149,7 @@ def write_report(out_dir: Path, discovery: dict, explanation: str, sections: lis
         verdict.append(f"\nThe training data do not tell it apart from {others} (scores within "
                        f"{INDISTINGUISHABLE:g}): the choice between them is not established by these records.")
     if d.get("splits"):
-        named = {}
-        for row in d["splits"]:
-            named[row["cause"]] = named.get(row["cause"], 0) + 1
+        named = Counter(row["cause"] for row in d["splits"])
         agree = named.get(d["cause"], 0)
         verdict.append(f"\nHolding out each of the {len(d['splits'])} records in turn names "
                        + ", ".join(f"**{c}** {k} time{'s' if k > 1 else ''}" for c, k in named.items())

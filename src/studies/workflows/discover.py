@@ -230,13 +230,12 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
         "fit": "output error" if result["output_error"] else "equation error",
         "candidate_terms": [t.name for t in result["candidates"]],
         "selected_terms": [t.name for t in result["terms"]],
-        "notes": study.notes,
+        "notes": study.notes + [
+            f"{f.cause.id} not named: its prediction of {', '.join(breaks_down(f, baseline))} diverges "
+            "(the baseline's does not), although its windowed error is lower"
+            for f in ranked if breaks_down(f, baseline) and f.score < baseline.score
+            and f.validation_rmse < baseline.validation_rmse],
     }
-    for f in ranked:
-        lost = breaks_down(f, baseline)
-        if lost and f.score < baseline.score and f.validation_rmse < baseline.validation_rmse:
-            study.notes.append(f"{f.cause.id} not named: its prediction of {', '.join(lost)} diverges "
-                               f"(the baseline's does not), although its windowed error is lower")
     discovery["indistinguishable_from"] = indistinguishable(discovery["ranking"], discovery["cause"])
     if bool(opts.get("splits", False)):
         discovery["splits"] = split_discoveries(study, ctx, opts)
