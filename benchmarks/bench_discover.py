@@ -7,7 +7,7 @@ right cause with the parameter within 20 % (angles within 0.2 rad). Set
 ``STUDIES_BENCH_SEEDS`` (default 2) and ``STUDIES_BENCH_NOISE`` (default
 "0,0.05") to choose the effort; the runs use all cores. Roll decays
 (``roll_quadratic_damping``, ``roll_cubic_damping``) are scored the same way
-at 1 % and 5 % noise (``STUDIES_BENCH_ROLL_SEEDS``, default 10).
+at 1 % and 5 % noise (``STUDIES_BENCH_ROLL_SEEDS``, default 10; 0 leaves them out).
 """
 
 import os
@@ -76,6 +76,8 @@ def run() -> dict:
             hits = [r[3] for r in results if r[0] == cause and r[1] == n]
             out[f"discover_hit_rate/{cause}/noise={n:g}"] = float(np.mean(hits))
     roll_seeds = int(os.environ.get("STUDIES_BENCH_ROLL_SEEDS", "10"))
+    if roll_seeds < 1:
+        return out
     roll = Parallel(n_jobs=-1)(delayed(_one_roll)(c, 100 + s, n) for c in HIDDEN_ROLL_CAUSES
                                for n in (0.01, 0.05) for s in range(roll_seeds))
     for cause in HIDDEN_ROLL_CAUSES:
