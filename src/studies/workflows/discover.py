@@ -145,22 +145,30 @@ def _compact(params: dict) -> str:
     return ", ".join(f"{k} = {v:.4g}" if isinstance(v, float) else f"{k} = {v}" for k, v in flat.items())
 
 
-def split_discoveries(study: DiscoverStudy, ctx, opts) -> list[dict]:
+def _same_records(a: list, b: list) -> bool:
+    return len(a) == len(b) and all(x is y for x, y in zip(a, b))
+
+
+def split_discoveries(study: DiscoverStudy, ctx, opts, main: dict) -> list[dict]:
     """Every record held out in turn: the cause each split names, fitted on the
     other records and judged on the held-out one (no second cause, no
     intervals). Shows whether the named cause depends on which manoeuvre
-    was kept for validation."""
+    was kept for validation. The split that is the main discovery's own
+    (same training and validation records) reuses its search ``main``."""
     from ..discover.fitting import Context
     from ..discover.search import search
 
     rows = []
     for k, held in enumerate(study.records):
         train = [r for j, r in enumerate(study.records) if j != k]
-        split = Context(ctx.vessel, ctx.model, train, [held], ctx.derivative)
-        split.horizon = ctx.horizon
-        result = search(split, float(opts.terms_threshold), int(opts.max_terms), second=False,
-                        seed=int(study.cfg.seed), output_error=opts.get("output_error", "auto"),
-                        intervals=False)
+        if _same_records(train, study.train) and _same_records([held], study.validation):
+            result = main
+        else:
+            split = Context(ctx.vessel, ctx.model, train, [held], ctx.derivative)
+            split.horizon = ctx.horizon
+            result = search(split, float(opts.terms_threshold), int(opts.max_terms), second=False,
+                            seed=int(study.cfg.seed), output_error=opts.get("output_error", "auto"),
+                            intervals=False)
         best, base = result["best"], result["baseline"]
         b, e = base.validation_rmse, best.validation_rmse
         rows.append({"held_out": str(held.attrs.get("name", f"record {k + 1}")), "cause": best.cause.id,
@@ -238,7 +246,7 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
     }
     discovery["indistinguishable_from"] = indistinguishable(discovery["ranking"], discovery["cause"])
     if bool(opts.get("splits", False)):
-        discovery["splits"] = split_discoveries(study, ctx, opts)
+        discovery["splits"] = split_discoveries(study, ctx, opts, result)
     # what the baseline gets wrong
     base_params, residuals, problems = regression_fit(ctx, Setup(ctx.model, ctx.train))
     ranking = pd.DataFrame(discovery["ranking"]).set_index("cause")
