@@ -174,9 +174,10 @@ def _refined_pair(ctx: Context, first: CauseFit, second: CauseFit, windows, sigm
 
 
 def _validated(ctx: Context, fit: CauseFit) -> CauseFit:
-    """Prediction error on the validation records: whole records (``fit.whole``)
-    and windows (``fit.validation``)."""
-    fit.whole = dict(validate(ctx, fit, whole=True))
+    """Prediction error on the validation records: whole records (``fit.whole``,
+    with their replays under ``"predictions"`` for the figures) and windows
+    (``fit.validation``)."""
+    fit.whole = dict(validate(ctx, fit, keep=True, whole=True))
     validate(ctx, fit)
     return fit
 

@@ -23,7 +23,8 @@ from ..errors import ConfigError
 from ..vessels import get_vessel
 from .settings import as_path_list
 
-__all__ = ["DiscoverStudy", "prepare_discover", "execute_discover", "holdout", "split_discoveries"]
+__all__ = ["DiscoverStudy", "prepare_discover", "execute_discover", "holdout", "split_discoveries",
+           "gain_pct"]
 
 log = logging.getLogger(__name__)
 
@@ -137,6 +138,11 @@ def execute_discover(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
     return _execute_manoeuvring(study, out_dir)
 
 
+def gain_pct(baseline_rmse: float, extended_rmse: float) -> float:
+    """What the extension gains on the validation error [%] (0 for a zero baseline error)."""
+    return 100.0 * (baseline_rmse - extended_rmse) / baseline_rmse if baseline_rmse > 0 else 0.0
+
+
 def _compact(params: dict) -> str:
     """A cause's parameters on one line (added terms by name)."""
     flat = {}
@@ -174,7 +180,7 @@ def split_discoveries(study: DiscoverStudy, ctx, opts, main: dict) -> list[dict]
         rows.append({"held_out": str(held.attrs.get("name", f"record {k + 1}")), "cause": best.cause.id,
                      "parameters": best.cause.parameters(best.theta, best.params),
                      "baseline_validation_rmse": b, "extended_validation_rmse": e,
-                     "gain_pct": 100.0 * (b - e) / b if b > 0 else 0.0,
+                     "gain_pct": gain_pct(b, e),
                      "fit": "output error" if result["output_error"] else "equation error"})
         log.info("split holding out %s: %s, gain %.1f %%", rows[-1]["held_out"], best.cause.id,
                  rows[-1]["gain_pct"])
@@ -184,7 +190,7 @@ def split_discoveries(study: DiscoverStudy, ctx, opts, main: dict) -> list[dict]
 def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
     from ..discover import diagnostics as dg
     from ..discover.causes import Setup
-    from ..discover.fitting import Context, regression_fit, validate
+    from ..discover.fitting import Context, regression_fit
     from ..discover.report import (indistinguishable, plot_predictions, plot_ranking, plot_residuals,
                                    write_discovery, write_report)
     from ..discover.search import breaks_down, search
@@ -200,12 +206,7 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
                     int(opts.posterior_steps), int(study.cfg.seed), opts.get("output_error", "auto"))
     best, baseline = result["best"], result["baseline"]
     # whole-record predictions for the figures and the characteristics
-    for fit in (baseline, best):
-        validate(ctx, fit, keep=True, whole=True)
-    full_base = dict(baseline.validation)
-    full_best = dict(best.validation)
-    validate(ctx, baseline)
-    validate(ctx, best)
+    full_base, full_best = baseline.whole, best.whole
     cause = best.cause
     params = cause.parameters(best.theta, best.params)
     post = result.get("posterior") or {}
@@ -218,18 +219,19 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
             uncertainty["direction"] = [float(x) % (2 * np.pi) for x in uncertainty["direction"]]
     ranked = sorted(result["fits"], key=lambda f: f.score)
     top = ranked[0].score
+    lost = {f.cause.id: breaks_down(f, baseline) for f in ranked}
     b_rmse, e_rmse = baseline.validation_rmse, best.validation_rmse
     discovery = {
         "cause": cause.id, "parameters": params, "uncertainty": uncertainty,
         "explanation": cause.explanation,
         "baseline": {"validation_rmse": b_rmse, "validation_rmse_whole_records": full_base["position_rmse"]},
         "extended": {"validation_rmse": e_rmse, "validation_rmse_whole_records": full_best["position_rmse"]},
-        "gain_pct": 100.0 * (b_rmse - e_rmse) / b_rmse if b_rmse > 0 else 0.0,
+        "gain_pct": gain_pct(b_rmse, e_rmse),
         "units": "m (position RMSE over prediction windows)",
         "ranking": [{"cause": f.cause.id, "score": float(f.score - top),
                      "validation_rmse": f.validation_rmse,
                      "validation_rmse_whole_records": f.whole["position_rmse"],
-                     "diverges_on": breaks_down(f, baseline)} for f in ranked],
+                     "diverges_on": lost[f.cause.id]} for f in ranked],
         "second_cause": ({"cause": result["second"].cause.id,
                           "parameters": result["second"].cause.parameters(result["second"].theta,
                                                                           result["second"].params),
@@ -239,9 +241,9 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
         "candidate_terms": [t.name for t in result["candidates"]],
         "selected_terms": [t.name for t in result["terms"]],
         "notes": study.notes + [
-            f"{f.cause.id} not named: its prediction of {', '.join(breaks_down(f, baseline))} diverges "
+            f"{f.cause.id} not named: its prediction of {', '.join(lost[f.cause.id])} diverges "
             "(the baseline's does not), although its windowed error is lower"
-            for f in ranked if breaks_down(f, baseline) and f.score < baseline.score
+            for f in ranked if lost[f.cause.id] and f.score < baseline.score
             and f.validation_rmse < baseline.validation_rmse],
     }
     discovery["indistinguishable_from"] = indistinguishable(discovery["ranking"], discovery["cause"])
@@ -314,7 +316,7 @@ def _execute_roll(study: DiscoverStudy, out_dir: Path):
         "baseline": {"validation_rmse": b, "params": base["params"],
                      "source": "simulation.path" if study.simulation is not None else "data"},
         "extended": {"validation_rmse": e, "params": best["params"]},
-        "gain_pct": 100.0 * (b - e) / b if b > 0 else 0.0, "units": "deg (roll angle RMSE)",
+        "gain_pct": gain_pct(b, e), "units": "deg (roll angle RMSE)",
         "ranking": [{"cause": f["cause"], "score": float(f["score"] - ranked[0]["score"]),
                      "validation_rmse": f["validation_rmse_deg"]} for f in ranked],
         "second_cause": None, "notes": study.notes,
