@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -37,7 +37,7 @@ from ..simulate.simulator import replay
 from .causes import Cause, Setup
 
 __all__ = ["Context", "CauseFit", "regression_fit", "scored_fit", "nominal_residuals", "fit_cause",
-           "validate", "posterior", "sample_intervals"]
+           "validate", "training_error", "posterior", "sample_intervals"]
 
 log = logging.getLogger(__name__)
 
@@ -291,6 +291,14 @@ def validate(ctx: Context, fit: CauseFit, keep: bool = False, whole: bool = Fals
     if keep:
         fit.validation["predictions"] = predictions
     return fit.validation
+
+
+def training_error(ctx: Context, fit: CauseFit) -> float:
+    """Windowed position error [m] of ``fit`` replaying its own training
+    records, windows as in :func:`validate`: how well the model predicts the
+    motions it was fitted to, the yardstick for its error on held-out ones.
+    ``fit`` itself is left unchanged."""
+    return validate(replace(ctx, validation=ctx.train), replace(fit))["position_rmse"]
 
 
 def posterior(ctx: Context, fit: CauseFit, walkers: int = 6, steps: int = 40, burn: int = 15,

@@ -122,6 +122,31 @@ def _md_table(df: pd.DataFrame) -> str:
     return markdown_table(table, str(table.index.name))
 
 
+def _explained(d: dict) -> list[str]:
+    """Verdict lines: does the named model explain the held-out records, and
+    where the baseline departs most from them."""
+    lines = []
+    named = d["extended"] if d["cause"] != "none" else d["baseline"]
+    if named.get("training_rmse") is not None:
+        who = "extended model" if d["cause"] != "none" else "identified model"
+        v, t = named["validation_rmse"], named["training_rmse"]
+        ratio = f" ({v / t:.1f} times as much)" if t > 0 else ""
+        lines.append(f"\nThe {who} predicts the records it was fitted to with {t:.4g} m and the held-out "
+                     f"ones with {v:.4g} m{ratio}: "
+                     + ("it explains them." if d.get("explains_validation", True) else
+                        "it does not explain them."))
+    units = {"u": "m/s", "v": "m/s", "r": "deg/s"}
+    if d.get("departures"):
+        lines.append("\nWhere the baseline departs most from the held-out records (whole replay, means over "
+                     "the phase):\n")
+        for row in d["departures"]:
+            lines.append(f"- {row['record']}, {row['phase']} ({row['share_%']:.0f} % of the record): "
+                         f"{row['state']} {row['predicted_mean']:.3g} predicted against "
+                         f"{row['measured_mean']:.3g} {units[row['state']]} measured, "
+                         f"RMSE {row['rmse']:.3g} {units[row['state']]}")
+    return lines
+
+
 def write_report(out_dir: Path, discovery: dict, explanation: str, sections: list, figures: list) -> None:
     """report.md and report.html: verdict first, then evidence."""
     out_dir = Path(out_dir)
@@ -144,6 +169,7 @@ def write_report(out_dir: Path, discovery: dict, explanation: str, sections: lis
     b, e = d["baseline"]["validation_rmse"], d["extended"]["validation_rmse"]
     verdict.append(f"Prediction error on data not used for fitting: baseline {b:.4g}, extended {e:.4g} "
                    f"{d.get('units', '')} -> gain {d['gain_pct']:.1f} %.")
+    verdict += _explained(d)
     if d.get("indistinguishable_from"):
         others = ", ".join(f"**{c}**" for c in d["indistinguishable_from"])
         verdict.append(f"\nThe training data do not tell it apart from {others} (scores within "
@@ -156,6 +182,11 @@ def write_report(out_dir: Path, discovery: dict, explanation: str, sections: lis
                        + f": the same cause as above in {agree} of {len(d['splits'])}"
                        + (" splits." if agree == len(d["splits"]) else
                           " splits, so the verdict depends on which manoeuvre is held out."))
+        unexplained = [row["held_out"] for row in d["splits"] if not row.get("explains_validation", True)]
+        if unexplained:
+            verdict.append(f"The model each split names does not explain {len(unexplained)} of the "
+                           f"{len(d['splits'])} held-out records ({', '.join(unexplained)}): its error there "
+                           "is many times that on the records it was fitted to.")
     if d.get("fit"):
         how = ("replays of the training records (output error)" if d["fit"] == "output error"
                else "the regression residual (equation error)")

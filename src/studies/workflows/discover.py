@@ -161,12 +161,14 @@ def split_discoveries(study: DiscoverStudy, ctx, opts, main: dict) -> list[dict]
     intervals). Shows whether the named cause depends on which manoeuvre
     was kept for validation. The split that is the main discovery's own
     (same training and validation records) reuses its search ``main``."""
-    from ..discover.fitting import Context
+    from ..discover.diagnostics import explains
+    from ..discover.fitting import Context, training_error
     from ..discover.search import search
 
     rows = []
     for k, held in enumerate(study.records):
         train = [r for j, r in enumerate(study.records) if j != k]
+        split = ctx
         if _same_records(train, study.train) and _same_records([held], study.validation):
             result = main
         else:
@@ -177,20 +179,44 @@ def split_discoveries(study: DiscoverStudy, ctx, opts, main: dict) -> list[dict]
                             intervals=False)
         best, base = result["best"], result["baseline"]
         b, e = base.validation_rmse, best.validation_rmse
+        own = training_error(split, best)
         rows.append({"held_out": str(held.attrs.get("name", f"record {k + 1}")), "cause": best.cause.id,
                      "parameters": best.cause.parameters(best.theta, best.params),
                      "baseline_validation_rmse": b, "extended_validation_rmse": e,
-                     "gain_pct": gain_pct(b, e),
+                     "gain_pct": gain_pct(b, e), "training_rmse": own,
+                     "explains_validation": explains(e, own, study.vessel.length),
                      "fit": "output error" if result["output_error"] else "equation error"})
         log.info("split holding out %s: %s, gain %.1f %%", rows[-1]["held_out"], best.cause.id,
                  rows[-1]["gain_pct"])
     return rows
 
 
+#: the baseline's largest departures kept in ``discovery.json`` and the verdict
+DEPARTURES = 3
+
+UNEXPLAINED = ("No cause in the catalogue gains on unseen data, yet the identified model does not "
+               "explain them: its prediction error on the held-out records is many times that on the "
+               "records it was fitted to. What the simulation gets wrong is listed below; no catalogue "
+               "cause fitted to these training records removes it.")
+
+
+def _departures(records: list, predictions: list, vessel) -> pd.DataFrame:
+    """The baseline's departures from every validation record, largest first
+    (:func:`studies.discover.diagnostics.departures`)."""
+    from ..discover import diagnostics as dg
+
+    tables = [dg.departures(rec, pred, str(rec.attrs.get("name", "record")), vessel)
+              for rec, pred in zip(records, predictions)]
+    tables = [t for t in tables if not t.empty]
+    if not tables:
+        return pd.DataFrame()
+    return pd.concat(tables, ignore_index=True).sort_values("rmse_prime", ascending=False, ignore_index=True)
+
+
 def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
     from ..discover import diagnostics as dg
     from ..discover.causes import Setup
-    from ..discover.fitting import Context, regression_fit
+    from ..discover.fitting import Context, regression_fit, training_error
     from ..discover.report import (indistinguishable, plot_predictions, plot_ranking, plot_residuals,
                                    write_discovery, write_report)
     from ..discover.search import breaks_down, search
@@ -221,11 +247,17 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
     top = ranked[0].score
     lost = {f.cause.id: breaks_down(f, baseline) for f in ranked}
     b_rmse, e_rmse = baseline.validation_rmse, best.validation_rmse
+    b_train = training_error(ctx, baseline)
+    e_train = b_train if best is baseline else training_error(ctx, best)
+    explained = dg.explains(e_rmse, e_train, study.vessel.length)
     discovery = {
         "cause": cause.id, "parameters": params, "uncertainty": uncertainty,
-        "explanation": cause.explanation,
-        "baseline": {"validation_rmse": b_rmse, "validation_rmse_whole_records": full_base["position_rmse"]},
-        "extended": {"validation_rmse": e_rmse, "validation_rmse_whole_records": full_best["position_rmse"]},
+        "explanation": cause.explanation if explained or cause.id != "none" else UNEXPLAINED,
+        "baseline": {"validation_rmse": b_rmse, "validation_rmse_whole_records": full_base["position_rmse"],
+                     "training_rmse": b_train},
+        "extended": {"validation_rmse": e_rmse, "validation_rmse_whole_records": full_best["position_rmse"],
+                     "training_rmse": e_train},
+        "explains_validation": explained,
         "gain_pct": gain_pct(b_rmse, e_rmse),
         "units": "m (position RMSE over prediction windows)",
         "ranking": [{"cause": f.cause.id, "score": float(f.score - top),
@@ -247,6 +279,8 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
             and f.validation_rmse < baseline.validation_rmse],
     }
     discovery["indistinguishable_from"] = indistinguishable(discovery["ranking"], discovery["cause"])
+    departed = _departures(ctx.validation, full_base["predictions"], study.vessel)
+    discovery["departures"] = departed.head(DEPARTURES).to_dict("records")
     if bool(opts.get("splits", False)):
         discovery["splits"] = split_discoveries(study, ctx, opts, result)
     # what the baseline gets wrong
@@ -254,6 +288,9 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
     ranking = pd.DataFrame(discovery["ranking"]).set_index("cause")
     ranking["diverges_on"] = [", ".join(names) for names in ranking["diverges_on"]]
     sections = [("Ranking of the causes (validation: windowed and whole-record position RMSE, m)", ranking)]
+    if not departed.empty:
+        sections.append(("Where the baseline departs most (whole replay of the held-out records; u, v in "
+                         "m/s, r in deg/s; ranked by the prime RMSE)", departed.set_index("record")))
     phase_tables, char_tables, figures = [], [], []
     for rec, pb, pe in zip(ctx.validation, full_base["predictions"], full_best["predictions"]):
         name = str(rec.attrs.get("name", "record"))
@@ -284,9 +321,11 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
     plot_ranking(discovery["ranking"], out_dir / "ranking.png")
     figures += ["residuals.png", "ranking.png"]
     write_discovery(out_dir / "discovery.json", discovery)
-    write_report(out_dir, discovery, cause.explanation, sections, figures)
+    write_report(out_dir, discovery, discovery["explanation"], sections, figures)
     metrics = {"discover/gain_pct": discovery["gain_pct"],
                "discover/baseline_validation_rmse": b_rmse, "discover/extended_validation_rmse": e_rmse,
+               "discover/baseline_training_rmse": b_train, "discover/extended_training_rmse": e_train,
+               "discover/explains_validation": float(explained),
                "discover/n_causes": float(len(result["fits"])), "discover/tau": ctx.tau,
                "runtime/total_s": time.perf_counter() - t0}
     for f in result["fits"]:
