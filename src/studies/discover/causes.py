@@ -25,7 +25,7 @@ from ..models.abkowitz import ManoeuvringModel
 from ..models.terms import candidate_terms
 from ..simulate.simulator import record_environment
 
-__all__ = ["Setup", "Cause", "CATALOGUE", "manoeuvring_causes"]
+__all__ = ["Setup", "Cause", "CATALOGUE", "manoeuvring_causes", "compact_parameters"]
 
 
 @dataclass
@@ -62,6 +62,14 @@ class Setup:
         if self.bias is None:
             return None
         return np.concatenate([self.bias, np.zeros(3)])
+
+
+def compact_parameters(params: dict) -> str:
+    """A cause's parameters (:meth:`Cause.parameters`) on one line, added terms by name."""
+    flat = {}
+    for key, value in params.items():
+        flat.update(value if isinstance(value, dict) else {key: value})
+    return ", ".join(f"{k} = {v:.4g}" if isinstance(v, float) else f"{k} = {v}" for k, v in flat.items())
 
 
 class Cause:

@@ -12,12 +12,13 @@ from dataclasses import replace
 import numpy as np
 
 from ..identify.regression import prime_states
-from .causes import Combined, MissingTerm, manoeuvring_causes, extended_library
+from .causes import Combined, MissingTerm, compact_parameters, manoeuvring_causes, extended_library
 from .fitting import CauseFit, Context, calibrate, fit_cause, posterior, rescore, validate
 from .output_error import (needs_refinement, noise_levels, output_error_scores, refine, refined_posterior,
                            score_terms, training_windows)
 
-__all__ = ["select_missing_terms", "forward_select", "terms_by_output_error", "breaks_down", "search"]
+__all__ = ["select_missing_terms", "forward_select", "terms_by_output_error", "breaks_down", "not_named",
+           "search"]
 
 log = logging.getLogger(__name__)
 
@@ -187,6 +188,31 @@ def breaks_down(fit: CauseFit, reference: CauseFit) -> list:
     ``reference``: such an extension predicts a few minutes well and then
     loses the ship, and is not named whatever its windowed error."""
     return sorted(set(fit.whole.get("diverged", [])) - set(reference.whole.get("diverged", [])))
+
+
+def not_named(fit: CauseFit, reference: CauseFit, near_gain: float = 0.10) -> str | None:
+    """Why ``fit``, which predicts the validation records better than the
+    baseline ``reference``, is not preferred to it (None when it is, or when
+    it predicts no better): its whole replay diverges (:func:`breaks_down`),
+    or, for a windowed gain of at least ``near_gain``, the training records
+    give too little evidence for it (score not lower by :data:`EVIDENCE`).
+    A near miss is worth reading: the cause may be real and the training
+    records too poor to show it."""
+    b, v = reference.validation_rmse, fit.validation_rmse
+    if fit is reference or not v < b:
+        return None
+    lost = breaks_down(fit, reference)
+    if lost and fit.score < reference.score:
+        return (f"{fit.cause.id} not named: its prediction of {', '.join(lost)} diverges "
+                "(the baseline's does not), although its windowed error is lower")
+    if not lost and v < (1.0 - near_gain) * b and fit.score >= reference.score - EVIDENCE:
+        d = reference.score - fit.score
+        evidence = f"score lower by only {d:.1f}" if d > 0 else f"score higher by {-d:.1f}"
+        values = compact_parameters(fit.cause.parameters(fit.theta, fit.params))
+        return (f"{fit.cause.id} ({values}) not named: it predicts the held-out records better ({v:.4g} against "
+                f"{b:.4g} m, {100 * (1 - v / b):.0f} % less) but the training records give too little "
+                f"evidence for it ({evidence}; {EVIDENCE:g} needed)")
+    return None
 
 
 def _gains(fit: CauseFit, reference: CauseFit) -> bool:

@@ -143,14 +143,6 @@ def gain_pct(baseline_rmse: float, extended_rmse: float) -> float:
     return 100.0 * (baseline_rmse - extended_rmse) / baseline_rmse if baseline_rmse > 0 else 0.0
 
 
-def _compact(params: dict) -> str:
-    """A cause's parameters on one line (added terms by name)."""
-    flat = {}
-    for key, value in params.items():
-        flat.update(value if isinstance(value, dict) else {key: value})
-    return ", ".join(f"{k} = {v:.4g}" if isinstance(v, float) else f"{k} = {v}" for k, v in flat.items())
-
-
 def _same_records(a: list, b: list) -> bool:
     return len(a) == len(b) and all(x is y for x, y in zip(a, b))
 
@@ -215,11 +207,11 @@ def _departures(records: list, predictions: list, vessel) -> pd.DataFrame:
 
 def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
     from ..discover import diagnostics as dg
-    from ..discover.causes import Setup
+    from ..discover.causes import Setup, compact_parameters
     from ..discover.fitting import Context, regression_fit, training_error
     from ..discover.report import (indistinguishable, plot_predictions, plot_ranking, plot_residuals,
                                    write_discovery, write_report)
-    from ..discover.search import breaks_down, search
+    from ..discover.search import breaks_down, not_named, search
 
     opts = study.cfg.discover
     t0 = time.perf_counter()
@@ -272,11 +264,8 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
         "fit": "output error" if result["output_error"] else "equation error",
         "candidate_terms": [t.name for t in result["candidates"]],
         "selected_terms": [t.name for t in result["terms"]],
-        "notes": study.notes + [
-            f"{f.cause.id} not named: its prediction of {', '.join(lost[f.cause.id])} diverges "
-            "(the baseline's does not), although its windowed error is lower"
-            for f in ranked if lost[f.cause.id] and f.score < baseline.score
-            and f.validation_rmse < baseline.validation_rmse],
+        "notes": study.notes + [note for note in (not_named(f, baseline) for f in ranked if f is not best)
+                                if note],
     }
     discovery["indistinguishable_from"] = indistinguishable(discovery["ranking"], discovery["cause"])
     departed = _departures(ctx.validation, full_base["predictions"], study.vessel)
@@ -308,7 +297,7 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
         char_tables.append(dg.characteristic_table(rec, preds, name))
     if discovery.get("splits"):
         table = pd.DataFrame(discovery["splits"]).set_index("held_out")
-        table["parameters"] = [_compact(p) for p in table["parameters"]]
+        table["parameters"] = [compact_parameters(p) for p in table["parameters"]]
         sections.append(("Every record held out in turn (validation: windowed position RMSE, m)", table))
     sections.append(("Prediction error per manoeuvre phase (u, v in m/s, r in deg/s)",
                      pd.concat(phase_tables, ignore_index=True) if phase_tables else pd.DataFrame()))
