@@ -8,8 +8,8 @@ import pandas as pd
 
 from ..analysis.characteristics import characteristics, manoeuvre_kind
 
-__all__ = ["phases", "phase_errors", "departures", "explains", "residual_structure", "characteristic_table",
-           "UNEXPLAINED_RATIO", "UNEXPLAINED_LENGTH"]
+__all__ = ["phases", "phase_errors", "departures", "explains", "explains_decay", "residual_structure",
+           "characteristic_table", "UNEXPLAINED_RATIO", "UNEXPLAINED_LENGTH"]
 
 #: a model does not explain held-out records when its windowed prediction error
 #: there exceeds this many times its error on the records it was fitted to ...
@@ -90,6 +90,15 @@ def explains(validation_rmse: float, training_rmse: float, length: float) -> boo
     """
     return not (validation_rmse > UNEXPLAINED_RATIO * training_rmse
                 and validation_rmse > UNEXPLAINED_LENGTH * length)
+
+
+def explains_decay(validation_rmse: float, training_rmse: float, release: float) -> bool:
+    """Roll counterpart of :func:`explains`: the roll-angle error [deg] on the
+    held-out decay is not both :data:`UNEXPLAINED_RATIO` times that on the
+    training decay and more than :data:`UNEXPLAINED_LENGTH` of its release
+    angle ``release`` [deg]."""
+    return not (validation_rmse > UNEXPLAINED_RATIO * training_rmse
+                and validation_rmse > UNEXPLAINED_LENGTH * release)
 
 
 def residual_structure(problems: dict, residuals: list, vessel) -> pd.DataFrame:

@@ -127,14 +127,20 @@ def _explained(d: dict) -> list[str]:
     where the baseline departs most from them."""
     lines = []
     named = d["extended"] if d["cause"] != "none" else d["baseline"]
+    unit = (d.get("units") or "m").split()[0]
     if named.get("training_rmse") is not None:
         who = "extended model" if d["cause"] != "none" else "identified model"
         v, t = named["validation_rmse"], named["training_rmse"]
         ratio = f" ({v / t:.1f} times as much)" if t > 0 else ""
-        lines.append(f"\nThe {who} predicts the records it was fitted to with {t:.4g} m and the held-out "
-                     f"ones with {v:.4g} m{ratio}: "
+        lines.append(f"\nThe {who} predicts the records it was fitted to with {t:.4g} {unit} and the held-out "
+                     f"ones with {v:.4g} {unit}{ratio}: "
                      + ("it explains them." if d.get("explains_validation", True) else
                         "it does not explain them."))
+    if d.get("peak_decay"):
+        name, rows = next(iter(d["peak_decay"].items()))
+        last = [c for c in rows["measured"] if c.startswith("peak_after")][-1]
+        lines.append(f"\nPeak roll angle of {name} after {last.split('_')[2]} cycles: "
+                     + ", ".join(f"{label} {row[last]:.3g}" for label, row in rows.items()) + " deg.")
     units = {"u": "m/s", "v": "m/s", "r": "deg/s"}
     if d.get("departures"):
         lines.append("\nWhere the baseline departs most from the held-out records (whole replay, means over "

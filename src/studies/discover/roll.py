@@ -21,7 +21,7 @@ from scipy.optimize import least_squares
 from ..data.roll_decay import initial_state
 from ..models.roll import RollModel
 
-__all__ = ["ROLL_CAUSES", "roll_search"]
+__all__ = ["ROLL_CAUSES", "roll_search", "peak_decay", "PEAK_CYCLES"]
 
 ROLL_CAUSES = {
     "none": (None, "The linear roll model already explains the decay."),
@@ -33,6 +33,46 @@ ROLL_CAUSES = {
     "roll_nonlinear_restoring": ("c3", "The righting arm is not linear in the heel angle (GZ curve "
                                        "curvature): the roll period changes with the amplitude."),
 }
+
+
+#: full cycles after the release at which the peak amplitude is reported
+PEAK_CYCLES = (0, 5, 10, 20, 40)
+
+
+def _peaks(t, phi) -> dict:
+    """Period [s], peak amplitudes [deg] after :data:`PEAK_CYCLES` cycles and the
+    time [s] to half the release amplitude of one decay (NaN where not reached)."""
+    from ..analysis.roll_decay import find_extrema
+
+    ex = find_extrema(np.asarray(t, float), np.asarray(phi, float))
+    a, te = ex.amplitude, ex.t - float(np.asarray(t, float)[0])
+    out = {"period_s": 2.0 * float(np.median(np.diff(te))) if len(te) > 1 else np.nan}
+    for k in PEAK_CYCLES:
+        out[f"peak_after_{k}_cycles_deg"] = float(np.degrees(a[2 * k])) if 2 * k < len(a) else np.nan
+    half = np.flatnonzero(a <= 0.5 * a[0]) if len(a) else []
+    out["time_to_half_amplitude_s"] = float(te[half[0]]) if len(half) else np.nan
+    return out
+
+
+def peak_decay(record, predictions: dict) -> "pd.DataFrame":
+    """Roll peak decay of a measured decay and of its predictions.
+
+    ``predictions`` maps a label to ``(t, phi)`` (``t`` [s], ``phi`` [rad]);
+    one row per source, measured first: roll period [s], peak amplitude
+    [deg] after 0, 5, 10, 20, 40 full cycles (columns only for the cycles
+    the measured record covers) and the time [s] to half the release
+    amplitude.
+    """
+    import pandas as pd
+
+    rows = {"measured": _peaks(record["t"], record["phi"])}
+    for label, (t, phi) in predictions.items():
+        rows[label] = _peaks(t, phi)
+    table = pd.DataFrame(rows).T
+    keep = [c for c in table if not (c.startswith("peak_after") and np.isnan(table.loc["measured", c]))]
+    table = table[keep]
+    table.index.name = str(record.attrs.get("name", "decay"))
+    return table
 
 
 def _simulate(terms, params, rec):
