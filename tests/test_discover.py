@@ -337,3 +337,39 @@ def test_a_near_miss_is_explained_and_a_winner_is_not():
     assert not_named(fit(RudderOffset(), -5.9, 95.0), base) is None      # gains too little to mention
     assert not_named(fit(RudderOffset(), -50.0, 120.0), base) is None    # predicts worse
     assert not_named(base, base) is None
+
+
+@pytest.mark.slow
+def test_another_simulator_is_judged_against_the_held_out_record(tmp_path, vessel):
+    """simulation.path with manoeuvring records: another simulator's run of the held-out
+    zig-zag, whose yaw damping Nr is 30 % too weak, is judged with the baseline: its
+    departures come out, larger than the baseline's, in discovery.json and the report."""
+    from studies.models import abkowitz
+    from studies.simulate import simulate, zigzag
+
+    records, _ = hidden_records(vessel, "none", seed=11)
+    values = dict(vessel.coefficients)
+    values["Nr"] = 0.7 * values["Nr"]
+    other = simulate(abkowitz(), values, vessel, zigzag(10, 10, duration=600.0))
+    other.attrs["name"] = "weak_yaw_damping"
+    sim_path = write_records([other], tmp_path)[0]
+    d = _discover(tmp_path, records, ["discover.second_cause=false", "discover.posterior_steps=15",
+                                      f"simulation.path={sim_path}"])
+    assert d["cause"] == "none"
+    rows = {m: [r for r in d["departures"] if r["model"] == m] for m in ("baseline", "other simulator")}
+    assert rows["other simulator"], d["departures"]
+    assert rows["other simulator"][0]["rmse_prime"] > 10 * rows["baseline"][0]["rmse_prime"], d["departures"]
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert "Where the other simulator departs most" in report
+    assert "| other simulator |" in report           # phase errors and characteristics
+
+
+def test_a_simulation_that_covers_no_record_is_not_judged(vessel):
+    from studies.workflows.discover import on_record_time
+
+    records, _ = hidden_records(vessel, "none", seed=11)
+    rec = records[2]
+    assert on_record_time(rec.iloc[: len(rec) // 2], rec) is None
+    same = on_record_time(rec.iloc[::3].reset_index(drop=True), rec)
+    assert same is not None and len(same) == len(rec)
+    assert np.allclose(same["r"], rec["r"], atol=1e-3 * np.abs(rec["r"]).max())

@@ -142,10 +142,13 @@ def _explained(d: dict) -> list[str]:
         lines.append(f"\nPeak roll angle of {name} after {last.split('_')[2]} cycles: "
                      + ", ".join(f"{label} {row[last]:.3g}" for label, row in rows.items()) + " deg.")
     units = {"u": "m/s", "v": "m/s", "r": "deg/s"}
-    if d.get("departures"):
-        lines.append("\nWhere the baseline departs most from the held-out records (whole replay, means over "
+    for model in dict.fromkeys(row.get("model", "baseline") for row in d.get("departures") or []):
+        if model == "baseline" and d["cause"] == "none" and d.get("explains_validation", True):
+            continue            # nothing to show: the baseline explains the held-out records
+        run = "whole replay" if model == "baseline" else "its run"
+        lines.append(f"\nWhere the {model} departs most from the held-out records ({run}, means over "
                      "the phase):\n")
-        for row in d["departures"]:
+        for row in (r for r in d["departures"] if r.get("model", "baseline") == model):
             lines.append(f"- {row['record']}, {row['phase']} ({row['share_%']:.0f} % of the record): "
                          f"{row['state']} {row['predicted_mean']:.3g} predicted against "
                          f"{row['measured_mean']:.3g} {units[row['state']]} measured, "

@@ -192,17 +192,36 @@ UNEXPLAINED = ("No cause in the catalogue gains on unseen data, yet the identifi
                "cause fitted to these training records removes it.")
 
 
-def _departures(records: list, predictions: list, vessel) -> pd.DataFrame:
-    """The baseline's departures from every validation record, largest first
-    (:func:`studies.discover.diagnostics.departures`)."""
+def _departures(records: list, models: dict, vessel) -> pd.DataFrame:
+    """Departures of every model's replays (``models``: label -> one prediction
+    per record, None where there is none) from the validation records, largest
+    first per model (:func:`studies.discover.diagnostics.departures`)."""
     from ..discover import diagnostics as dg
 
-    tables = [dg.departures(rec, pred, str(rec.attrs.get("name", "record")), vessel)
-              for rec, pred in zip(records, predictions)]
+    tables = [dg.departures(rec, pred, str(rec.attrs.get("name", "record")), vessel).assign(model=label)
+              for label, predictions in models.items() for rec, pred in zip(records, predictions)
+              if pred is not None]
     tables = [t for t in tables if not t.empty]
     if not tables:
         return pd.DataFrame()
-    return pd.concat(tables, ignore_index=True).sort_values("rmse_prime", ascending=False, ignore_index=True)
+    out = pd.concat(tables, ignore_index=True)
+    return out.sort_values(["model", "rmse_prime"], ascending=[True, False], ignore_index=True,
+                           key=lambda c: c.map(list(models).index) if c.name == "model" else c)
+
+
+def on_record_time(simulation: pd.DataFrame, record: pd.DataFrame) -> pd.DataFrame | None:
+    """Another simulator's record interpolated onto a measured record's time
+    axis (``t``, ``x0``, ``y0``, ``psi``, ``u``, ``v``, ``r``, ``delta``); None
+    when its time span does not cover the measured one (to within one sample)."""
+    ts, t = simulation["t"].to_numpy(float), record["t"].to_numpy(float)
+    step = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    if ts[0] > t[0] + step or ts[-1] < t[-1] - step:
+        return None
+    out = pd.DataFrame({"t": t})
+    for c in ("x0", "y0", "psi", "u", "v", "r", "delta"):
+        if c in simulation:
+            out[c] = np.interp(t, ts, simulation[c].to_numpy(float))
+    return out
 
 
 def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
@@ -268,8 +287,17 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
                                 if note],
     }
     discovery["indistinguishable_from"] = indistinguishable(discovery["ranking"], discovery["cause"])
-    departed = _departures(ctx.validation, full_base["predictions"], study.vessel)
-    discovery["departures"] = departed.head(DEPARTURES).to_dict("records")
+    other = [on_record_time(study.simulation, rec) if study.simulation is not None else None
+             for rec in ctx.validation]
+    if study.simulation is not None and all(o is None for o in other):
+        discovery["notes"].append(f"simulation.path ({study.simulation.attrs.get('name')}) not judged: its "
+                                  "time span covers no validation record")
+    models = {"baseline": full_base["predictions"]}
+    if any(o is not None for o in other):
+        models["other simulator"] = other
+    departed = _departures(ctx.validation, models, study.vessel)
+    discovery["departures"] = (departed.groupby("model", sort=False).head(DEPARTURES).to_dict("records")
+                               if not departed.empty else [])
     if bool(opts.get("splits", False)):
         discovery["splits"] = split_discoveries(study, ctx, opts, result)
     # what the baseline gets wrong
@@ -278,22 +306,25 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
     ranking["diverges_on"] = [", ".join(names) for names in ranking["diverges_on"]]
     sections = [("Ranking of the causes (validation: windowed and whole-record position RMSE, m)", ranking)]
     if not departed.empty:
-        sections.append(("Where the baseline departs most (whole replay of the held-out records; u, v in "
-                         "m/s, r in deg/s; ranked by the prime RMSE)", departed.set_index("record")))
+        sections.append(("Where the simulation departs most from the held-out records (baseline: whole "
+                         "replay; u, v in m/s, r in deg/s; ranked by the prime RMSE)",
+                         departed.set_index("model")))
     phase_tables, char_tables, figures = [], [], []
-    for rec, pb, pe in zip(ctx.validation, full_base["predictions"], full_best["predictions"]):
+    for rec, pb, pe, sim in zip(ctx.validation, full_base["predictions"], full_best["predictions"], other):
         name = str(rec.attrs.get("name", "record"))
         preds = {"baseline": pb}
         if cause.id != "none":
             preds[f"extended ({cause.id})"] = pe
-        if study.simulation is not None and len(study.simulation) == len(rec):
-            preds["other simulator"] = study.simulation
+        if sim is not None:
+            preds["other simulator"] = sim
         fig = f"prediction_{name}.png"
         plot_predictions(rec, preds, f"{name}: measured vs predicted", out_dir / fig)
         figures.append(fig)
         phase_tables.append(dg.phase_errors(rec, pb, name).assign(model="baseline"))
         if cause.id != "none":
             phase_tables.append(dg.phase_errors(rec, pe, name).assign(model="extended"))
+        if sim is not None:
+            phase_tables.append(dg.phase_errors(rec, sim, name).assign(model="other simulator"))
         char_tables.append(dg.characteristic_table(rec, preds, name))
     if discovery.get("splits"):
         table = pd.DataFrame(discovery["splits"]).set_index("held_out")
