@@ -370,6 +370,7 @@ def test_a_simulation_that_covers_no_record_is_not_judged(vessel):
     records, _ = hidden_records(vessel, "none", seed=11)
     rec = records[2]
     assert on_record_time(rec.iloc[: len(rec) // 2], rec) is None
+    assert on_record_time(records[1], rec) is None            # the turning circle: another rudder
     same = on_record_time(rec.iloc[::3].reset_index(drop=True), rec)
     assert same is not None and len(same) == len(rec)
     assert np.allclose(same["r"], rec["r"], atol=1e-3 * np.abs(rec["r"]).max())

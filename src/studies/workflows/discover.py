@@ -210,9 +210,13 @@ def _departures(records: list, models: dict, vessel) -> pd.DataFrame:
 
 
 def on_record_time(simulation: pd.DataFrame, record: pd.DataFrame) -> pd.DataFrame | None:
-    """Another simulator's record interpolated onto a measured record's time
-    axis (``t``, ``x0``, ``y0``, ``psi``, ``u``, ``v``, ``r``, ``delta``); None
-    when its time span does not cover the measured one (to within one sample)."""
+    """Another simulator's run interpolated onto a measured record's time axis
+    (``t``, ``x0``, ``y0``, ``psi``, ``u``, ``v``, ``r``, ``delta``); None when
+    it is not a run of that manoeuvre: its time span does not cover the
+    record's (to within one sample), or its largest port or starboard rudder
+    angle differs from the measured one by more than 2 deg or 20 % (the
+    time history may differ: a zig-zag's rudder switches when the simulated
+    heading says so)."""
     ts, t = simulation["t"].to_numpy(float), record["t"].to_numpy(float)
     step = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
     if ts[0] > t[0] + step or ts[-1] < t[-1] - step:
@@ -221,6 +225,11 @@ def on_record_time(simulation: pd.DataFrame, record: pd.DataFrame) -> pd.DataFra
     for c in ("x0", "y0", "psi", "u", "v", "r", "delta"):
         if c in simulation:
             out[c] = np.interp(t, ts, simulation[c].to_numpy(float))
+    if "delta" in out:
+        measured, run = record["delta"].to_numpy(float), out["delta"].to_numpy()
+        tolerance = max(np.deg2rad(2.0), 0.2 * float(np.max(np.abs(measured))))
+        if (abs(run.max() - measured.max()) > tolerance or abs(run.min() - measured.min()) > tolerance):
+            return None
     return out
 
 
@@ -291,7 +300,7 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
              for rec in ctx.validation]
     if study.simulation is not None and all(o is None for o in other):
         discovery["notes"].append(f"simulation.path ({study.simulation.attrs.get('name')}) not judged: its "
-                                  "time span covers no validation record")
+                                  "time span or rudder matches no validation record")
     models = {"baseline": full_base["predictions"]}
     if any(o is not None for o in other):
         models["other simulator"] = other
