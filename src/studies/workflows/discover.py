@@ -362,6 +362,8 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
     if discovery.get("splits"):
         metrics["discover/splits_agreeing"] = float(sum(r["cause"] == cause.id for r in discovery["splits"]))
         metrics["discover/splits"] = float(len(discovery["splits"]))
+        metrics["discover/splits_explained"] = float(sum(bool(r["explains_validation"])
+                                                         for r in discovery["splits"]))
     return discovery, metrics
 
 
