@@ -9,6 +9,13 @@ held) the signal is held back until the section ends, so that no write is cut
 in half. Later signals are ignored by a job process: the KILLED path must be
 allowed to finish, and after its job an interrupted process starts no other.
 
+Python ignores (prints and drops) an exception raised while it runs a
+weakref callback or a ``__del__`` method, and a signal can arrive just then.
+So the signal stays pending until the code that handles the interruption
+calls :func:`acknowledge`; a signal still pending at the next store write
+(:func:`critical`) or at the end of the job is raised there, and the run is
+marked KILLED as if the first raise had gone through.
+
 The process that launches a sweep (see :mod:`studies.jobstate`) reacts to its
 first signal by stopping new jobs, forwarding SIGTERM to the processes that
 run one, waiting until they have closed their runs, and then raising
@@ -23,7 +30,7 @@ import signal
 import threading
 
 __all__ = ["Interrupted", "install", "critical", "deferred", "checkpoint", "job", "set_stopper",
-           "received"]
+           "received", "acknowledge"]
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
@@ -58,9 +65,9 @@ def _handle(signum, frame) -> None:
     if _state["job"]:
         if not first:
             return                      # the run is being closed: let it finish
+        _state["pending"] = signum      # until acknowledged (see the module's docstring)
         if _state["critical"]:
-            _state["pending"] = signum  # raised when the store write is done
-            return
+            return                      # raised when the store write is done
         raise Interrupted(signum)
     stopper = _state["stopper"]
     if stopper is None:
@@ -92,9 +99,18 @@ def set_stopper(stopper) -> None:
         install()
 
 
+def acknowledge() -> None:
+    """The interruption is being handled (the run is being marked KILLED):
+    the pending signal is not raised again."""
+    _state["pending"] = None
+
+
 @contextlib.contextmanager
 def critical():
-    """Hold signals back while the body runs (a store write)."""
+    """Hold signals back while the body runs (a store write). A signal whose
+    raise was lost (see the module's docstring) is raised before the body."""
+    if _state["critical"] == 0:
+        checkpoint()
     _state["critical"] += 1
     try:
         yield
@@ -133,5 +149,9 @@ def job():
     _state["job"] = True
     try:
         yield
+        checkpoint()                    # a signal whose raise was lost in the job
+    except BaseException:
+        acknowledge()                   # delivered: the job is over either way
+        raise
     finally:
         _state["job"] = False

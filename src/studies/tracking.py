@@ -141,6 +141,7 @@ def start_run(experiment: str, run_name: str, uri: str | None, root, params: dic
                 client.log_batch(logger.run_id, params=batch)
         yield logger
     except Exception as error:
+        interrupt.acknowledge()         # the run is closed as FAILED, not interrupted again
         if logger is not None and not logger.ended:
             import traceback
 
@@ -148,6 +149,7 @@ def start_run(experiment: str, run_name: str, uri: str | None, root, params: dic
                        traceback.format_exc()[-5000:])
         raise
     except BaseException as error:
+        interrupt.acknowledge()         # the run is being closed as KILLED
         if logger is not None and not logger.ended:
             reason = f"interrupted by {error}" if isinstance(error, interrupt.Interrupted) \
                 else type(error).__name__
