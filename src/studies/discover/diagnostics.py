@@ -8,14 +8,14 @@ import pandas as pd
 
 from ..analysis.characteristics import characteristics, manoeuvre_kind
 
-__all__ = ["phases", "phase_errors", "departures", "explains", "explains_decay", "residual_structure",
-           "characteristic_table", "UNEXPLAINED_RATIO", "UNEXPLAINED_LENGTH"]
+__all__ = ["phases", "phase_errors", "departures", "explains", "residual_structure", "characteristic_table",
+           "UNEXPLAINED_RATIO", "UNEXPLAINED_FRACTION"]
 
 #: a model does not explain held-out records when its windowed prediction error
 #: there exceeds this many times its error on the records it was fitted to ...
 UNEXPLAINED_RATIO = 3.0
-#: ... and this fraction of the ship length
-UNEXPLAINED_LENGTH = 0.05
+#: ... and this fraction of the ship length (of the release angle for roll decays)
+UNEXPLAINED_FRACTION = 0.05
 
 
 def phases(record: pd.DataFrame) -> np.ndarray:
@@ -79,26 +79,19 @@ def departures(record: pd.DataFrame, prediction: pd.DataFrame, name: str, vessel
     return pd.DataFrame(rows).sort_values("rmse_prime", ascending=False, ignore_index=True)
 
 
-def explains(validation_rmse: float, training_rmse: float, length: float) -> bool:
-    """Whether a model explains held-out records: its windowed position error
-    [m] there is not both :data:`UNEXPLAINED_RATIO` times its error on its own
-    training records and more than :data:`UNEXPLAINED_LENGTH` ship lengths.
+def explains(validation_rmse: float, training_rmse: float, size: float) -> bool:
+    """Whether a model explains held-out records: its prediction error there
+    is not both :data:`UNEXPLAINED_RATIO` times its error on its own training
+    records and more than :data:`UNEXPLAINED_FRACTION` of ``size``.
 
-    On simulated records with 5 % noise and nothing hidden the ratio is 2-3
-    and the error 2 % of L; on the KVLCC2 turning circle predicted from the
-    zig-zags it is 19 and 29 % of L.
+    Manoeuvres: windowed position errors [m] and the ship length [m]. On
+    simulated records with 5 % noise and nothing hidden the ratio is 2-3 and
+    the error 2 % of L; on the KVLCC2 turning circle predicted from the
+    zig-zags it is 19 and 29 % of L. Roll decays: roll-angle errors [deg]
+    and the held-out decay's release angle [deg].
     """
     return not (validation_rmse > UNEXPLAINED_RATIO * training_rmse
-                and validation_rmse > UNEXPLAINED_LENGTH * length)
-
-
-def explains_decay(validation_rmse: float, training_rmse: float, release: float) -> bool:
-    """Roll counterpart of :func:`explains`: the roll-angle error [deg] on the
-    held-out decay is not both :data:`UNEXPLAINED_RATIO` times that on the
-    training decay and more than :data:`UNEXPLAINED_LENGTH` of its release
-    angle ``release`` [deg]."""
-    return not (validation_rmse > UNEXPLAINED_RATIO * training_rmse
-                and validation_rmse > UNEXPLAINED_LENGTH * release)
+                and validation_rmse > UNEXPLAINED_FRACTION * size)
 
 
 def residual_structure(problems: dict, residuals: list, vessel) -> pd.DataFrame:

@@ -369,7 +369,7 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
 
 def _execute_roll(study: DiscoverStudy, out_dir: Path):
     from ..analysis.roll_decay import decay_curve, plot_decay_curves
-    from ..discover.diagnostics import explains_decay
+    from ..discover.diagnostics import explains
     from ..discover.report import indistinguishable, write_discovery, write_report
     from ..discover.roll import ROLL_CAUSES, _simulate, peak_decay, roll_interval, roll_search
 
@@ -383,7 +383,7 @@ def _execute_roll(study: DiscoverStudy, out_dir: Path):
     b, e = base["validation_rmse_deg"], best["validation_rmse_deg"]
     b_train, e_train = (float(np.degrees(np.sqrt(np.mean(f["resid"] ** 2)))) for f in (base, best))
     release = float(np.degrees(np.mean([abs(r["phi"].iloc[0]) for r in study.validation])))
-    explained = explains_decay(e, e_train, release)
+    explained = explains(e, e_train, release)
     ranked = sorted(res["fits"], key=lambda f: f["score"])
     extended = f"extended ({best['cause']})"
     # every record (validation first) with its predictions, simulated once
@@ -399,9 +399,12 @@ def _execute_roll(study: DiscoverStudy, out_dir: Path):
                                         study.simulation["phi"].to_numpy(float))
         predicted.append(preds)
     peaks = [peak_decay(rec, preds) for rec, preds in zip(records, predicted)]
+    explanation = best["explanation"] if explained or term else (
+        "No roll term in the catalogue gains on the held-out decay, yet the model does not explain it: its "
+        "error there is many times that on the decay it was fitted to.")
     discovery = {
         "cause": best["cause"], "parameters": params, "uncertainty": interval,
-        "explanation": best["explanation"],
+        "explanation": explanation,
         "baseline": {"validation_rmse": b, "training_rmse": b_train, "params": base["params"],
                      "source": "simulation.path" if study.simulation is not None else "data"},
         "extended": {"validation_rmse": e, "training_rmse": e_train, "params": best["params"]},
@@ -413,10 +416,6 @@ def _execute_roll(study: DiscoverStudy, out_dir: Path):
         "peak_decay": {table.index.name: table.to_dict("index") for table in peaks},
     }
     discovery["indistinguishable_from"] = indistinguishable(discovery["ranking"], discovery["cause"])
-    explanation = best["explanation"] if explained or term else (
-        "No roll term in the catalogue gains on the held-out decay, yet the model does not explain it: its "
-        "error there is many times that on the decay it was fitted to.")
-    discovery["explanation"] = explanation
     figures = []
     import matplotlib
 
