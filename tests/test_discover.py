@@ -208,14 +208,15 @@ def test_discover_command_writes_discovery_and_logs_a_run(tmp_path, vessel):
 
 
 
-def _discover_kvlcc2(tmp_path, training: tuple, held_out: str) -> dict:
+def _discover_kvlcc2(tmp_path, training: tuple, held_out: str, overrides=()) -> dict:
     """The MARIN KVLCC2 records: a symmetric baseline from ``training``, judged on ``held_out``."""
     train = [marin_file(m) for m in training]
     with initialize_config_module("studies.conf", version_base="1.3"):
         cfg = compose("discover", overrides=["vessel=kvlcc2", "model=symmetric",
                                              f"data.path=[{','.join(str(f) for f in train)}]",
                                              f"validate.path=[{marin_file(held_out)}]",
-                                             "discover.second_cause=false", "discover.posterior_steps=15"])
+                                             "discover.second_cause=false", "discover.posterior_steps=15",
+                                             *overrides])
     d, _ = execute_discover(prepare_discover(cfg, tmp_path), tmp_path / "out")
     return d
 
@@ -228,7 +229,7 @@ def test_kvlcc2_symmetric_baseline_judged_on_the_turning_circle(tmp_path):
     that only reads the ship faster through the water: before the residuals were
     scored at the nominal speed, a 'current' won the regression score by about 13 000
     while predicting the turning circle twice as badly."""
-    d = _discover_kvlcc2(tmp_path, ("zz_10", "zz_20"), "tc_35")
+    d = _discover_kvlcc2(tmp_path, ("zz_10", "zz_20"), "tc_35", ["discover.splits=true"])
     print(json.dumps({k: d[k] for k in ("cause", "parameters", "gain_pct", "ranking", "candidate_terms")}))
     scores = {r["cause"]: r["score"] for r in d["ranking"]}
     assert scores["current"] > scores["none"] - 10.0, scores
@@ -246,6 +247,15 @@ def test_kvlcc2_symmetric_baseline_judged_on_the_turning_circle(tmp_path):
     worst = d["departures"][0]
     assert (worst["phase"], worst["state"]) == ("steady helm", "u"), d["departures"]
     assert worst["predicted_mean"] > worst["measured_mean"] + 1.0, worst
+    # every record held out in turn: a model fitted to the turning circle and one zig-zag
+    # does not explain the 20 deg zig-zag either, and the propeller asymmetry (rudder
+    # offset) comes closest there without enough evidence on the training records
+    splits = {row["held_out"]: row for row in d["splits"]}
+    assert not splits["MARIN_FREE_KVLCC2_tc_35_m"]["explains_validation"], splits
+    assert not splits["MARIN_FREE_KVLCC2_zz_20_m"]["explains_validation"], splits
+    assert any(n.startswith("rudder_offset (delta0 = ") and "too little evidence" in n
+               for n in splits["MARIN_FREE_KVLCC2_zz_20_m"]["notes"]), splits
+    assert "Notes on the splits:" in report and "- holding out MARIN_FREE_KVLCC2_zz_20_m: rudder_offset" in report
 
 
 @pytest.mark.slow

@@ -196,6 +196,10 @@ def write_report(out_dir: Path, discovery: dict, explanation: str, sections: lis
             verdict.append(f"The model each split names does not explain {len(unexplained)} of the "
                            f"{len(d['splits'])} held-out records ({', '.join(unexplained)}): its error there "
                            "is many times that on the records it was fitted to.")
+        split_notes = [f"- holding out {row['held_out']}: {note}" for row in d["splits"]
+                       for note in row.get("notes", [])]
+        if split_notes:
+            verdict += ["", "Notes on the splits:"] + split_notes
     if d.get("fit"):
         how = ("replays of the training records (output error)" if d["fit"] == "output error"
                else "the regression residual (equation error)")

@@ -155,7 +155,7 @@ def split_discoveries(study: DiscoverStudy, ctx, opts, main: dict) -> list[dict]
     (same training and validation records) reuses its search ``main``."""
     from ..discover.diagnostics import explains
     from ..discover.fitting import Context, training_error
-    from ..discover.search import search
+    from ..discover.search import not_named, search
 
     rows = []
     for k, held in enumerate(study.records):
@@ -177,7 +177,8 @@ def split_discoveries(study: DiscoverStudy, ctx, opts, main: dict) -> list[dict]
                      "baseline_validation_rmse": b, "extended_validation_rmse": e,
                      "gain_pct": gain_pct(b, e), "training_rmse": own,
                      "explains_validation": explains(e, own, study.vessel.length),
-                     "fit": "output error" if result["output_error"] else "equation error"})
+                     "fit": "output error" if result["output_error"] else "equation error",
+                     "notes": [n for n in (not_named(f, base) for f in result["fits"] if f is not best) if n]})
         log.info("split holding out %s: %s, gain %.1f %%", rows[-1]["held_out"], best.cause.id,
                  rows[-1]["gain_pct"])
     return rows
@@ -338,6 +339,7 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
     if discovery.get("splits"):
         table = pd.DataFrame(discovery["splits"]).set_index("held_out")
         table["parameters"] = [compact_parameters(p) for p in table["parameters"]]
+        table = table.drop(columns="notes")         # printed under the verdict
         sections.append(("Every record held out in turn (validation: windowed position RMSE, m)", table))
     sections.append(("Prediction error per manoeuvre phase (u, v in m/s, r in deg/s)",
                      pd.concat(phase_tables, ignore_index=True) if phase_tables else pd.DataFrame()))
