@@ -147,12 +147,13 @@ def _same_records(a: list, b: list) -> bool:
     return len(a) == len(b) and all(x is y for x, y in zip(a, b))
 
 
-def split_discoveries(study: DiscoverStudy, ctx, opts, main: dict) -> list[dict]:
+def split_discoveries(study: DiscoverStudy, ctx, opts, main: dict, main_training_rmse: float) -> list[dict]:
     """Every record held out in turn: the cause each split names, fitted on the
     other records and judged on the held-out one (no second cause, no
     intervals). Shows whether the named cause depends on which manoeuvre
     was kept for validation. The split that is the main discovery's own
-    (same training and validation records) reuses its search ``main``."""
+    (same training and validation records) reuses its search ``main`` and
+    its named model's training error ``main_training_rmse``."""
     from ..discover.diagnostics import explains
     from ..discover.fitting import Context, training_error
     from ..discover.search import not_named, search
@@ -160,18 +161,17 @@ def split_discoveries(study: DiscoverStudy, ctx, opts, main: dict) -> list[dict]
     rows = []
     for k, held in enumerate(study.records):
         train = [r for j, r in enumerate(study.records) if j != k]
-        split = ctx
         if _same_records(train, study.train) and _same_records([held], study.validation):
-            result = main
+            result, own = main, main_training_rmse
         else:
             split = Context(ctx.vessel, ctx.model, train, [held], ctx.derivative)
             split.horizon = ctx.horizon
             result = search(split, float(opts.terms_threshold), int(opts.max_terms), second=False,
                             seed=int(study.cfg.seed), output_error=opts.get("output_error", "auto"),
                             intervals=False)
+            own = training_error(split, result["best"])
         best, base = result["best"], result["baseline"]
         b, e = base.validation_rmse, best.validation_rmse
-        own = training_error(split, best)
         rows.append({"held_out": str(held.attrs.get("name", f"record {k + 1}")), "cause": best.cause.id,
                      "parameters": best.cause.parameters(best.theta, best.params),
                      "baseline_validation_rmse": b, "extended_validation_rmse": e,
@@ -309,7 +309,7 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
     discovery["departures"] = (departed.groupby("model", sort=False).head(DEPARTURES).to_dict("records")
                                if not departed.empty else [])
     if bool(opts.get("splits", False)):
-        discovery["splits"] = split_discoveries(study, ctx, opts, result)
+        discovery["splits"] = split_discoveries(study, ctx, opts, result, e_train)
     # what the baseline gets wrong
     base_params, residuals, problems = regression_fit(ctx, Setup(ctx.model, ctx.train))
     ranking = pd.DataFrame(discovery["ranking"]).set_index("cause")
