@@ -19,7 +19,7 @@ def run() -> dict:
     files = {n: DATA / f"MARIN_FREE_KVLCC2_{n}_m.dat" for n in ("zz_10", "zz_20", "tc_35")}
     if not all(p.is_file() for p in files.values()):
         return {}
-    from studies.data.kalman import kalman_smooth
+    from studies.identify.kalman import kalman_smooth
     from studies.identify.ls import LeastSquares
     from studies.models import abkowitz
     from studies.vessels import get_vessel

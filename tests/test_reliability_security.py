@@ -34,7 +34,7 @@ def test_no_unsafe_loading_or_evaluation_in_the_package():
 
 
 def test_ui_binds_to_loopback_unless_told_otherwise(tmp_path):
-    from studies.ui import ui_command
+    from studies.runtime.ui import ui_command
 
     cmd = ui_command(None, tmp_path)
     assert cmd[cmd.index("--host") + 1] == "127.0.0.1"

@@ -243,9 +243,9 @@ def test_launcher_closes_runs_left_open_by_a_dead_worker(tmp_path):
     """A worker killed with SIGKILL cannot close its run: the launcher marks it KILLED."""
     from mlflow.tracking import MlflowClient
 
-    from studies import tracking
+    from studies.runtime import tracking
     from studies.cli import _interrupted
-    from studies.jobstate import JobState
+    from studies.runtime.jobstate import JobState
 
     uri = tracking.configure(None, tmp_path)
     client = MlflowClient(uri)
@@ -263,7 +263,7 @@ def test_launcher_closes_runs_left_open_by_a_dead_worker(tmp_path):
 def test_resume_hash_ignores_bookkeeping_keys_and_sees_data_changes(tmp_path):
     from omegaconf import OmegaConf
 
-    from studies.resume import config_hash
+    from studies.runtime.resume import config_hash
 
     data = tmp_path / "a.csv"
     data.write_text("t,x\n0,1\n")
@@ -282,7 +282,7 @@ def test_resume_hash_ignores_bookkeeping_keys_and_sees_data_changes(tmp_path):
 def test_report_of_diverged_and_failed_runs_shows_no_nan(tmp_path):
     """A diverged prediction is scored with the finite penalty and flagged; NaN
     coefficients and failed runs do not crash the report or print NaN."""
-    from studies import tracking
+    from studies.runtime import tracking
     from studies.analysis.metrics import DIVERGED_PENALTY
     from studies.report.builder import build_report
 

@@ -36,10 +36,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from studies.data.roll_decay import load_roll_decay, prepare_decay
+from studies.roll.records import load_roll_decay, prepare_decay
 from studies.errors import ConfigError
-from studies.identify.lssvm import LSSVM, WindowedLSSVM, cv_select, lssvm_eval, lssvm_fit, rbf_kernel
-from studies.identify.roll import (
+from studies.roll.lssvm import LSSVM, WindowedLSSVM, cv_select, lssvm_eval, lssvm_fit, rbf_kernel
+from studies.roll.estimators import (
     FLSEstimator,
     NLSEstimator,
     NLSSVMEstimator,
@@ -48,7 +48,7 @@ from studies.identify.roll import (
     make_estimator,
     ode_least_squares,
 )
-from studies.models.roll import RollModel
+from studies.roll.model import RollModel
 from studies.workflows.roll import compare_methods, run_roll_study, simulate_decay_record
 
 TRUE = {"omega0": 2.5, "b1": 0.06, "b2": 0.40}

@@ -21,11 +21,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from studies.data.roll_decay import find_particulars, load_roll_decay
+from studies.roll.records import find_particulars, load_roll_decay
 from studies.errors import DataError
-from studies.identify.roll import make_estimator, predict_record
-from studies.analysis.roll_decay import rmse
-from studies.models.roll import RollModel
+from studies.roll.estimators import make_estimator, predict_record
+from studies.roll.analysis import rmse
+from studies.roll.model import RollModel
 from studies.workflows.roll import run_roll_study
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared/data/kvlcc2_roll_decay"

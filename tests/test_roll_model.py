@@ -14,8 +14,8 @@ import math
 import numpy as np
 import pytest
 
-from studies.analysis.roll_decay import decay_curve, find_extrema, fit_decay_curve
-from studies.models.roll import (
+from studies.roll.analysis import decay_curve, find_extrema, fit_decay_curve
+from studies.roll.model import (
     RollModel,
     damping_ratio,
     dimensional_coefficients,

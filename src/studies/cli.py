@@ -11,9 +11,9 @@ first); ``verbose=true`` shows the traceback instead. A run that fails later
 is marked FAILED in MLflow with its error (one line, exit status 1). In a
 sweep the other jobs go on; the sweep ends with a one-line summary of the
 failed jobs and exit status 1. SIGINT/SIGTERM mark the running runs KILLED
-(:mod:`studies.interrupt`, :mod:`studies.jobstate`) and exit with 128 + the
+(:mod:`studies.runtime.interrupt`, :mod:`studies.runtime.jobstate`) and exit with 128 + the
 signal; ``resume=true`` then skips the jobs that already have a FINISHED run
-with the same ``config_hash`` tag (:mod:`studies.resume`).
+with the same ``config_hash`` tag (:mod:`studies.runtime.resume`).
 """
 
 from __future__ import annotations
@@ -86,7 +86,7 @@ def _run_job(cfg, body) -> dict:
     from hydra.core.hydra_config import HydraConfig
     from hydra.utils import get_original_cwd
 
-    from . import interrupt, jobstate
+    from .runtime import interrupt, jobstate
     from .errors import StudiesError
 
     verbose = cfg.get("verbose", False) is True
@@ -142,8 +142,8 @@ def _run_job(cfg, body) -> dict:
 
 def _resumable(cfg, root):
     """``(config_hash, id of a FINISHED run with it or None)``."""
-    from . import tracking
-    from .resume import config_hash
+    from .runtime import tracking
+    from .runtime.resume import config_hash
 
     digest = config_hash(cfg, root)
     done = None
@@ -156,7 +156,7 @@ def _study(cfg, root: Path, out_dir: Path, on_create) -> dict:
     """One `studies run` job: check, (skip,) prepare, open the run, execute, log."""
     from omegaconf import OmegaConf
 
-    from . import tracking
+    from .runtime import tracking
     from .workflows.settings import check_output_paths
 
     check_output_paths(cfg, root, out_dir)
@@ -220,7 +220,7 @@ def _discover(cfg, root: Path, out_dir: Path, on_create) -> dict:
     """One `studies discover` job: load and check inputs, then one MLflow run."""
     from omegaconf import OmegaConf
 
-    from . import tracking
+    from .runtime import tracking
     from .workflows.discover import execute_discover, prepare_discover
     from .workflows.settings import check_output_paths
 
@@ -284,7 +284,7 @@ def _sweep_summary(state, checked) -> int:
     counts = {}
     for r in results:
         counts[r["status"]] = counts.get(r["status"], 0) + 1
-    from .progress import ENV_TOTAL
+    from .runtime.progress import ENV_TOTAL
 
     try:
         total = int(os.environ.get(ENV_TOTAL) or 0) or len(results)
@@ -305,7 +305,7 @@ def _sweep_summary(state, checked) -> int:
 
 def _close_orphans(state, root: Path, reason: str) -> int:
     """Mark KILLED the runs of jobs whose process died with the run open; how many."""
-    from . import tracking
+    from .runtime import tracking
 
     closed = 0
     for active in state.unclosed_runs():
@@ -320,7 +320,7 @@ def _close_orphans(state, root: Path, reason: str) -> int:
 
 def _interrupted(state, error: KeyboardInterrupt, root: Path, command: str = "run") -> int:
     """After SIGINT/SIGTERM: close runs whose worker died, say what is left; exit status."""
-    from . import interrupt
+    from .runtime import interrupt
 
     signum = getattr(error, "signum", None) or interrupt.received() or 2
     closed = _close_orphans(state, root, "interrupted: the job's process ended before closing its run")
@@ -340,10 +340,10 @@ def _hydra(task, config_name: str, command: str, args: list[str]) -> int:
     """Check the command line, run the Hydra app, report the outcome in one line."""
     import hydra
 
-    from . import interrupt
+    from .runtime import interrupt
     from .config_check import check_arguments, verbose_requested
     from .errors import StudiesError
-    from .jobstate import JobState
+    from .runtime.jobstate import JobState
 
     verbose = verbose_requested(args)
     root = Path.cwd()
@@ -385,7 +385,7 @@ def _hydra(task, config_name: str, command: str, args: list[str]) -> int:
 
 def _ui(args: list[str]) -> int:
     """``studies ui [tracking.uri=URI] [host=127.0.0.1] [port=5000]``."""
-    from .ui import serve
+    from .runtime.ui import serve
 
     options = {"tracking.uri": None, "host": "127.0.0.1", "port": "5000"}
     for arg in args:

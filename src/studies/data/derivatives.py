@@ -197,7 +197,7 @@ def estimate_derivatives(record, method: str = "auto", window: float | None = No
                                                   mode="interp")[index]
         return DerivativeEstimate(index, states, rates, "savgol")
     if method in ("ekf", "ekf_kinematic"):
-        from .kalman import ekf_derivatives
+        from ..identify.kalman import ekf_derivatives
 
         return ekf_derivatives(record)
     raise ValueError(f"unknown derivative method '{method}' (auto, central, savgol, ekf)")

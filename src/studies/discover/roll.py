@@ -18,8 +18,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..data.roll_decay import initial_state
-from ..models.roll import RollModel
+from ..roll.records import initial_state
+from ..roll.model import RollModel
 
 __all__ = ["ROLL_CAUSES", "roll_search", "peak_decay", "PEAK_CYCLES"]
 
@@ -42,7 +42,7 @@ PEAK_CYCLES = (0, 5, 10, 20, 40)
 def _peaks(t, phi) -> dict:
     """Period [s], peak amplitudes [deg] after :data:`PEAK_CYCLES` cycles and the
     time [s] to half the release amplitude of one decay (NaN where not reached)."""
-    from ..analysis.roll_decay import find_extrema
+    from ..roll.analysis import find_extrema
 
     ex = find_extrema(np.asarray(t, float), np.asarray(phi, float))
     a, te = ex.amplitude, ex.t - float(np.asarray(t, float)[0])

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .. import tracking
+from ..runtime import tracking
 from ..analysis.metrics import DIVERGED_PENALTY
 from .tables import (condition_label, deviation_table, fitness_table, markdown_table,
                      method_label, winners)

@@ -47,7 +47,7 @@ def smooth_measured(record: pd.DataFrame) -> pd.DataFrame:
     """Velocities and heading of a measured record replaced by their EKF/RTS
     estimates (kinematic pass; positions and rudder kept): discovery then
     fits every cause on consistent states, estimated once."""
-    from ..data.kalman import ekf_derivatives
+    from ..identify.kalman import ekf_derivatives
 
     est = ekf_derivatives(record)
     out = record.iloc[est.index].copy()
@@ -90,7 +90,7 @@ def prepare_discover(cfg, root: Path) -> DiscoverStudy:
     if not 0.05 <= share <= 0.8:
         raise ConfigError(f"discover.holdout must be in [0.05, 0.8], got {share}")
     if str(cfg.model.name) == "roll":
-        from ..data.roll_decay import load_roll_decay
+        from ..roll.records import load_roll_decay
 
         train = [load_roll_decay(p) for p in data]
         val = [load_roll_decay(p) for p in validate]
@@ -370,7 +370,7 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
 
 
 def _execute_roll(study: DiscoverStudy, out_dir: Path):
-    from ..analysis.roll_decay import decay_curve, plot_decay_curves
+    from ..roll.analysis import decay_curve, plot_decay_curves
     from ..discover.diagnostics import explains
     from ..discover.report import indistinguishable, write_discovery, write_report
     from ..discover.roll import ROLL_CAUSES, _simulate, peak_decay, roll_interval, roll_search

@@ -22,7 +22,7 @@ replayed (``training/<record>/...``) and, with ``validate.path``, the same
 validation repeated with least squares on Savitzky-Golay and on EKF/RTS
 estimates (``derivatives/<estimator>/...``). Optional keys (not in
 ``config.yaml``; give them with ``+``): ``data.resample``,
-``identify.weights``, ``kalman.*`` (:class:`studies.data.kalman.KalmanSettings`
+``identify.weights``, ``kalman.*`` (:class:`studies.identify.kalman.KalmanSettings`
 plus ``iterations``), ``validate.band_draws``, ``validate.compare_derivatives``.
 """
 

@@ -19,7 +19,7 @@ Loading
 States and accelerations (``data.derivative``)
     ``savgol``/``central``/``auto`` as for simulated data
     (:mod:`studies.data.derivatives`); ``ekf``: the extended Kalman filter
-    and RTS smoother of :mod:`studies.data.kalman`, first with the
+    and RTS smoother of :mod:`studies.identify.kalman`, first with the
     kinematic process model, then ``kalman.iterations`` times with the
     identified ship model as process model, re-identifying (least squares)
     on the smoothed states and accelerations each time (Alexandersson et
@@ -48,7 +48,7 @@ from omegaconf import OmegaConf
 
 from ..data import load_manoeuvre
 from ..data.derivatives import DerivativeEstimate, estimate_derivatives
-from ..data.kalman import KalmanSettings, ekf_derivatives
+from ..identify.kalman import KalmanSettings, ekf_derivatives
 from ..environment.wind import wind_loads_prime
 from ..errors import ConfigError
 from ..identify.base import Identification
@@ -379,10 +379,10 @@ def posterior_band(model: ManoeuvringModel, vectors: np.ndarray, vessel: Vessel,
     more than 10 s). A posterior
     predictive band of a *measurement* includes the sensor noise: with
     ``noise`` the band is widened by 1.645 times the measurement noise of
-    the channel (:func:`studies.data.kalman.measurement_variance`), which
+    the channel (:func:`studies.identify.kalman.measurement_variance`), which
     matters at the start where every replay begins at the measured state.
     """
-    from ..data.kalman import measurement_variance
+    from ..identify.kalman import measurement_variance
 
     states, diverged = replay_many(model, vectors, vessel, record)
     n = min(states.shape[1], len(record))

@@ -51,7 +51,7 @@ def simulate_decay_record(params: Mapping[str, float], terms: Sequence[str] = ("
     params : mapping
         ``omega0`` [rad/s] and the coefficients of ``terms``.
     terms : sequence of str
-        Model terms (see :class:`studies.models.roll.RollModel`).
+        Model terms (see :class:`studies.roll.model.RollModel`).
     duration : float
         Record length [s].
     dt : float
@@ -73,7 +73,7 @@ def simulate_decay_record(params: Mapping[str, float], terms: Sequence[str] = ("
     str or DataFrame
         The path written, or the record.
     """
-    from studies.models.roll import RollModel
+    from studies.roll.model import RollModel
 
     model = RollModel(tuple(terms))
     t = np.arange(int(round(duration / dt)) + 1) * dt
@@ -117,7 +117,7 @@ def froude_scale_record(record: pd.DataFrame, from_scale: float, to_scale: float
 
 # --------------------------------------------------------------- helpers
 def _load(x) -> pd.DataFrame:
-    from studies.data.roll_decay import load_roll_decay
+    from studies.roll.records import load_roll_decay
 
     if isinstance(x, pd.DataFrame):
         return x
@@ -137,7 +137,7 @@ def _stem(rec: pd.DataFrame, i: int) -> str:
 
 
 def _check_method_terms(method: str, terms: Sequence[str]) -> tuple[str, ...]:
-    from studies.models.roll import OPTIONAL_TERMS
+    from studies.roll.model import OPTIONAL_TERMS
 
     if method not in METHODS:
         raise ConfigError(f"method={method}: unknown roll identification method; choose from {list(METHODS)}")
@@ -160,7 +160,7 @@ def _particulars(records: Sequence[pd.DataFrame]) -> dict | None:
 
 def _dimensional_metrics(params: Mapping[str, float], part: dict, amplitude: float) -> dict[str, float]:
     """Dimensional coefficients at full and model scale from Froude-scaled params."""
-    from studies.models.roll import dimensional_coefficients, equivalent_linear_damping, froude_scale_params
+    from studies.roll.model import dimensional_coefficients, equivalent_linear_damping, froude_scale_params
 
     lam = float(part["scale"])
     f = part["full"]
@@ -197,8 +197,8 @@ def _clean(metrics: Mapping[str, float]) -> dict[str, float]:
 
 
 def _error_metrics(params, terms, rec) -> tuple[np.ndarray, float, float]:
-    from studies.analysis.roll_decay import mae, rmse
-    from studies.identify.roll import predict_record
+    from studies.roll.analysis import mae, rmse
+    from studies.roll.estimators import predict_record
 
     pred = predict_record(params, terms, rec)
     meas = rec["phi"].to_numpy(float)
@@ -217,9 +217,9 @@ def run_roll_study(data_paths: list[str], method: str, out_dir: str,
     data_paths : list of str
         Decay records identified on (jointly when several): data-contract
         CSVs (``t``, ``phi``), SSPA model tests (``time``, ``phi``) or the
-        FNPF format (``Time``, ``phi``); see :mod:`studies.data.roll_decay`.
+        FNPF format (``Time``, ``phi``); see :mod:`studies.roll.records`.
     method : {"nls", "fls", "nls_svm"}
-        Identification method (:mod:`studies.identify.roll`).
+        Identification method (:mod:`studies.roll.estimators`).
     out_dir : str
         Directory for ``coefficients.csv``, ``metrics.json`` and figures
         (created; nothing is written when an input is refused).
@@ -259,14 +259,14 @@ def run_roll_study(data_paths: list[str], method: str, out_dir: str,
     ----------
     Chen, C. et al. (2019). Ocean Engineering 191, 106479 (Tables 5-6, Figs 5 and 8).
     """
-    from studies.analysis.roll_decay import (
+    from studies.roll.analysis import (
         compare_simulation_with_tests,
         decay_curve,
         plot_decay_curves,
         plot_prediction,
     )
-    from studies.identify.roll import make_estimator
-    from studies.models.roll import damping_ratio, equivalent_linear_damping
+    from studies.roll.estimators import make_estimator
+    from studies.roll.model import damping_ratio, equivalent_linear_damping
 
     terms = _check_method_terms(method, terms)
     train_in = _as_list(data_paths)
@@ -388,7 +388,7 @@ def run_roll_study(data_paths: list[str], method: str, out_dir: str,
         inertia = None
         if part is not None:
             # total inertia at full scale from the identified natural frequency
-            from studies.models.roll import dimensional_coefficients, froude_scale_params
+            from studies.roll.model import dimensional_coefficients, froude_scale_params
 
             full = froude_scale_params(fit.params, test_scale, "full")
             f = part["full"]
@@ -446,9 +446,9 @@ def compare_methods(data_paths, validate_paths=None, terms: Sequence[str] = ("b1
     ----------
     Chen, C. et al. (2019). Ocean Engineering 191, 106479, Table 6 and Fig. 8.
     """
-    from studies.analysis.roll_decay import mae, plot_prediction, rmse
-    from studies.identify.roll import make_estimator, predict_record
-    from studies.models.roll import damping_ratio
+    from studies.roll.analysis import mae, plot_prediction, rmse
+    from studies.roll.estimators import make_estimator, predict_record
+    from studies.roll.model import damping_ratio
 
     terms = tuple(terms)
     for meth in methods:

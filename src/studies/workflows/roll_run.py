@@ -11,9 +11,9 @@ from pathlib import Path
 
 from omegaconf import OmegaConf
 
-from ..data.roll_decay import load_roll_decay
+from ..roll.records import load_roll_decay
 from ..errors import ConfigError
-from ..identify.roll import ESTIMATORS
+from ..roll.estimators import ESTIMATORS
 from .settings import as_path_list
 
 __all__ = ["RollStudy", "prepare_roll", "execute_roll", "ROLL_TERMS"]

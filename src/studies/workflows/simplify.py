@@ -120,7 +120,7 @@ def ensure_definition(cfg, root: Path, run_dir: Path | None = None, force: bool 
     Parallel jobs of a sweep wait for one another on a lock file, so the
     analysis runs once.
     """
-    from .. import tracking
+    from ..runtime import tracking
 
     path = Path(root) / str(cfg.simplify.output)
     path.parent.mkdir(parents=True, exist_ok=True)

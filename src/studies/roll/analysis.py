@@ -2,7 +2,7 @@
 
 Functions here work on plain arrays or on prepared decay records (a
 ``DataFrame`` with columns ``t`` [s] and ``phi`` [rad], released at ``t = 0``
-and centred on the equilibrium; see :mod:`studies.data.roll_decay`).
+and centred on the equilibrium; see :mod:`studies.roll.records`).
 
 The decay curve is the classic Froude representation of a free decay: for
 successive absolute extrema ``A_k`` (half-cycles) the decrement
@@ -367,7 +367,7 @@ def compare_simulation_with_tests(simulation, tests: Sequence, reference_amplitu
     details : dict
         Decay curves and fits, for reports.
     """
-    from studies.models.roll import damping_ratio, equivalent_linear_damping
+    from studies.roll.model import damping_ratio, equivalent_linear_damping
 
     c_sim = decay_curve(simulation)
     curves_m = [decay_curve(r) for r in tests]
@@ -491,7 +491,7 @@ def plot_decay_curves(curves: Mapping[str, pd.DataFrame], path: str,
     str
         ``path``.
     """
-    from studies.models.roll import damping_ratio
+    from studies.roll.model import damping_ratio
 
     fig, ax = _figure(1, 1, (7.5, 5.0))
     a = ax[0, 0]
@@ -537,7 +537,7 @@ def plot_simulation_vs_tests(simulation, tests: Sequence, details: dict, path: s
     str
         ``path``.
     """
-    from studies.models.roll import damping_ratio
+    from studies.roll.model import damping_ratio
 
     labels = list(labels) if labels is not None else [f"test {i + 1}" for i in range(len(tests))]
     fig, ax = _figure(2, 1, (9.0, 8.0))

@@ -3,7 +3,7 @@
 A process that runs a job (the ``studies run`` process itself, or a worker
 process of the joblib launcher) turns the first SIGINT or SIGTERM into
 :class:`Interrupted`, a ``KeyboardInterrupt``, so that
-:func:`studies.tracking.start_run` marks the job's MLflow run KILLED. While
+:func:`studies.runtime.tracking.start_run` marks the job's MLflow run KILLED. While
 the store is being written (a :func:`critical` section: the store lock is
 held) the signal is held back until the section ends, so that no write is cut
 in half. Later signals are ignored by a job process: the KILLED path must be
@@ -16,7 +16,7 @@ calls :func:`acknowledge`; a signal still pending at the next store write
 (:func:`critical`) or at the end of the job is raised there, and the run is
 marked KILLED as if the first raise had gone through.
 
-The process that launches a sweep (see :mod:`studies.jobstate`) reacts to its
+The process that launches a sweep (see :mod:`studies.runtime.jobstate`) reacts to its
 first signal by stopping new jobs, forwarding SIGTERM to the processes that
 run one, waiting until they have closed their runs, and then raising
 :class:`Interrupted` itself, which makes the launcher tear its workers down.

@@ -75,7 +75,7 @@ from numba import njit
 from scipy.signal import savgol_filter
 
 from ..simulate.monomials import dense_coefficients, scaled_forces
-from .derivatives import DerivativeEstimate, _uniform_step
+from ..data.derivatives import DerivativeEstimate, _uniform_step
 
 __all__ = ["KalmanSettings", "KalmanResult", "kalman_smooth", "ekf_derivatives",
            "measurement_variance", "smoothed_record", "MEASURABLE", "STATE_NAMES"]

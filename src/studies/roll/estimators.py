@@ -4,7 +4,7 @@ Three estimators with the same interface, each a small class whose
 constructor stores the settings and whose ``fit(record)`` returns a
 :class:`RollFit` (``params``, ``cpu_s``, ``meta``). ``record`` is a prepared
 decay (``DataFrame`` with ``t`` [s] from the release and ``phi`` [rad] about
-equilibrium; see :func:`studies.data.roll_decay.load_roll_decay`) or a list of
+equilibrium; see :func:`studies.roll.records.load_roll_decay`) or a list of
 them (identified jointly).
 
 - :class:`NLSEstimator` ("nls", Chen et al. Fig. 6): output-error fit of the
@@ -38,7 +38,7 @@ from typing import Sequence
 import numpy as np
 import pandas as pd
 
-from studies.models.roll import RollModel
+from studies.roll.model import RollModel
 
 __all__ = [
     "RollFit",
@@ -87,7 +87,7 @@ def _as_records(record) -> list[pd.DataFrame]:
 def _period(rec: pd.DataFrame) -> float:
     p = rec.attrs.get("period")
     if p is None or not np.isfinite(p):
-        from studies.analysis.roll_decay import estimate_period
+        from studies.roll.analysis import estimate_period
 
         p = estimate_period(rec["t"].to_numpy(float), rec["phi"].to_numpy(float))
     if not np.isfinite(p):
@@ -206,9 +206,9 @@ def _initial_guess(model: RollModel, records: Sequence[pd.DataFrame]) -> dict:
 
     ``omega0`` from the median half period, the damping terms from the
     decrement per half-cycle against amplitude (see
-    :func:`studies.analysis.roll_decay.fit_decay_curve`), ``c3 = 0``.
+    :func:`studies.roll.analysis.fit_decay_curve`), ``c3 = 0``.
     """
-    from studies.analysis.roll_decay import decay_curve, fit_decay_curve
+    from studies.roll.analysis import decay_curve, fit_decay_curve
 
     curve = pd.concat([decay_curve(r) for r in records], ignore_index=True)
     damp = [t for t in model.terms if t in ("b1", "b2", "b3")]
@@ -233,14 +233,14 @@ def predict_record(params: dict, terms: Sequence[str], record: pd.DataFrame,
         Prepared decay (``t`` [s], ``phi`` [rad]).
     initial : (phi0, dphi0), optional
         Initial state [rad, rad/s]; default from the record's first samples
-        (:func:`studies.data.roll_decay.initial_state`).
+        (:func:`studies.roll.records.initial_state`).
 
     Returns
     -------
     ndarray
         Predicted roll angle [rad] at ``record.t``.
     """
-    from studies.data.roll_decay import initial_state
+    from studies.roll.records import initial_state
 
     if initial is None:
         initial = initial_state(record)
@@ -314,7 +314,7 @@ class NLSEstimator(_Estimator):
     Parameters
     ----------
     terms : sequence of str
-        Model terms (see :class:`studies.models.roll.RollModel`).
+        Model terms (see :class:`studies.roll.model.RollModel`).
     points_per_period : float, optional
         Samples per roll period kept for the residual (the record is
         subsampled); default every sample. The RK4 integration uses at least
@@ -347,14 +347,14 @@ class NLSEstimator(_Estimator):
         self.max_nfev = int(max_nfev)
 
     def _prepare(self) -> None:
-        from studies.models.roll import _get_kernel
+        from studies.roll.model import _get_kernel
 
         _get_kernel()
 
     def _fit(self, records):
         from scipy.optimize import least_squares
 
-        from studies.data.roll_decay import initial_state
+        from studies.roll.records import initial_state
 
         names = list(self.model.param_names)
         guess = _initial_guess(self.model, records)
@@ -594,7 +594,7 @@ class NLSSVMEstimator(_EquationErrorEstimator):
     n_folds : int, optional
         Cross-validation folds for ``cv_mode`` "interleaved" or "blocked".
     cv_mode : {"loo", "interleaved", "blocked"}
-        Fold layout (see :func:`studies.identify.lssvm.cv_select`); default
+        Fold layout (see :func:`studies.roll.lssvm.cv_select`); default
         exact leave-one-out (interleaved folds of one sample).
     window_periods, stride_periods : float
         Length and spacing of the overlapping LS-SVM windows [periods].
@@ -616,7 +616,7 @@ class NLSSVMEstimator(_EquationErrorEstimator):
     Notes
     -----
     See :class:`_EquationErrorEstimator` for why the equation rows are
-    filtered. Kernel fits are windowed (:class:`studies.identify.lssvm.WindowedLSSVM`)
+    filtered. Kernel fits are windowed (:class:`studies.roll.lssvm.WindowedLSSVM`)
     so that a 3-minute record at 100 Hz costs well under a second.
 
     References
@@ -663,7 +663,7 @@ class NLSSVMEstimator(_EquationErrorEstimator):
         return [cands[i] for i in pick]
 
     def _select(self, records, T):
-        from studies.identify.lssvm import cv_select
+        from studies.roll.lssvm import cv_select
 
         segs = self._cv_segments(records, T)
         s_rel, gamma, scores = cv_select(segs, self.sigma_grid, self.gamma_grid, self.n_folds, self.cv_mode)
@@ -671,7 +671,7 @@ class NLSSVMEstimator(_EquationErrorEstimator):
                 "cv_mse": float(np.min(scores)), "cv_mode": self.cv_mode}
 
     def _smoother(self, t, y, T, settings):
-        from studies.identify.lssvm import WindowedLSSVM
+        from studies.roll.lssvm import WindowedLSSVM
 
         ws = WindowedLSSVM(settings["sigma_s"], settings["gamma"], self.window_periods * T,
                            self.stride_periods * T).fit(t, y)

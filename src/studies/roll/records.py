@@ -111,7 +111,7 @@ def read_roll_decay_csv(path) -> pd.DataFrame:
 
 # ---------------------------------------------------------- preprocessing
 def _extrema(t, phi, centre):
-    from studies.analysis.roll_decay import find_extrema
+    from studies.roll.analysis import find_extrema
 
     return find_extrema(t, phi, centre)
 
@@ -149,7 +149,7 @@ def find_release(t, phi, file: str = "<array>", min_peaks: int = 3) -> int:
         ``min_peaks`` extrema after the release, irregular (noise-like) or
         non-decaying oscillation.
     """
-    from studies.analysis.roll_decay import noise_std
+    from studies.roll.analysis import noise_std
 
     t = np.asarray(t, float)
     phi = np.asarray(phi, float)
@@ -320,7 +320,7 @@ def prepare_decay(raw: pd.DataFrame, file: str = "<data>", dt: float | None = No
         tr, pr = tr[keep], pr[keep]
     off = float(offset) if isinstance(offset, (int, float)) else estimate_offset(tr, pr, offset)
     tu, pu = resample_uniform(tr, pr - off, dt)
-    from studies.analysis.roll_decay import find_extrema
+    from studies.roll.analysis import find_extrema
 
     ex = find_extrema(tu, pu, 0.0)
     if len(ex) < min_peaks + 1:

@@ -57,7 +57,7 @@ def store_lock(uri: str):
         yield
         return
     db.parent.mkdir(parents=True, exist_ok=True)
-    # SIGINT/SIGTERM wait until the section is over (studies.interrupt)
+    # SIGINT/SIGTERM wait until the section is over (studies.runtime.interrupt)
     with interrupt.critical(), open(db.parent / f".{db.name}.lock", "a+") as handle:
         fcntl.flock(handle, fcntl.LOCK_EX)
         try:
@@ -119,7 +119,7 @@ def start_run(experiment: str, run_name: str, uri: str | None, root, params: dic
     runs unlocked; :meth:`RunLogger.log_outputs` logs the results under the lock.
     An exception in the body marks the run FAILED with the error as a tag;
     KeyboardInterrupt/SystemExit (SIGINT and SIGTERM arrive as
-    :class:`studies.interrupt.Interrupted`) mark it KILLED.
+    :class:`studies.runtime.interrupt.Interrupted`) mark it KILLED.
     """
     import mlflow
     from mlflow.tracking import MlflowClient
