@@ -208,7 +208,7 @@ def test_trajectory_posterior_recovers_perturbed_terms(model, vessel, truth, tmp
 
 
 def test_trajectory_terms_ga_takes_the_least_sensitive(clean_problems):
-    pytest.importorskip("studies.analysis.sensitivity")
+    pytest.importorskip("studies.identify.sensitivity")
     ls = LeastSquares().fit(clean_problems).params
     names = BayesianRegression(trajectory_terms="ga").trajectory_names(clean_problems, ls)
     assert len(names) == 15 and all(sum(n[0] == d for n in names) == 5 for d in "XYN")

@@ -10,7 +10,7 @@ from studies.identify import GeneticRefinement, LeastSquares, build_problems
 from studies.identify.base import Identification
 from studies.identify.objective import TrajectoryObjective
 from studies.identify.regression import RegressionProblem
-from studies.analysis.sensitivity import least_sensitive, sobol_indices
+from studies.identify.sensitivity import least_sensitive, sobol_indices
 from studies.simulate import simulate, zigzag
 
 

@@ -14,7 +14,7 @@ import pytest
 
 SCRIPT = """
 import os, signal
-from studies.runtime import interrupt
+from studies import interrupt
 
 class Dropper:
     def __del__(self):
@@ -51,7 +51,7 @@ def test_a_dropped_interrupt_is_raised_before_the_next_store_write_or_at_the_job
 def test_a_handled_interrupt_is_not_raised_again_by_the_killed_write():
     script = """
 import os, signal
-from studies.runtime import interrupt
+from studies import interrupt
 try:
     with interrupt.job():
         os.kill(os.getpid(), signal.SIGINT)

@@ -11,7 +11,7 @@ first); ``verbose=true`` shows the traceback instead. A run that fails later
 is marked FAILED in MLflow with its error (one line, exit status 1). In a
 sweep the other jobs go on; the sweep ends with a one-line summary of the
 failed jobs and exit status 1. SIGINT/SIGTERM mark the running runs KILLED
-(:mod:`studies.runtime.interrupt`, :mod:`studies.runtime.jobstate`) and exit with 128 + the
+(:mod:`studies.interrupt`, :mod:`studies.runtime.jobstate`) and exit with 128 + the
 signal; ``resume=true`` then skips the jobs that already have a FINISHED run
 with the same ``config_hash`` tag (:mod:`studies.runtime.resume`).
 """
@@ -86,7 +86,8 @@ def _run_job(cfg, body) -> dict:
     from hydra.core.hydra_config import HydraConfig
     from hydra.utils import get_original_cwd
 
-    from .runtime import interrupt, jobstate
+    from . import interrupt
+    from .runtime import jobstate
     from .errors import StudiesError
 
     verbose = cfg.get("verbose", False) is True
@@ -320,7 +321,7 @@ def _close_orphans(state, root: Path, reason: str) -> int:
 
 def _interrupted(state, error: KeyboardInterrupt, root: Path, command: str = "run") -> int:
     """After SIGINT/SIGTERM: close runs whose worker died, say what is left; exit status."""
-    from .runtime import interrupt
+    from . import interrupt
 
     signum = getattr(error, "signum", None) or interrupt.received() or 2
     closed = _close_orphans(state, root, "interrupted: the job's process ended before closing its run")
@@ -340,7 +341,7 @@ def _hydra(task, config_name: str, command: str, args: list[str]) -> int:
     """Check the command line, run the Hydra app, report the outcome in one line."""
     import hydra
 
-    from .runtime import interrupt
+    from . import interrupt
     from .config_check import check_arguments, verbose_requested
     from .errors import StudiesError
     from .runtime.jobstate import JobState

@@ -106,7 +106,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..runtime import interrupt
+from .. import interrupt
 from ..errors import ConfigError
 from .base import Identification
 from .ls import regression_diagnostics
@@ -407,7 +407,7 @@ class BayesianRegression:
     trajectory_terms : list of str, "ga" or None
         Coefficients of the trajectory-likelihood posterior (b); ``"ga"``:
         the 5 least Sobol-sensitive per DOF
-        (:func:`studies.analysis.sensitivity.least_sensitive`); ``None``
+        (:func:`studies.identify.sensitivity.least_sensitive`); ``None``
         skips (b).
     trajectory_walkers : int, optional
         Walkers of (b); default ``max(8, 2 k + 2)`` for ``k`` terms.
@@ -579,17 +579,17 @@ class BayesianRegression:
         """Coefficients of the trajectory posterior (b) from ``trajectory_terms``.
 
         ``"ga"``: the 5 least Sobol-sensitive coefficients per DOF at
-        ``params`` (:func:`studies.analysis.sensitivity.least_sensitive`);
+        ``params`` (:func:`studies.identify.sensitivity.least_sensitive`);
         a list is checked against the identified names; ``None``: none.
         """
         if self.trajectory_terms is None:
             return []
         if self.trajectory_terms == "ga":
             try:
-                from ..analysis.sensitivity import least_sensitive
+                from .sensitivity import least_sensitive
             except ImportError as exc:
                 raise ConfigError("method.trajectory_terms=ga needs "
-                                  "studies.analysis.sensitivity.least_sensitive") from exc
+                                  "studies.identify.sensitivity.least_sensitive") from exc
             picked = least_sensitive(problems, params, per_dof=5, n_samples=5000, seed=self.seed)
             if isinstance(picked, tuple):  # (names, table)
                 picked = picked[0]

@@ -110,7 +110,7 @@ class GeneticRefinement:
 
     def select(self, problems: dict, params: dict):
         """Genes: explicit list, or the least Sobol-sensitive per DOF."""
-        from ..analysis.sensitivity import least_sensitive
+        from .sensitivity import least_sensitive
 
         if self.genes:
             unknown = set(self.genes) - set(params)

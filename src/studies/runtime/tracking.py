@@ -23,7 +23,7 @@ import math
 import os
 from pathlib import Path
 
-from . import interrupt
+from .. import interrupt
 
 __all__ = ["default_uri", "configure", "start_run", "RunLogger", "store_lock", "flatten",
            "StoredRun", "read_experiment", "find_finished_run", "close_if_running"]
@@ -57,7 +57,7 @@ def store_lock(uri: str):
         yield
         return
     db.parent.mkdir(parents=True, exist_ok=True)
-    # SIGINT/SIGTERM wait until the section is over (studies.runtime.interrupt)
+    # SIGINT/SIGTERM wait until the section is over (studies.interrupt)
     with interrupt.critical(), open(db.parent / f".{db.name}.lock", "a+") as handle:
         fcntl.flock(handle, fcntl.LOCK_EX)
         try:
@@ -119,7 +119,7 @@ def start_run(experiment: str, run_name: str, uri: str | None, root, params: dic
     runs unlocked; :meth:`RunLogger.log_outputs` logs the results under the lock.
     An exception in the body marks the run FAILED with the error as a tag;
     KeyboardInterrupt/SystemExit (SIGINT and SIGTERM arrive as
-    :class:`studies.runtime.interrupt.Interrupted`) mark it KILLED.
+    :class:`studies.interrupt.Interrupted`) mark it KILLED.
     """
     import mlflow
     from mlflow.tracking import MlflowClient

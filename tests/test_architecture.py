@@ -1,0 +1,160 @@
+"""The package's layers: imports point down only, and nothing goes round in a circle.
+
+Every ``import`` of a ``studies`` module is read from the source (at the top
+of a module or inside a function alike) and mapped to the layer of the
+package it names. A module may import its own package and any lower layer;
+an import of a higher layer, or a cycle between modules, fails the test with
+the offending import named. ``docs/architecture.md`` describes the layers.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+SRC = Path(__file__).resolve().parents[1] / "src" / "studies"
+
+#: lowest first; packages of one layer may import each other (the cycle test
+#: still applies)
+LAYERS = [
+    ("foundation", {"errors", "config", "conf", "interrupt", "plotting"}),
+    ("data", {"data"}),
+    ("models", {"models", "vessels", "environment"}),
+    ("simulate", {"simulate"}),
+    ("identify", {"identify"}),
+    ("analysis", {"analysis"}),
+    ("roll", {"roll"}),
+    ("report", {"report"}),
+    ("discover", {"discover"}),
+    ("studies", {"workflows"}),
+    ("runtime", {"runtime"}),
+    ("command line", {"cli", "config_check", "bench", "__main__", "<root>"}),
+]
+
+def _rank(package: str) -> int:
+    for rank, (_, members) in enumerate(LAYERS):
+        if package in members:
+            return rank
+    raise AssertionError(f"package studies.{package} has no layer in tests/test_architecture.py")
+
+
+def _modules() -> dict[str, Path]:
+    out = {}
+    for path in SRC.rglob("*.py"):
+        parts = ["studies", *path.relative_to(SRC).with_suffix("").parts]
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        out[".".join(parts)] = path
+    return out
+
+
+def _imports(name: str, path: Path, modules: dict) -> list[tuple[str, int]]:
+    """(imported studies module, line) for every import statement of a module."""
+    tree = ast.parse(path.read_text(), str(path))
+    package = name if path.name == "__init__.py" else name.rsplit(".", 1)[0]
+    found = []
+    for node in ast.walk(tree):
+        targets = []
+        if isinstance(node, ast.Import):
+            targets = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                base = base[:len(base) - (node.level - 1)]
+                module = ".".join(base + ([node.module] if node.module else []))
+            else:
+                module = node.module or ""
+            targets = [f"{module}.{a.name}" if f"{module}.{a.name}" in modules else module
+                       for a in node.names]
+        for target in targets:
+            if not target.startswith("studies"):
+                continue
+            while target not in modules and "." in target:
+                target = target.rsplit(".", 1)[0]
+            if target != name:
+                found.append((target, node.lineno))
+    return found
+
+
+def _package(module: str) -> str:
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else "<root>"
+
+
+@pytest.fixture(scope="module")
+def graph():
+    modules = _modules()
+    return modules, {name: _imports(name, path, modules) for name, path in modules.items()}
+
+
+def test_every_package_has_a_layer(graph):
+    modules, _ = graph
+    for name in modules:
+        _rank(_package(name))
+
+
+def test_imports_point_down_only(graph):
+    _, edges = graph
+    upward = []
+    for name, targets in edges.items():
+        here = _package(name)
+        for target, line in targets:
+            there = _package(target)
+            if _rank(there) > _rank(here):
+                upward.append(f"{name}:{line} imports {target} "
+                              f"({LAYERS[_rank(here)][0]} -> {LAYERS[_rank(there)][0]})")
+    assert not upward, "imports that do not point down:\n" + "\n".join(sorted(upward))
+
+
+def test_no_import_cycles(graph):
+    _, edges = graph
+    index, low, stack, on_stack, cycles = {}, {}, [], set(), []
+
+    def visit(v):                       # Tarjan's strongly connected components
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w, _ in edges.get(v, ()):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                cycles.append(sorted(component))
+
+    for v in list(edges):
+        if v not in index:
+            visit(v)
+    assert not cycles, "import cycles: " + "; ".join(" <-> ".join(c) for c in cycles)
+
+
+def test_no_hydra_config_below_the_command_line():
+    """Only the command line sees Hydra's DictConfig; the rest takes typed settings."""
+    allowed = {"cli.py", "config_check.py"}
+    offenders = []
+    for path in SRC.rglob("*.py"):
+        if path.name in allowed and path.parent == SRC:
+            continue
+        text = path.read_text()
+        for word in ("DictConfig", "OmegaConf", "omegaconf", "hydra"):
+            if word in text:
+                offenders.append(f"{path.relative_to(SRC)} mentions {word}")
+                break
+    assert not offenders, "\n".join(offenders)
+
+
+def test_no_dispatch_on_the_model_name_roll():
+    offenders = [str(p.relative_to(SRC)) for p in SRC.rglob("*.py")
+                 if '== "roll"' in p.read_text() or "== 'roll'" in p.read_text()]
+    assert not offenders, offenders
