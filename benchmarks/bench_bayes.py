@@ -3,13 +3,13 @@ rows), 10 000 posterior samples per DOF after burn-in, default settings."""
 
 import time
 
+from studies.identify import BayesianRegression, build_problems
+from studies.models import abkowitz
+from studies.simulate import simulate, zigzag
+from studies.vessels import get_vessel
+
 
 def run() -> dict:
-    from studies.identify import BayesianRegression, build_problems
-    from studies.models import abkowitz
-    from studies.simulate import simulate, zigzag
-    from studies.vessels import get_vessel
-
     vessel = get_vessel("mariner")
     model = abkowitz()
     rec = simulate(model, vessel.coefficients, vessel, zigzag(20, 20, duration=4000.0))

@@ -11,28 +11,29 @@ at 1 % and 5 % noise (``STUDIES_BENCH_ROLL_SEEDS``, default 10; 0 leaves them ou
 """
 
 import os
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
+from hydra import initialize_config_module
+from joblib import Parallel, delayed
+
+from studies.config import compose_settings
+from studies.discover.hidden import (HIDDEN_CAUSES, HIDDEN_ROLL_CAUSES, hidden_records,
+                                     hidden_roll_decays, parameters_match, write_records)
+from studies.vessels import get_vessel
+from studies.workflows.kinds import execute_discover, prepare_discover
 
 
 def _one(cause, seed, noise):
-    import tempfile
-    from pathlib import Path
-
-    from hydra import compose, initialize_config_module
-
-    from studies.discover.hidden import hidden_records, parameters_match, write_records
-    from studies.vessels import get_vessel
-    from studies.workflows.discover import execute_discover, prepare_discover
-
     vessel = get_vessel("mariner")
     records, truth = hidden_records(vessel, cause, seed=seed, noise=noise)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         paths = write_records(records, tmp)
         with initialize_config_module("studies.conf", version_base="1.3"):
-            cfg = compose("discover", overrides=[f"data.path=[{paths[0]},{paths[1]}]",
+            cfg = compose_settings("discover", overrides=[f"data.path=[{paths[0]},{paths[1]}]",
                                                  f"validate.path=[{paths[2]}]", f"seed={seed}"])
         t0 = time.perf_counter()
         d, _ = execute_discover(prepare_discover(cfg, tmp), tmp / "out")
@@ -42,29 +43,17 @@ def _one(cause, seed, noise):
 
 
 def _one_roll(cause, seed, noise):
-    import tempfile
-    from pathlib import Path
-
-    from hydra import compose, initialize_config_module
-
-    from studies.discover.hidden import hidden_roll_decays, parameters_match
-    from studies.workflows.discover import execute_discover, prepare_discover
-
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         paths, truth = hidden_roll_decays(cause, tmp, seed, noise)
         with initialize_config_module("studies.conf", version_base="1.3"):
-            cfg = compose("discover", overrides=["model=roll", f"data.path=[{paths[0]}]",
+            cfg = compose_settings("discover", overrides=["model=roll", f"data.path=[{paths[0]}]",
                                                  f"validate.path=[{paths[1]}]"])
         d, _ = execute_discover(prepare_discover(cfg, tmp), tmp / "out")
     return cause, float(noise), bool(d["cause"] == cause and parameters_match(cause, d["parameters"], truth))
 
 
 def run() -> dict:
-    from joblib import Parallel, delayed
-
-    from studies.discover.hidden import HIDDEN_CAUSES, HIDDEN_ROLL_CAUSES
-
     seeds = int(os.environ.get("STUDIES_BENCH_SEEDS", "2"))
     noises = [float(x) for x in os.environ.get("STUDIES_BENCH_NOISE", "0,0.05").split(",")]
     jobs = [(c, s, n) for c in HIDDEN_CAUSES for n in noises for s in range(seeds)]

@@ -6,15 +6,15 @@ import time
 
 import numpy as np
 
+from studies.identify import GeneticRefinement, LeastSquares, build_problems
+from studies.identify.base import Identification
+from studies.identify.objective import TrajectoryObjective
+from studies.models import abkowitz
+from studies.simulate import simulate, zigzag
+from studies.vessels import get_vessel
+
 
 def run() -> dict:
-    from studies.identify import GeneticRefinement, LeastSquares, build_problems
-    from studies.identify.base import Identification
-    from studies.identify.objective import TrajectoryObjective
-    from studies.models import abkowitz
-    from studies.simulate import simulate, zigzag
-    from studies.vessels import get_vessel
-
     vessel = get_vessel("mariner")
     model = abkowitz()
     rec = simulate(model, vessel.coefficients, vessel, zigzag(20, 20, duration=4000.0))

@@ -12,6 +12,12 @@ folder is absent. Compilation is done in a warm-up.
 import time
 from pathlib import Path
 
+from studies.identify.kalman import kalman_smooth
+from studies.identify.ls import LeastSquares
+from studies.models import abkowitz
+from studies.vessels import get_vessel
+from studies.workflows.measured import identify_measured, load_measured
+
 DATA = Path(__file__).resolve().parents[1].parent / "shared/data/kvlcc2_free_running"
 
 
@@ -19,12 +25,6 @@ def run() -> dict:
     files = {n: DATA / f"MARIN_FREE_KVLCC2_{n}_m.dat" for n in ("zz_10", "zz_20", "tc_35")}
     if not all(p.is_file() for p in files.values()):
         return {}
-    from studies.identify.kalman import kalman_smooth
-    from studies.identify.ls import LeastSquares
-    from studies.models import abkowitz
-    from studies.vessels import get_vessel
-    from studies.workflows.measured import identify_measured, load_measured
-
     vessel, model = get_vessel("kvlcc2"), abkowitz()
     recs = dict(zip(files, load_measured(list(files.values()))))
     kalman_smooth(recs["zz_10"].iloc[:400].reset_index(drop=True))            # compile

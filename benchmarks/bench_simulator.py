@@ -9,14 +9,14 @@ import time
 
 import numpy as np
 
+from studies.models import abkowitz
+from studies.simulate import simulate, zigzag
+from studies.simulate.integrator import rk4_simulate
+from studies.simulate.simulator import prepare
+from studies.vessels import get_vessel
+
 
 def run(repeats: int = 21) -> dict:
-    from studies.models import abkowitz
-    from studies.simulate import simulate, zigzag
-    from studies.simulate.integrator import rk4_simulate
-    from studies.simulate.simulator import prepare
-    from studies.vessels import get_vessel
-
     vessel = get_vessel("mariner")
     model = abkowitz()
     man = zigzag(20, 20, duration=4000.0, dt=0.1)

@@ -1,4 +1,10 @@
-"""Shared fixtures: the Mariner, its model, reference records, and a CLI runner."""
+"""Shared fixtures: the Mariner, its model, reference records, and a CLI runner.
+
+Records that several test modules build identically (simulated zig-zags, the
+regression problems of the 4000 s zig-zag, the reference program's short
+zig-zag, the hidden-effect records of seed 11) are built once per session.
+Tests must not modify them in place (copy first).
+"""
 
 from __future__ import annotations
 
@@ -14,7 +20,11 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
+
+from studies.config_check import check_arguments
+from studies.errors import StudiesError
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED_DATA = REPO.parent / "shared" / "data"
@@ -54,6 +64,59 @@ def zigzag_4000(vessel, model):
     return simulate(model, vessel.coefficients, vessel, zigzag(20, 20, duration=4000.0))
 
 
+@pytest.fixture(scope="session")
+def zigzag_1500(vessel, model):
+    """Clean RK4 zig-zag 20/20 of the Mariner: 1500 s at 0.1 s."""
+    from studies.simulate import simulate, zigzag
+
+    return simulate(model, vessel.coefficients, vessel, zigzag(20, 20, duration=1500.0))
+
+
+@pytest.fixture(scope="session")
+def zigzag_600(vessel, model):
+    """Clean RK4 zig-zag 20/20 of the Mariner: 600 s at 0.1 s."""
+    from studies.simulate import simulate, zigzag
+
+    return simulate(model, vessel.coefficients, vessel, zigzag(20, 20, duration=600.0))
+
+
+@pytest.fixture(scope="session")
+def windy_zigzag_4000(vessel, model):
+    """RK4 zig-zag 20/20 of the Mariner, 4000 s at 0.1 s, in a 12 m/s wind from
+    45 deg (thesis Tables 4.6-4.8); the record carries the true wind."""
+    from studies.environment.conditions import Environment
+    from studies.simulate import simulate, zigzag
+
+    env = Environment(12.0, np.deg2rad(45.0))
+    return simulate(model, vessel.coefficients, vessel, zigzag(20, 20, duration=4000.0), env)
+
+
+@pytest.fixture(scope="session")
+def problems_4000(model, vessel, zigzag_4000):
+    """Regression problems (X, Y, N) of the clean 4000 s zig-zag."""
+    from studies.identify.regression import build_problems
+
+    return build_problems(model, vessel, zigzag_4000)
+
+
+@pytest.fixture(scope="session")
+def good_frame():
+    """A valid record as a table: the reference program's 120 s zig-zag 20/20
+    at 0.1 s (tests/reference_mariner.py), the starting point of bad input."""
+    import reference_mariner as ref
+
+    return pd.DataFrame(ref.zigzag_record(20.0, 20.0, duration=120.0, dt=0.1))
+
+
+@pytest.fixture(scope="session")
+def hidden_none_11(vessel):
+    """``(records, truth)`` of :func:`studies.discover.hidden.hidden_records` with
+    nothing hidden, seed 11, no noise: zig-zag 20/20, turning circle, zig-zag 10/10."""
+    from studies.discover.hidden import hidden_records
+
+    return hidden_records(vessel, "none", seed=11)
+
+
 def deviations(params: dict, truth: dict) -> dict:
     """100 (identified - true) / true per coefficient."""
     return {k: 100.0 * (params[k] - truth[k]) / truth[k] for k in truth}
@@ -66,6 +129,33 @@ def run_studies(args, cwd, timeout=600, env_extra=None):
     env.update(env_extra or {})
     return subprocess.run([sys.executable, "-m", "studies", *args], cwd=cwd,
                           capture_output=True, text=True, timeout=timeout, env=env)
+
+
+def _refused_in_process(config_name: str, args: list[str], root: Path, command: str,
+                        *expected: str) -> str:
+    """The check ``studies <command> <args>`` runs before Hydra starts a job, in
+    process: it must refuse with one line (what the CLI prints after
+    ``studies: error:``, exit status 2) holding every ``expected`` text, and
+    write nothing under ``root``. Returns the line."""
+    root = Path(root)
+    before = sorted(root.rglob("*"))
+    with pytest.raises(StudiesError) as info:
+        check_arguments(config_name, list(args), root, command)
+    line = str(info.value)
+    assert line and "\n" not in line.strip(), line
+    for text in expected:
+        assert text in line, (text, line)
+    assert sorted(root.rglob("*")) == before, "the check wrote files"
+    return line
+
+
+@pytest.fixture(scope="session")
+def refused_in_process():
+    """``refused_in_process(config_name, args, root, command, *expected)``: a
+    command line refused by the check before Hydra, run in process (fast); the
+    end-to-end refusal (exit status 2, one line on stderr, no MLflow run) is
+    tested through the console script once per kind of refusal."""
+    return _refused_in_process
 
 
 def mlflow_runs(root: Path) -> list[tuple]:

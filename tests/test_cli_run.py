@@ -55,12 +55,6 @@ def test_run_on_csv_written_by_another_program(tmp_path, other_program_csv):
     assert logged["zigzag_10_10/fitness"] == pytest.approx(metrics["zigzag_10_10/fitness"])
 
 
-@pytest.fixture(scope="module")
-def good_frame():
-    rec = ref.zigzag_record(20.0, 20.0, duration=120.0, dt=0.1)
-    return pd.DataFrame(rec)
-
-
 def _write(frame, path):
     frame.to_csv(path, index=False)
     return path
@@ -98,8 +92,12 @@ def _bad_binary(f, p):
     return p, ()
 
 
-@pytest.mark.parametrize("maker", [_bad_missing, _bad_nan, _bad_time, _bad_degrees,
-                                   _bad_empty, _bad_binary], ids=lambda m: m.__name__[5:])
+# one end-to-end case in the fast loop; the loader's refusals themselves are
+# tested in process (test_data_contract.py, test_data_io.py, test_reliability_input.py)
+@pytest.mark.parametrize("maker", [_bad_missing] + [
+    pytest.param(m, marks=pytest.mark.slow)
+    for m in (_bad_nan, _bad_time, _bad_degrees, _bad_empty, _bad_binary)],
+    ids=lambda m: m.__name__[5:])
 def test_bad_input_is_one_line_nonzero_and_no_run(tmp_path, good_frame, maker):
     path, expected = maker(good_frame, tmp_path / "bad_record.csv")
     proc = run_studies(["run", f"data.path={path}", f"hydra.run.dir={tmp_path / 'run'}"], cwd=tmp_path)
@@ -113,11 +111,15 @@ def test_bad_input_is_one_line_nonzero_and_no_run(tmp_path, good_frame, maker):
     assert mlflow_runs(tmp_path) == []
 
 
-def test_missing_data_file_and_impossible_values_are_refused(tmp_path):
-    for args, text in (([f"data.path={tmp_path / 'nope.csv'}"], "nope.csv"),
-                       (["wind.speed=-3"], "wind.speed"),
+def test_missing_data_file_and_impossible_values_are_refused(tmp_path, refused_in_process):
+    # end to end through the console script: exit status 2, one line, no run
+    proc = run_studies(["run", f"data.path={tmp_path / 'nope.csv'}", f"hydra.run.dir={tmp_path / 'run'}"],
+                       cwd=tmp_path)
+    assert proc.returncode == 2, proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and "nope.csv" in proc.stderr
+    assert mlflow_runs(tmp_path) == []
+    # the same check before Hydra, in process
+    for args, text in ((["wind.speed=-3"], "wind.speed"),
                        (["noise.measurement=5"], "noise.measurement")):
-        proc = run_studies(["run"] + args + [f"hydra.run.dir={tmp_path / 'run'}"], cwd=tmp_path)
-        assert proc.returncode == 2, (args, proc.stderr)
-        assert len(proc.stderr.strip().splitlines()) == 1 and text in proc.stderr
-        assert mlflow_runs(tmp_path) == []
+        refused_in_process("config", args + [f"hydra.run.dir={tmp_path / 'run'}"], tmp_path, "run", text)
+    assert mlflow_runs(tmp_path) == []

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import pickle
 
 import numpy as np
 import pandas as pd
@@ -283,9 +284,5 @@ def test_message_states_units_fix():
 
 def test_data_error_survives_pickling():
     """A refusal raised in a sweep worker process is sent back to the launcher pickled."""
-    import pickle
-
-    from studies.errors import DataError
-
     err = pickle.loads(pickle.dumps(DataError("run.csv", "not increasing", "t", 12)))
     assert str(err) == "run.csv, column 't', row 12: not increasing"

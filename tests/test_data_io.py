@@ -373,6 +373,7 @@ def hypothesis_dir(tmp_path_factory):
 _names = itertools.count()
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 @given(table=tables(),
@@ -419,6 +420,7 @@ def test_property_valid_table_or_data_error(hypothesis_dir, table, fmt_delimiter
     assert df.attrs["name"] == path.stem
 
 
+@pytest.mark.slow
 def test_property_test_exercised_both_outcomes():
     """Runs after the property test (file order): it must not be vacuous."""
     if COUNTS["tried"] == 0:

@@ -11,18 +11,19 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hydra import compose, initialize_config_module
+from hydra import initialize_config_module
 
 from conftest import SHARED_DATA, marin_file
 from studies.discover.hidden import hidden_records, hidden_roll_decays, parameters_match, write_records
 from studies.errors import ConfigError
-from studies.workflows.discover import execute_discover, prepare_discover
+from studies.config import compose_settings
+from studies.workflows.kinds import execute_discover, prepare_discover
 
 
 def _discover(tmp_path, records, overrides=()):
     paths = write_records(records, tmp_path)
     with initialize_config_module("studies.conf", version_base="1.3"):
-        cfg = compose("discover", overrides=[f"data.path=[{paths[0]},{paths[1]}]",
+        cfg = compose_settings("discover", overrides=[f"data.path=[{paths[0]},{paths[1]}]",
                                              f"validate.path=[{paths[2]}]", *overrides])
     study = prepare_discover(cfg, tmp_path)
     discovery, _ = execute_discover(study, tmp_path / "out")
@@ -86,11 +87,11 @@ def test_every_record_held_out_in_turn_names_the_same_hidden_offset(tmp_path, ve
     assert "## Every record held out in turn" in report
 
 
-def test_splits_need_two_records(tmp_path, vessel):
-    records, _ = hidden_records(vessel, "none", seed=11)
+def test_splits_need_two_records(tmp_path, hidden_none_11):
+    records, _ = hidden_none_11
     paths = write_records(records[:1], tmp_path)
     with initialize_config_module("studies.conf", version_base="1.3"):
-        cfg = compose("discover", overrides=[f"data.path=[{paths[0]}]", "discover.splits=true"])
+        cfg = compose_settings("discover", overrides=[f"data.path=[{paths[0]}]", "discover.splits=true"])
     with pytest.raises(ConfigError, match="discover.splits=true needs two or more records"):
         prepare_discover(cfg, tmp_path)
 
@@ -121,7 +122,7 @@ def _roll_study(tmp_path, data, validate=None, simulation=None):
     if simulation:
         overrides.append(f"simulation.path={simulation}")
     with initialize_config_module("studies.conf", version_base="1.3"):
-        cfg = compose("discover", overrides=overrides)
+        cfg = compose_settings("discover", overrides=overrides)
     study = prepare_discover(cfg, tmp_path)
     return execute_discover(study, tmp_path / "out")[0]
 
@@ -212,7 +213,7 @@ def _discover_kvlcc2(tmp_path, training: tuple, held_out: str, overrides=()) -> 
     """The MARIN KVLCC2 records: a symmetric baseline from ``training``, judged on ``held_out``."""
     train = [marin_file(m) for m in training]
     with initialize_config_module("studies.conf", version_base="1.3"):
-        cfg = compose("discover", overrides=["vessel=kvlcc2", "model=symmetric",
+        cfg = compose_settings("discover", overrides=["vessel=kvlcc2", "model=symmetric",
                                              f"data.path=[{','.join(str(f) for f in train)}]",
                                              f"validate.path=[{marin_file(held_out)}]",
                                              "discover.second_cause=false", "discover.posterior_steps=15",
@@ -299,12 +300,12 @@ def test_residual_structure_points_at_the_wind_when_its_speed_is_misread(vessel)
     assert corr[0] > 0.15 and corr[1] < 0.5 * corr[0], corr
 
 
-def test_departures_rank_a_speed_error_in_the_turn_first(vessel):
+def test_departures_rank_a_speed_error_in_the_turn_first(vessel, hidden_none_11):
     """A replay that keeps 10 % too much speed in the steady turn and is otherwise exact:
     the speed in the steady-helm phase comes first, with the means that show it."""
     from studies.discover import diagnostics as dg
 
-    records, _ = hidden_records(vessel, "none", seed=11)
+    records, _ = hidden_none_11
     turn = records[1]
     steady = dg.phases(turn) == "steady helm"
     pred = turn.copy()
@@ -350,14 +351,14 @@ def test_a_near_miss_is_explained_and_a_winner_is_not():
 
 
 @pytest.mark.slow
-def test_another_simulator_is_judged_against_the_held_out_record(tmp_path, vessel):
+def test_another_simulator_is_judged_against_the_held_out_record(tmp_path, vessel, hidden_none_11):
     """simulation.path with manoeuvring records: another simulator's run of the held-out
     zig-zag, whose yaw damping Nr is 30 % too weak, is judged with the baseline: its
     departures come out, larger than the baseline's, in discovery.json and the report."""
     from studies.models import abkowitz
     from studies.simulate import simulate, zigzag
 
-    records, _ = hidden_records(vessel, "none", seed=11)
+    records, _ = hidden_none_11
     values = dict(vessel.coefficients)
     values["Nr"] = 0.7 * values["Nr"]
     other = simulate(abkowitz(), values, vessel, zigzag(10, 10, duration=600.0))
@@ -374,10 +375,10 @@ def test_another_simulator_is_judged_against_the_held_out_record(tmp_path, vesse
     assert "| other simulator |" in report           # phase errors and characteristics
 
 
-def test_a_simulation_that_covers_no_record_is_not_judged(vessel):
+def test_a_simulation_that_covers_no_record_is_not_judged(hidden_none_11):
     from studies.workflows.discover import on_record_time
 
-    records, _ = hidden_records(vessel, "none", seed=11)
+    records, _ = hidden_none_11
     rec = records[2]
     assert on_record_time(rec.iloc[: len(rec) // 2], rec) is None
     assert on_record_time(records[1], rec) is None            # the turning circle: another rudder

@@ -11,6 +11,7 @@ from studies.errors import ConfigError
 from studies.discover.fitting import Context, calibrate, fit_cause, validate
 from studies.discover.hidden import hidden_records
 from studies.discover.output_error import needs_refinement, refine, refined_posterior, score_terms
+from studies.discover.search import search
 from studies.models.abkowitz import abkowitz
 
 
@@ -95,8 +96,6 @@ def test_noisy_search_refines_every_cause_and_claims_no_second_cause_when_one_is
     """Wind not modelled, 5 % noise, seed 100: every cause and every pair tried is
     refined and ranked by output error; the wind wins, and no pair gains on it by the
     evidence margin (only one effect is hidden)."""
-    from studies.discover.search import search
-
     records, truth = hidden_records(vessel, "wind_unmodelled", seed=100, noise=0.05)
     ctx = Context(vessel, abkowitz(), records[:2], records[2:])
     res = search(ctx, posterior_steps=10)

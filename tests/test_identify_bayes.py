@@ -11,14 +11,19 @@ from functools import lru_cache
 
 import numpy as np
 import pytest
+from omegaconf import OmegaConf
 
 from conftest import deviations
 from studies.environment.noise import add_measurement_noise, disturbance_forces
+from studies.errors import ConfigError
 from studies.identify import LeastSquares, build_problems
 from studies.identify.bayes import BayesianRegression, RegressionPosterior, plot_corner
 from studies.identify.objective import TrajectoryObjective
 from studies.identify.regression import prime_states
+from studies.models import abkowitz
 from studies.simulate import simulate, zigzag
+from studies.vessels import get_vessel
+from studies.workflows.settings import CONF_DIR
 
 #: SVM paper Table 2: k0 of NL1
 NL1 = 0.05
@@ -32,9 +37,6 @@ def truth(model, vessel):
 @lru_cache(maxsize=4)
 def _force_scale(duration: float):
     """max |clean prime force| per DOF of the clean run (SVM paper eq. 14)."""
-    from studies.models import abkowitz
-    from studies.vessels import get_vessel
-
     vessel, model = get_vessel("mariner"), abkowitz()
     truth = {n: vessel.coefficients[n] for n in model.names}
     clean = simulate(model, truth, vessel, zigzag(20, 20, duration=duration))
@@ -208,29 +210,24 @@ def test_trajectory_posterior_recovers_perturbed_terms(model, vessel, truth, tmp
 
 
 def test_trajectory_terms_ga_takes_the_least_sensitive(clean_problems):
-    pytest.importorskip("studies.identify.sensitivity")
     ls = LeastSquares().fit(clean_problems).params
     names = BayesianRegression(trajectory_terms="ga").trajectory_names(clean_problems, ls)
     assert len(names) == 15 and all(sum(n[0] == d for n in names) == 5 for d in "XYN")
 
 
 def test_config_file_builds_the_identifier():
-    from omegaconf import OmegaConf
-
-    from studies.workflows.settings import CONF_DIR
-
     node = OmegaConf.load(CONF_DIR / "method" / "bayes.yaml")
-    assert list(node.keys())[0] == "name" and node.name == "bayes"
+    settings = [key for key in node.keys() if key != "defaults"]  # Hydra's list comes first
+    assert settings[0] == "name" and node.name == "bayes"
     cfg = OmegaConf.create({"seed": 7, "method": node})
     options = OmegaConf.to_container(cfg.method, resolve=True)
     options.pop("name")
+    options.pop("defaults", None)
     bayes = BayesianRegression(**options)
     assert bayes.seed == 7 and bayes.n_samples == 10_000 and bayes.trajectory_terms is None
 
 
 def test_bad_settings_are_refused():
-    from studies.errors import ConfigError
-
     for bad in ({"n_samples": 0}, {"thin": 1.5}, {"moves": "walk"}, {"n_walkers": 7},
                 {"trajectory_terms": "Yv"}):
         with pytest.raises(ConfigError):

@@ -28,10 +28,8 @@ def test_sobol_of_a_linear_model_has_the_analytic_answer():
 
 
 @pytest.fixture(scope="module")
-def windy_problems(model, vessel):
-    env = Environment(12.0, np.deg2rad(45.0))
-    rec = simulate(model, vessel.coefficients, vessel, zigzag(20, 20, duration=4000.0), env)
-    rec = record_wind(rec, -0.05)
+def windy_problems(model, vessel, windy_zigzag_4000):
+    rec = record_wind(windy_zigzag_4000, -0.05)
     return rec, build_problems(model, vessel, rec)
 
 
@@ -65,8 +63,8 @@ class _PerturbedStart(GeneticRefinement):
 
 
 @pytest.mark.slow
-def test_ga_improves_a_perturbed_start_and_keeps_fixed_genes(model, vessel):
-    rec = simulate(model, vessel.coefficients, vessel, zigzag(20, 20, duration=1500.0))
+def test_ga_improves_a_perturbed_start_and_keeps_fixed_genes(model, vessel, zigzag_1500):
+    rec = zigzag_1500
     problems = build_problems(model, vessel, rec)
     objective = TrajectoryObjective(model, vessel, [rec])
     ga = _PerturbedStart(generations=80, stop_fitness=0.0, seed=3)

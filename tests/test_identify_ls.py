@@ -57,10 +57,10 @@ def test_reproduces_thesis_tables_4_3_to_4_5(model, vessel, zigzag_4000):
     assert same_digits == 40
 
 
-def test_forward_euler_difference_would_bias_rk4_data(model, vessel):
+def test_forward_euler_difference_would_bias_rk4_data(model, vessel, zigzag_1500):
     """Why the thesis' forward difference is not used on RK4 data: central
     differences recover the coefficients where a one-sided difference does not."""
-    rec = simulate(model, vessel.coefficients, vessel, zigzag(20, 20, duration=1500.0))
+    rec = zigzag_1500
     central = _identify(model, vessel, rec, "central")
     dev = np.abs(list(deviations(central.params, vessel.coefficients).values()))
     assert np.median(dev) < 0.5
@@ -74,22 +74,16 @@ def test_forward_euler_difference_would_bias_rk4_data(model, vessel):
     assert np.median(dev_b) > 2 * np.median(dev)
 
 
-@pytest.fixture(scope="module")
-def windy_zigzag(model, vessel):
-    env = Environment(12.0, np.deg2rad(45.0))
-    return simulate(model, vessel.coefficients, vessel, zigzag(20, 20, duration=4000.0), env)
-
-
 @pytest.mark.slow
-def test_wind_compensated_with_true_wind_recovers_coefficients(model, vessel, windy_zigzag):
-    assert "wind_speed" in windy_zigzag
-    result = _identify(model, vessel, windy_zigzag)
+def test_wind_compensated_with_true_wind_recovers_coefficients(model, vessel, windy_zigzag_4000):
+    assert "wind_speed" in windy_zigzag_4000
+    result = _identify(model, vessel, windy_zigzag_4000)
     dev = np.abs(list(deviations(result.params, vessel.coefficients).values()))
     assert np.median(dev) < 0.5 and dev.max() < 10.0
 
 
 @pytest.mark.slow
-def test_wind_speed_error_moves_deviations_as_in_thesis(model, vessel, windy_zigzag):
+def test_wind_speed_error_moves_deviations_as_in_thesis(model, vessel, windy_zigzag_4000):
     """Thesis Tables 4.6-4.8 (12 m/s, 45 deg, -5 %).
 
     Here ``V_p = V_w (1 + e)`` is the *recorded* speed (DESIGN: measured wind is
@@ -101,8 +95,8 @@ def test_wind_speed_error_moves_deviations_as_in_thesis(model, vessel, windy_zig
     coefficients the thesis shows clearly affected (|dev| > 5 %), and -5 %
     mirrors +5 %.
     """
-    plus = _identify(model, vessel, record_wind(windy_zigzag, +0.05))
-    minus = _identify(model, vessel, record_wind(windy_zigzag, -0.05))
+    plus = _identify(model, vessel, record_wind(windy_zigzag_4000, +0.05))
+    minus = _identify(model, vessel, record_wind(windy_zigzag_4000, -0.05))
     dev_plus = deviations(plus.params, vessel.coefficients)
     dev_minus = deviations(minus.params, vessel.coefficients)
     clear = [k for k, v in THESIS_LS_12MS_MINUS5.items() if abs(v) > 5.0]

@@ -1,28 +1,22 @@
 """Sparse regression (SINDy / STLSQ) on the model's terms and on the extended library."""
 
 import json
-from pathlib import Path
+from dataclasses import asdict
 
 import numpy as np
 import pytest
-from omegaconf import OmegaConf
 
 from conftest import deviations
+from studies.config import compose_settings
 from studies.identify.objective import TrajectoryObjective
 from studies.identify.regression import build_problems
 from studies.identify.sindy import SparseRegression, term_library
 from studies.models.terms import Term, candidate_terms
 from studies.simulate import simulate, zigzag
 
-CONF = Path(__file__).resolve().parents[1] / "src" / "studies" / "conf" / "method"
 
 NRRR = Term("Nrrr", "N", (0, 0, 3, 0))
 NRRR_VALUE = -0.003
-
-
-@pytest.fixture(scope="module")
-def problems_4000(model, vessel, zigzag_4000):
-    return build_problems(model, vessel, zigzag_4000)
 
 
 def _relative_contributions(problem, truth):
@@ -116,8 +110,9 @@ def test_extended_library_finds_a_hidden_term(model, vessel, tmp_path):
 
 
 def test_config_keys_are_constructor_options():
-    path = CONF / "sindy.yaml"
-    options = OmegaConf.to_container(OmegaConf.load(path), resolve=True)
-    assert list(options)[0] == "name" and options.pop("name") == SparseRegression.name
+    """The typed ``method=sindy`` settings, as a run passes them, build the estimator."""
+    cfg = compose_settings("config", ["method=sindy"])
+    options = {k: v for k, v in asdict(cfg.method).items() if k != "name"}
+    assert cfg.method.name == SparseRegression.name
     sindy = SparseRegression(**options)
     assert sindy.library == "model" and sindy.max_order == 3

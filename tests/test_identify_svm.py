@@ -1,24 +1,18 @@
 """Linear epsilon-SVR identification (thesis section 3.2.2, Wang et al. 2021)."""
 
 import logging
-from pathlib import Path
+from dataclasses import asdict
 
 import numpy as np
 import pytest
-from omegaconf import OmegaConf
 
 from conftest import deviations
+from studies.config import compose_settings
 from studies.identify.regression import RegressionProblem, build_problems
 from studies.identify.svm import (SupportVectorRegression, scale_problem, search_rows,
                                   time_blocked_splits)
 from studies.simulate import simulate, zigzag
 
-CONF = Path(__file__).resolve().parents[1] / "src" / "studies" / "conf" / "method"
-
-
-@pytest.fixture(scope="module")
-def problems_4000(model, vessel, zigzag_4000):
-    return build_problems(model, vessel, zigzag_4000)
 
 
 @pytest.fixture(scope="module")
@@ -105,9 +99,8 @@ def test_search_uses_contiguous_time_blocks(monkeypatch):
 
 
 @pytest.fixture(scope="module")
-def problems_600(model, vessel):
-    rec = simulate(model, vessel.coefficients, vessel, zigzag(20, 20, duration=600.0))
-    return build_problems(model, vessel, rec)
+def problems_600(model, vessel, zigzag_600):
+    return build_problems(model, vessel, zigzag_600)
 
 
 def test_nonconvergence_is_reported_and_logged(problems_600, caplog):
@@ -137,10 +130,9 @@ def test_default_liblinear_tolerance_would_be_silently_wrong(problems_4000, vess
 
 
 def test_config_keys_are_constructor_options():
-    for name, cls in (("svm", SupportVectorRegression),):
-        cfg = OmegaConf.create({"seed": 0, "method": OmegaConf.load(CONF / f"{name}.yaml")})
-        options = OmegaConf.to_container(cfg.method, resolve=True)
-        assert options.pop("name") == name == cls.name
-        svm = cls(**options)
-        assert svm.c_grid == tuple(options["c_grid"])
-        assert list(OmegaConf.load(CONF / f"{name}.yaml").keys())[0] == "name"
+    """The typed ``method=svm`` settings, as a run passes them, build the estimator."""
+    cfg = compose_settings("config", ["method=svm", "seed=3"])
+    options = {k: v for k, v in asdict(cfg.method).items() if k != "name"}
+    assert cfg.method.name == SupportVectorRegression.name == "svm"
+    svm = SupportVectorRegression(**options)
+    assert svm.c_grid == tuple(options["c_grid"]) and svm.seed == 3

@@ -33,20 +33,22 @@ import pandas as pd
 import pytest
 
 from studies.data.derivatives import estimate_derivatives
+from studies.errors import ConfigError
 from studies.identify.kalman import (KalmanSettings, _model_constants, _model_rates, ekf_derivatives,
                                  kalman_smooth, measurement_variance, smoothed_record)
+from studies.identify.ls import LeastSquares
 from studies.models import abkowitz
 from studies.simulate import simulate, zigzag
 from studies.simulate.monomials import dense_coefficients
 from studies.vessels import get_vessel
+from studies.workflows.measured import identify_measured
 
 NOISE = {"x0": 1.0, "y0": 1.0, "psi": np.deg2rad(0.1), "u": 0.02, "v": 0.02, "r": np.deg2rad(0.01)}
 
 
 @pytest.fixture(scope="module")
-def case():
-    vessel, model = get_vessel("mariner"), abkowitz()
-    clean = simulate(model, vessel.coefficients, vessel, zigzag(20, 20, duration=600.0))
+def case(vessel, model, zigzag_600):
+    clean = zigzag_600
     c = dense_coefficients(model.vector(vessel.coefficients), model.powers_array(), model.dof_array())[0].ravel()
     states = np.column_stack([clean[k].to_numpy() for k in ("x0", "y0", "psi", "u", "v", "r")]
                              + [np.zeros((len(clean), 6))])
@@ -111,9 +113,6 @@ def test_kinematic_smoother_is_as_good_as_savitzky_golay(case):
 def test_smoother_with_the_identified_model_beats_every_sg_window(case):
     """The method of Alexandersson et al. (2022): kinematic pass, LS, EKF/RTS
     with the identified model, LS, EKF/RTS with the new model."""
-    from studies.identify.ls import LeastSquares
-    from studies.workflows.measured import identify_measured
-
     vessel, model, clean, acc, noisy = case
     best = _best_sg(noisy, clean, acc)
     rec = noisy.copy()
@@ -172,8 +171,6 @@ def test_smoothed_record_and_settings(case):
     assert res.process == "kinematic" and res.process_scale == 1.0
     settings = KalmanSettings.from_config({"channels": ["x0", "psi"], "noise_window": 5.0})
     assert settings.channels == ("x0", "psi")
-    from studies.errors import ConfigError
-
     with pytest.raises(ConfigError):
         KalmanSettings.from_config({"channels": ["speed"]})
     with pytest.raises(ConfigError):

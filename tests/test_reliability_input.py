@@ -16,11 +16,6 @@ import reference_mariner as ref
 from conftest import SHARED_DATA, mlflow_runs, run_studies
 
 
-@pytest.fixture(scope="module")
-def good_frame():
-    return pd.DataFrame(ref.zigzag_record(20.0, 20.0, duration=120.0, dt=0.1))
-
-
 def _one_line_refusal(proc, tmp_path, *expected, status=2):
     """One line on stderr naming what is wrong, exit ``status``, no traceback, no run."""
     assert proc.returncode == status, (proc.returncode, proc.stderr[-2000:])
@@ -70,6 +65,7 @@ def _tabs(f, p):
     return ("tab",)
 
 
+@pytest.mark.slow   # end to end; the fast loop runs one such case (test_cli_run.py) and these through the loader
 @pytest.mark.parametrize("maker", [_renamed, _inf, _duplicated_time, _semicolons],
                          ids=lambda m: m.__name__.strip("_"))
 def test_malformed_record_is_refused_in_one_line(tmp_path, good_frame, maker):
@@ -96,7 +92,7 @@ def test_malformed_record_is_refused_by_the_loader(tmp_path, good_frame, maker):
         assert part in text, (part, text)
 
 
-@pytest.mark.parametrize("method", ["ls", "bayes"])
+@pytest.mark.parametrize("method", ["ls", pytest.param("bayes", marks=pytest.mark.slow)])
 def test_too_few_samples_for_the_method(tmp_path, good_frame, method):
     path = tmp_path / "short.csv"
     good_frame.iloc[:30].to_csv(path, index=False)
@@ -151,14 +147,14 @@ def test_config_error_from_the_console_script(tmp_path, args, text):
     _one_line_refusal(proc, tmp_path, text)
 
 
-def test_bad_value_in_one_job_of_a_sweep_refuses_the_whole_sweep(tmp_path):
+def test_bad_value_in_one_job_of_a_sweep_refuses_the_whole_sweep(tmp_path, refused_in_process):
     """Every job's config is checked before the first job starts."""
     proc = run_studies(["run", "-m", "wind.speed=4,-8", "method=ls,nope",
                         f"hydra.sweep.dir={tmp_path / 'multirun'}"], cwd=tmp_path)
     _one_line_refusal(proc, tmp_path, "method: unknown option 'nope'")
-    proc = run_studies(["run", "-m", "wind.speed=4,-8", f"hydra.sweep.dir={tmp_path / 'multirun'}"],
-                       cwd=tmp_path)
-    _one_line_refusal(proc, tmp_path, "wind.speed must be >= 0")
+    # the same check, in process: one bad value among the swept ones
+    refused_in_process("config", ["-m", "wind.speed=4,-8", f"hydra.sweep.dir={tmp_path / 'multirun'}"],
+                       tmp_path, "run", "wind.speed must be >= 0")
     assert not (tmp_path / "multirun").exists()
 
 
@@ -169,14 +165,19 @@ def test_verbose_shows_the_traceback(tmp_path):
     assert mlflow_runs(tmp_path) == []
 
 
-@pytest.mark.parametrize("args,text", [
-    (["report.dir=/etc"], "report.dir: '/etc' is outside"),
-    (["report.dir=../../x"], "report.dir: '../../x' is outside"),
-    (["nope=1"], "nope: unknown key"),
+@pytest.mark.parametrize("args,text,end_to_end", [
+    (["report.dir=/etc"], "report.dir: '/etc' is outside", True),
+    (["report.dir=../../x"], "report.dir: '../../x' is outside", False),
+    (["nope=1"], "nope: unknown key", False),
 ])
-def test_report_config_errors(tmp_path, args, text):
-    proc = run_studies(["report", *args], cwd=tmp_path)
-    _one_line_refusal(proc, tmp_path, text)
+def test_report_config_errors(tmp_path, refused_in_process, args, text, end_to_end):
+    """Through the console script once; the other refusals of the same check in process."""
+    if end_to_end:
+        proc = run_studies(["report", *args], cwd=tmp_path)
+        _one_line_refusal(proc, tmp_path, text)
+    else:
+        refused_in_process("report", args, tmp_path, "report", text)
+        assert mlflow_runs(tmp_path) == []
 
 
 def test_hydra_flags_and_sweeps_still_reach_hydra(tmp_path):

@@ -303,7 +303,7 @@ def test_report_of_diverged_and_failed_runs_shows_no_nan(tmp_path):
         with tracking.start_run("diverging", "ls wind=12", None, tmp_path,
                                 {"method": {"name": "ls"}, "wind": {"speed": 12}, "seed": 0}):
             raise ValueError("singular matrix")
-    page = build_report(None, tmp_path, "diverging", tmp_path / "reports")
+    page = build_report(*tracking.read_experiment(None, tmp_path, "diverging"), tmp_path / "reports")
     text = page.read_text()
     html = page.with_suffix(".html").read_text()
     for body in (text, html):

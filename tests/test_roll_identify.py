@@ -36,9 +36,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from studies.roll.records import load_roll_decay, prepare_decay
 from studies.errors import ConfigError
-from studies.roll.lssvm import LSSVM, WindowedLSSVM, cv_select, lssvm_eval, lssvm_fit, rbf_kernel
 from studies.roll.estimators import (
     FLSEstimator,
     NLSEstimator,
@@ -48,8 +46,11 @@ from studies.roll.estimators import (
     make_estimator,
     ode_least_squares,
 )
+from studies.roll.lssvm import LSSVM, WindowedLSSVM, cv_select, lssvm_eval, lssvm_fit, rbf_kernel
 from studies.roll.model import RollModel
-from studies.workflows.roll import compare_methods, run_roll_study, simulate_decay_record
+from studies.roll.records import load_roll_decay, prepare_decay
+from studies.roll.simulate import simulate_decay_record
+from studies.workflows.roll import compare_methods, run_roll_study
 
 TRUE = {"omega0": 2.5, "b1": 0.06, "b2": 0.40}
 PHI0 = math.radians(10.0)

@@ -21,11 +21,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from studies.roll.records import find_particulars, load_roll_decay
 from studies.errors import DataError
-from studies.roll.estimators import make_estimator, predict_record
-from studies.roll.analysis import rmse
+from studies.roll.comparison import rmse
+from studies.roll.estimators import make_estimator
 from studies.roll.model import RollModel
+from studies.roll.records import find_particulars, load_roll_decay
+from studies.roll.simulate import predict_record, simulate_decay_record
 from studies.workflows.roll import run_roll_study
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared/data/kvlcc2_roll_decay"
@@ -248,8 +249,6 @@ def test_a_noisy_decay_is_not_taken_for_noise(tmp_path):
     """5 % noise: once the amplitude has sunk into the noise the zero crossings are
     random, which must not make the decay itself look irregular (this record was
     refused with "half-periods vary by 37 %")."""
-    from studies.workflows.roll import simulate_decay_record
-
     path = tmp_path / "decay.csv"
     simulate_decay_record({"omega0": 2.5, "b1": 0.05, "b2": 0.4542}, ["b1", "b2"], 40.0, 0.01,
                           np.deg2rad(10.0), 0.05, 1040, path)

@@ -14,7 +14,7 @@ import math
 import numpy as np
 import pytest
 
-from studies.roll.analysis import decay_curve, find_extrema, fit_decay_curve
+from studies.roll.decay import decay_curve, find_extrema, fit_decay_curve
 from studies.roll.model import (
     RollModel,
     damping_ratio,

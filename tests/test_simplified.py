@@ -5,9 +5,10 @@ import json
 
 import numpy as np
 import pytest
-from hydra import compose, initialize_config_module
+from hydra import initialize_config_module
 
 from studies.analysis.correlation import correlated_groups, spearman_matrix
+from studies.config import compose_settings
 from studies.environment.noise import add_measurement_noise
 from studies.identify import LeastSquares, build_problems
 from studies.models import abkowitz
@@ -44,8 +45,8 @@ def test_sway_and_yaw_keep_the_union():
 def derived(tmp_path_factory):
     root = tmp_path_factory.mktemp("simplify")
     with initialize_config_module("studies.conf", version_base="1.3"):
-        cfg = compose("config", overrides=["simplify.realisations=30", "simplify.pawn_samples=400"])
-    path = ensure_definition(cfg, root, root / "analysis")
+        cfg = compose_settings("config", overrides=["simplify.realisations=30", "simplify.pawn_samples=400"])
+    path = ensure_definition(cfg, root, run_dir=root / "analysis")
     return root, path
 
 

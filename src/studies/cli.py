@@ -141,54 +141,61 @@ def _run_job(cfg, body) -> dict:
     return result
 
 
-def _resumable(cfg, root):
+def _settings(cfg):
+    """The job's typed settings (:mod:`studies.config`): Hydra's config
+    converted once, every value checked by its dataclass."""
+    from omegaconf import OmegaConf
+
+    return OmegaConf.to_object(cfg)
+
+
+def _params(cfg) -> dict:
+    """The job's resolved configuration as plain containers (MLflow params, config hash)."""
+    from omegaconf import OmegaConf
+
+    return OmegaConf.to_container(cfg, resolve=True)
+
+
+def _recorder(settings, root: Path):
+    """``record(experiment, name, params, tags)``: a tracked run in the job's store."""
+    from .runtime import tracking
+
+    def record(experiment: str, name: str, params: dict, tags: dict):
+        return tracking.start_run(experiment, name, settings.tracking.uri, root, params, tags)
+
+    return record
+
+
+def _resumable(settings, params: dict, root):
     """``(config_hash, id of a FINISHED run with it or None)``."""
     from .runtime import tracking
     from .runtime.resume import config_hash
 
-    digest = config_hash(cfg, root)
+    digest = config_hash(params, root)
     done = None
-    if cfg.get("resume", False) is True:
-        done = tracking.find_finished_run(cfg.tracking.uri, root, str(cfg.tracking.experiment), digest)
+    if settings.resume:
+        done = tracking.find_finished_run(settings.tracking.uri, root, settings.tracking.experiment, digest)
     return digest, done
 
 
 def _study(cfg, root: Path, out_dir: Path, on_create) -> dict:
     """One `studies run` job: check, (skip,) prepare, open the run, execute, log."""
-    from omegaconf import OmegaConf
-
     from .runtime import tracking
+    from .workflows.kinds import study_for
     from .workflows.settings import check_output_paths
 
-    check_output_paths(cfg, root, out_dir)
-    digest, done = _resumable(cfg, root)
+    settings = _settings(cfg)
+    params = _params(cfg)
+    check_output_paths(settings, root, out_dir)
+    digest, done = _resumable(settings, params, root)
     if done:
         return {"status": "skipped", "run_id": done, "config_hash": digest}
-    params = OmegaConf.to_container(cfg, resolve=True)
-    if str(cfg.model.name) == "roll":
-        from .workflows.roll_run import execute_roll, prepare_roll
-
-        roll = prepare_roll(cfg)
-        name = cfg.get("run_name") or f"{roll.method} roll {'+'.join(roll.terms)} " + (
-            ", ".join(Path(p).stem for p in roll.data_paths) or "synthetic") + f" seed={roll.seed}"
-        tags = {"method": roll.method, "model": "roll", "manoeuvre": "roll_decay",
-                "data": "measured" if roll.data_paths else "simulated", "preset": cfg.get("preset") or "none"}
-
-        def run_body():
-            return execute_roll(roll, out_dir)
-    else:
-        from .workflows.manoeuvring import execute, prepare, run_name, run_tags
-
-        study = prepare(cfg, root)
-        name = run_name(cfg, study.settings)
-        tags = run_tags(cfg, study.settings)
-
-        def run_body():
-            return execute(study, out_dir)
+    prepared = study_for(settings).prepare(settings, root, _recorder(settings, root))
+    name, tags = prepared.name, dict(prepared.tags)
     tags["config_hash"] = digest
-    with tracking.start_run(str(cfg.tracking.experiment), name, cfg.tracking.uri, root, params,
+    with tracking.start_run(settings.tracking.experiment, name, settings.tracking.uri, root, params,
                             tags, on_create=on_create) as run:
-        metrics = run_body()
+        metrics = prepared.execute(out_dir)
         run.log_outputs(metrics, out_dir)
     summary = {k: v for k, v in metrics.items()
                if k.startswith(("deviation/", "runtime/", "validation/", "simulation/"))
@@ -206,8 +213,9 @@ def _simplify(cfg, root: Path, out_dir: Path, on_create) -> dict:
     from .workflows.settings import check_output_paths
     from .workflows.simplify import ensure_definition
 
-    check_output_paths(cfg, root, out_dir)
-    path = ensure_definition(cfg, root, out_dir, force=True)
+    settings = _settings(cfg)
+    check_output_paths(settings, root, out_dir)
+    path = ensure_definition(settings, root, _recorder(settings, root), out_dir, force=True)
     print(f"simplified model written: {path}")
     print((out_dir / "simplification.json").read_text())
     return {"status": "finished"}
@@ -218,23 +226,20 @@ def _simplify_task(cfg):
 
 
 def _discover(cfg, root: Path, out_dir: Path, on_create) -> dict:
-    """One `studies discover` job: load and check inputs, then one MLflow run."""
-    from omegaconf import OmegaConf
-
+    """One `studies discover` job: load and check inputs, then one tracked run."""
     from .runtime import tracking
-    from .workflows.discover import execute_discover, prepare_discover
-    from .workflows.settings import check_output_paths
+    from .workflows.kinds import execute_discover, prepare_discover
+    from .workflows.settings import as_path_list, check_output_paths
 
-    check_output_paths(cfg, root, out_dir)
-    study = prepare_discover(cfg, root)
-    params = OmegaConf.to_container(cfg, resolve=True)
-    from .workflows.settings import as_path_list
-
-    stems = ", ".join(Path(p).stem for p in as_path_list(OmegaConf.select(cfg, "data.path")))
-    name = cfg.get("run_name") or f"discover {cfg.model.name} {stems}"
-    tags = {"kind": "discovery", "model": str(cfg.model.name), "vessel": str(cfg.vessel.name),
+    settings = _settings(cfg)
+    check_output_paths(settings, root, out_dir)
+    study = prepare_discover(settings, root, _recorder(settings, root))
+    params = _params(cfg)
+    stems = ", ".join(Path(p).stem for p in as_path_list(settings.data.path))
+    name = settings.run_name or f"discover {settings.model.name} {stems}"
+    tags = {"kind": "discovery", "model": settings.model.name, "vessel": settings.vessel.name,
             "data": "measured"}
-    with tracking.start_run(str(cfg.tracking.experiment), name, cfg.tracking.uri, root, params,
+    with tracking.start_run(settings.tracking.experiment, name, settings.tracking.uri, root, params,
                             tags, on_create=on_create) as run:
         discovery, metrics = execute_discover(study, out_dir)
         run.log_outputs(metrics, out_dir)
@@ -254,15 +259,18 @@ def _report_task(cfg) -> None:
 
     from .errors import StudiesError
     from .report.builder import build_report
+    from .runtime import tracking
     from .workflows.settings import output_path
 
     root = Path(get_original_cwd())
-    name = cfg.report.get("experiment") or None
+    verbose = cfg.get("verbose", False) is True
     try:
-        report_dir = output_path(cfg.report.dir, "report.dir", root)
-        path = build_report(cfg.tracking.uri, root, name, report_dir)
+        settings = _settings(cfg)
+        report_dir = output_path(settings.report.dir, "report.dir", root)
+        name, runs = tracking.read_experiment(settings.tracking.uri, root, settings.report.experiment or None)
+        path = build_report(name, runs, report_dir)
     except (LookupError, StudiesError) as error:
-        _fail(error, cfg.get("verbose", False) is True)
+        _fail(error, verbose)
     print(f"report written: {path} and {path.with_suffix('.html')}")
 
 
@@ -285,7 +293,7 @@ def _sweep_summary(state, checked) -> int:
     counts = {}
     for r in results:
         counts[r["status"]] = counts.get(r["status"], 0) + 1
-    from .runtime.progress import ENV_TOTAL
+    from .progress import ENV_TOTAL
 
     try:
         total = int(os.environ.get(ENV_TOTAL) or 0) or len(results)

@@ -101,11 +101,16 @@ class _Composer:
         """One line for a Hydra/OmegaConf composition error."""
         from hydra.errors import MissingConfigException, OverrideParseException
 
+        from .config import explain_validation_error
+
+        typed = explain_validation_error(error)
+        if typed is not None:
+            return typed
         cause = error.__cause__
         text = str(error)
         if isinstance(error, MissingConfigException):
             missing = str(getattr(error, "missing_cfg_file", "") or "")
-            options = list(getattr(error, "options", None) or [])
+            options = [o for o in (getattr(error, "options", None) or []) if not str(o).endswith("_schema")]
             group, _, option = missing.rpartition("/")
             if group and options:
                 return ConfigError(f"{group}: unknown option '{option}'; known: {', '.join(options)}")
@@ -257,22 +262,24 @@ def _structure(cfg, base, parsed) -> None:
                                   f"not a value; set one of them, e.g. {example}")
 
 
-def _bool(cfg, key: str) -> None:
-    from omegaconf import OmegaConf
+def _typed(cfg):
+    """The job's typed settings (:mod:`studies.config`): converting runs the
+    checks of every dataclass. Hydra's own node is left out."""
+    from omegaconf import OmegaConf, open_dict
 
-    value = OmegaConf.select(cfg, key, default=None)
-    if value is None or isinstance(value, bool):
-        return
-    raise ConfigError(f"{key} must be true or false, got {value!r}")
+    cfg = cfg.copy()
+    with open_dict(cfg):
+        cfg.pop("hydra", None)
+    return OmegaConf.to_object(cfg)
 
 
-def _paths_exist(cfg, root: Path) -> None:
-    from omegaconf import OmegaConf
-
+def _paths_exist(settings, root: Path) -> None:
     from .workflows.settings import as_path_list
 
-    for key in ("data.path", "validate.path", "model.simulation_path"):
-        for path in as_path_list(OmegaConf.select(cfg, key, default=None)):
+    given = [settings.data.path, settings.validate.path, getattr(settings.model, "simulation_path", None),
+             getattr(getattr(settings, "simulation", None), "path", None)]
+    for value in given:
+        for path in as_path_list(value):
             p = Path(path).expanduser()
             if not (p if p.is_absolute() else root / p).exists():
                 raise DataError(path, "the file does not exist; check the path (relative paths "
@@ -280,23 +287,20 @@ def _paths_exist(cfg, root: Path) -> None:
 
 
 def _check_run(cfg, root: Path) -> None:
-    from .workflows.settings import check_output_paths, read_settings
+    from .workflows.settings import check_output_paths
 
-    _bool(cfg, "verbose")
-    _bool(cfg, "resume")
-    read_settings(cfg)
-    check_output_paths(cfg, root)
-    _paths_exist(cfg, root)
+    settings = _typed(cfg)
+    check_output_paths(settings, root)
+    _paths_exist(settings, root)
 
 
 def _check_report(cfg, root: Path) -> None:
     from .workflows.settings import check_output_paths
 
-    _bool(cfg, "verbose")
-    check_output_paths(cfg, root)
+    check_output_paths(_typed(cfg), root)
 
 
-CHECKS = {"config": _check_run, "report": _check_report}
+CHECKS = {"config": _check_run, "discover": _check_run, "report": _check_report}
 
 
 def check_arguments(config_name: str, args: list[str], root: Path, command: str = "run"):

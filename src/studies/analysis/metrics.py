@@ -2,7 +2,8 @@
 
 Fitness is thesis eq. 3.43: ``sum over k in (u, v, r) of mean((k - k_ref)^2)``
 in SI units (m/s, rad/s). A prediction that diverged gets
-:data:`DIVERGED_PENALTY` instead of NaN, and a ``diverged`` flag.
+:data:`~studies.simulate.simulator.DIVERGED_PENALTY` instead of NaN, and a
+``diverged`` flag.
 """
 
 from __future__ import annotations
@@ -10,10 +11,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-__all__ = ["DIVERGED_PENALTY", "fitness", "error_metrics"]
+from ..simulate.simulator import DIVERGED_PENALTY
 
-#: finite fitness given to a simulation that left the physical range
-DIVERGED_PENALTY = 1.0e6
+__all__ = ["DIVERGED_PENALTY", "fitness", "error_metrics"]
 
 CHANNELS = ("u", "v", "r")
 

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+from SALib.analyze import pawn
 
 from ..identify.ga import gene_bounds
 from ..simulate import simulate_many
@@ -38,8 +39,6 @@ def trajectory_pawn(model, values: dict, vessel, manoeuvre, dof: str, n_samples:
     ``median``, ``maximum`` and the number of diverged samples ``diverged``
     (their output is the largest finite one, so they count as "far").
     """
-    from SALib.analyze import pawn
-
     names = model.names_of(dof)
     base = model.vector(values)
     idx = np.array([model.names.index(n) for n in names])

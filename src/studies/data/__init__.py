@@ -14,6 +14,14 @@ read_marin(path, model_scale=False, scale=45.7, *, uniform_time=False, min_sampl
     Read a MARIN free-running ``.dat`` file into the contract.
 
 Every refusal raises :class:`studies.errors.DataError`.
+
+Modules: :mod:`~studies.data.contract` (the contract and its validation),
+:mod:`~studies.data.files` (safe reading of a file's bytes),
+:mod:`~studies.data.io` (CSV / Parquet tables and the loaders),
+:mod:`~studies.data.marin` (MARIN ``.dat`` files),
+:mod:`~studies.data.resample` (records on an even time grid) and
+:mod:`~studies.data.derivatives` (model-free state and acceleration
+estimates).
 """
 
 from studies.data.contract import (OPTIONAL_COLUMNS, REQUIRED_COLUMNS,

@@ -21,6 +21,11 @@ biases the regression. Two estimators are provided:
 ``auto`` picks ``savgol`` when the record's high-frequency content shows
 sensor noise, ``central`` otherwise.
 
+These estimators need no ship model. The extended Kalman filter, which can
+use the manoeuvring model as its process model, lives one layer up in
+:mod:`studies.identify.kalman`; its ``estimate_derivatives`` accepts every
+method of this module and ``"ekf"`` / ``"ekf_kinematic"`` besides.
+
 References
 ----------
 Savitzky, A., Golay, M.J.E. (1964). Smoothing and differentiation of data by
@@ -35,9 +40,15 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import savgol_filter
 
-__all__ = ["DerivativeEstimate", "estimate_derivatives", "noise_ratio"]
+from .resample import uniform_step
 
+__all__ = ["DerivativeEstimate", "estimate_derivatives", "noise_ratio", "choose_window",
+           "MODEL_FREE_METHODS", "STATE_COLUMNS"]
+
+#: the velocities whose time derivatives are estimated
 STATE_COLUMNS = ("u", "v", "r")
+#: estimators of this module (``method=`` of :func:`estimate_derivatives`)
+MODEL_FREE_METHODS = ("auto", "central", "savgol")
 
 
 @dataclass(frozen=True)
@@ -61,14 +72,6 @@ class DerivativeEstimate:
     states: dict
     rates: dict
     method: str
-
-
-def _uniform_step(t: np.ndarray) -> float:
-    dt = np.diff(t)
-    step = float(np.median(dt))
-    if np.max(np.abs(dt - step)) > 1e-6 * max(step, 1e-12) + 1e-9:
-        raise ValueError("the record is not uniformly sampled; resample it first")
-    return step
 
 
 def noise_ratio(x: np.ndarray) -> float:
@@ -148,7 +151,8 @@ def estimate_derivatives(record, method: str = "auto", window: float | None = No
     Parameters
     ----------
     record : DataFrame
-        Data contract record (t, u, v, r, delta, psi, ...).
+        Data contract record (t, u, v, r, delta, psi, ...), uniformly
+        sampled (see :mod:`studies.data.resample`).
     method : {"auto", "central", "savgol"}
     window : float or "auto", optional
         Savitzky-Golay window [s]; default 4 s or 11 samples, whichever is
@@ -158,7 +162,7 @@ def estimate_derivatives(record, method: str = "auto", window: float | None = No
         Savitzky-Golay polynomial order.
     """
     t = record["t"].to_numpy(float)
-    dt = _uniform_step(t)
+    dt = uniform_step(t)
     cols = {c: record[c].to_numpy(float) for c in ("u", "v", "r", "delta", "psi")}
     if method == "auto":
         method = "savgol" if max(noise_ratio(cols[c]) for c in STATE_COLUMNS) > 1e-3 else "central"
@@ -196,8 +200,5 @@ def estimate_derivatives(record, method: str = "auto", window: float | None = No
                 rates[c + "_dot"] = savgol_filter(x, length, polyorder, deriv=1, delta=dt,
                                                   mode="interp")[index]
         return DerivativeEstimate(index, states, rates, "savgol")
-    if method in ("ekf", "ekf_kinematic"):
-        from ..identify.kalman import ekf_derivatives
-
-        return ekf_derivatives(record)
-    raise ValueError(f"unknown derivative method '{method}' (auto, central, savgol, ekf)")
+    raise ValueError(f"unknown derivative method '{method}' (auto, central, savgol; the "
+                     "Kalman estimators are studies.identify.kalman.estimate_derivatives)")

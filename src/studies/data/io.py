@@ -19,11 +19,13 @@ import os
 import re
 import warnings
 from collections.abc import Iterable
-from pathlib import Path
 
 import pandas as pd
 
 from studies.data.contract import validate_manoeuvre
+from studies.data.files import (SNIFF_BYTES, decode_text, label_and_path, read_file_bytes,
+                                refuse_binary)
+from studies.data.marin import read_marin
 from studies.errors import DataError
 
 __all__ = ["read_table", "load_manoeuvre", "load_manoeuvres",
@@ -33,96 +35,12 @@ CSV_SUFFIXES = (".csv", ".txt")
 PARQUET_SUFFIXES = (".parquet", ".pq")
 MARIN_SUFFIXES = (".dat",)
 
-_SNIFF_BYTES = 4096
 _DELIMITER_NAMES = {";": "a semicolon (';')", "\t": "a tab", "|": "a pipe ('|')"}
-_CONTROL = set(range(0, 9)) | set(range(14, 32)) | {127}
-
-
-def _label_and_path(path) -> tuple[str, Path]:
-    """The path as the user gave it (for messages) and as a ``Path``."""
-    try:
-        label = os.fspath(path)
-    except TypeError:
-        raise DataError(str(path), f"expected a file path, got "
-                        f"{type(path).__name__}") from None
-    if isinstance(label, bytes):
-        label = os.fsdecode(label)
-    if not label.strip():
-        raise DataError(repr(label), "the file path is empty")
-    return label, Path(label).expanduser()
-
-
-def _read_file_bytes(path) -> tuple[str, Path, bytes]:
-    """Check that ``path`` is a readable, non-empty file and return its bytes.
-
-    Returns
-    -------
-    (label, path, data)
-        The path as given (for messages), as a ``Path``, and the content.
-    """
-    label, p = _label_and_path(path)
-    try:
-        exists = p.exists()
-    except OSError as exc:
-        raise DataError(label, f"cannot access the file: {exc.strerror or exc}") from None
-    if not exists:
-        raise DataError(label, "the file does not exist; check the path "
-                        "(relative paths start at the working directory "
-                        f"{os.getcwd()})")
-    if p.is_dir():
-        raise DataError(label, "is a directory, not a file; give the path of "
-                        "a data file")
-    try:
-        data = p.read_bytes()
-    except OSError as exc:
-        raise DataError(label, f"cannot read the file: {exc.strerror or exc}") from None
-    if len(data) == 0:
-        raise DataError(label, "the file is empty (0 bytes)")
-    if not data.strip():
-        raise DataError(label, "the file contains only whitespace, no data")
-    return label, p, data
-
-
-def _refuse_binary(label: str, data: bytes, expected: str) -> None:
-    """Refuse content that is not text (NUL bytes or mostly non-text)."""
-    head = data[:_SNIFF_BYTES]
-    hint = ""
-    if head.startswith(b"PAR1"):
-        hint = "; it looks like a Parquet file: give it the suffix .parquet"
-    elif head.startswith((b"\xff\xfe", b"\xfe\xff")):
-        hint = "; it looks like UTF-16 text: save it as UTF-8"
-    elif head.startswith(b"PK\x03\x04"):
-        hint = "; it looks like a zip archive or an Excel workbook: export it as CSV"
-    if b"\x00" in head:
-        raise DataError(label, f"is a binary file, not {expected} (NUL bytes in "
-                        f"the first {_SNIFF_BYTES // 1024} KiB){hint}")
-    control = sum(1 for b in head if b in _CONTROL)
-    if control > 0.1 * len(head):
-        raise DataError(label, f"is a binary file, not {expected} (mostly "
-                        f"non-text bytes in the first {_SNIFF_BYTES // 1024} "
-                        f"KiB){hint}")
-    try:
-        head.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        # A multi-byte character cut at the end of the sniffed block is fine.
-        if exc.start < len(head) - 4:
-            high = sum(1 for b in head if b >= 0x80)
-            if high > 0.3 * len(head):
-                raise DataError(label, f"is a binary file, not {expected} "
-                                "(mostly non-text bytes in the first "
-                                f"{_SNIFF_BYTES // 1024} KiB){hint}") from None
-
-
-def _decode(data: bytes) -> str:
-    try:
-        return data.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        return data.decode("latin-1")
 
 
 def _read_csv(label: str, data: bytes) -> pd.DataFrame:
-    _refuse_binary(label, data, "a CSV text file")
-    text = _decode(data)
+    refuse_binary(label, data, "a CSV text file")
+    text = decode_text(data)
     lines = text.splitlines()
     header_index = next(i for i, line in enumerate(lines) if line.strip())
     header = lines[header_index]
@@ -210,7 +128,7 @@ def _drop_empty_tail(df: pd.DataFrame) -> pd.DataFrame:
 def _read_parquet(label: str, data: bytes) -> pd.DataFrame:
     if len(data) < 12 or not (data.startswith(b"PAR1") and data.endswith(b"PAR1")):
         hint = ""
-        head = data[:_SNIFF_BYTES]
+        head = data[:SNIFF_BYTES]
         if b"\x00" not in head and head.count(b",") > 0:
             hint = "; it looks like CSV text: give it the suffix .csv"
         raise DataError(label, "is not a Parquet file (no PAR1 signature at its "
@@ -259,7 +177,7 @@ def read_table(path) -> pd.DataFrame:
         rows have more values than the header; a Parquet file cannot be read;
         the suffix is not supported; any other parse failure.
     """
-    label, p, data = _read_file_bytes(path)
+    label, p, data = read_file_bytes(path)
     suffix = p.suffix.lower()
     if suffix in CSV_SUFFIXES:
         return _read_csv(label, data)
@@ -299,9 +217,8 @@ def load_manoeuvre(path, min_samples: int = 10) -> pd.DataFrame:
     studies.errors.DataError
         With the file, column and row, for anything outside the contract.
     """
-    label, p = _label_and_path(path)
+    label, p = label_and_path(path)
     if p.suffix.lower() in MARIN_SUFFIXES:
-        from studies.data.marin import read_marin  # marin imports this module
         df = read_marin(path, min_samples=min_samples)
     else:
         df = validate_manoeuvre(read_table(path), label, min_samples=min_samples)

@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from studies.data.contract import validate_manoeuvre
-from studies.data.io import _read_file_bytes, _refuse_binary
+from studies.data.files import decode_text, read_file_bytes, refuse_binary
 from studies.errors import ConfigError, DataError
 
 __all__ = ["read_marin", "MARIN_COLUMNS", "KVLCC2_SCALE"]
@@ -169,12 +169,9 @@ def read_marin(path, model_scale: bool = False, scale: float = KVLCC2_SCALE, *,
     if not (math.isfinite(scale) and scale > 0):
         raise ConfigError(f"scale must be a positive number, got {scale}")
 
-    label, p, data = _read_file_bytes(path)
-    _refuse_binary(label, data, "a MARIN .dat text file")
-    try:
-        text = data.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        text = data.decode("latin-1")
+    label, p, data = read_file_bytes(path)
+    refuse_binary(label, data, "a MARIN .dat text file")
+    text = decode_text(data)
     title, a, line_numbers = _parse(label, text)
 
     stamps = a[:, 0]

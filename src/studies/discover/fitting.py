@@ -29,10 +29,14 @@ import logging
 import time
 from dataclasses import dataclass, field, replace
 
+import emcee
 import numpy as np
 from scipy.optimize import least_squares
+from scipy.signal import savgol_filter
 
+from ..data.derivatives import choose_window
 from ..identify import LeastSquares, build_problems
+from ..identify.bayes import run_with_progress
 from ..simulate.simulator import replay
 from .causes import Cause, Setup
 
@@ -126,8 +130,6 @@ def scored_fit(ctx: Context, setup: Setup):
 
 def integrated_time(x: np.ndarray) -> float:
     """Integrated autocorrelation time of a residual series (>= 1)."""
-    import emcee
-
     x = np.asarray(x, float)
     if len(x) < 50 or np.std(x) == 0:
         return 1.0
@@ -214,8 +216,6 @@ def fit_cause(ctx: Context, cause: Cause) -> CauseFit:
 
 def smoothing_window(record) -> int:
     """Savitzky-Golay window [samples] of a record's u, v, r by the discrepancy principle."""
-    from ..data.derivatives import choose_window
-
     t = record["t"].to_numpy(float)
     dt = float(np.median(np.diff(t)))
     return choose_window([record[c] for c in ("u", "v", "r")], dt)
@@ -224,8 +224,6 @@ def smoothing_window(record) -> int:
 def smoothed(record):
     """The record with u, v, r, psi smoothed (Savitzky-Golay, window by
     :func:`smoothing_window`) for use as initial states of replays."""
-    from scipy.signal import savgol_filter
-
     n = smoothing_window(record)
     if n >= len(record):
         return record
@@ -331,10 +329,6 @@ def sample_intervals(log_prob, start: np.ndarray, burn: int, steps: int, seed: i
     its own moves seeded by ``seed`` (so that the intervals do not depend on
     numpy's global state); the chain after ``burn`` and its 5, 50 and 95 %
     quantiles per parameter."""
-    import emcee
-
-    from ..identify.bayes import run_with_progress
-
     sampler = emcee.EnsembleSampler(start.shape[0], start.shape[1], log_prob)
     sampler.random_state = np.random.RandomState(seed).get_state()
     run_with_progress(sampler, start, burn + steps)

@@ -8,12 +8,15 @@ al. 2023 eq. 22). Used by the tests and the hit-rate benchmark.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from ..environment.conditions import Environment
 from ..environment.noise import add_measurement_noise
 from ..models.abkowitz import abkowitz
 from ..models.terms import candidate_terms
+from ..roll.simulate import simulate_decay_record
 from ..simulate import simulate, turning, zigzag
 
 __all__ = ["HIDDEN_CAUSES", "HIDDEN_ROLL_CAUSES", "hidden_records", "hidden_roll_decays", "write_records",
@@ -93,10 +96,6 @@ def hidden_roll_decays(cause: str, folder, seed: int = 0, noise: float = 0.01) -
     +-20 % of :data:`HIDDEN_ROLL_CAUSES`; ``noise`` is a fraction of the release
     angle. Written as CSV files in ``folder``; returns ``(paths, {term: value})``.
     """
-    from pathlib import Path
-
-    from ..workflows.roll import simulate_decay_record
-
     term, centre = HIDDEN_ROLL_CAUSES[cause]
     value = centre * np.random.default_rng(seed).uniform(0.8, 1.2)
     params = {"omega0": 2.5, "b1": 0.05, term: value}
@@ -110,8 +109,6 @@ def hidden_roll_decays(cause: str, folder, seed: int = 0, noise: float = 0.01) -
 
 def write_records(records, folder) -> list[str]:
     """Write records as CSV files named after them (what a user would hand over)."""
-    from pathlib import Path
-
     paths = []
     for rec in records:
         path = Path(folder) / f"{rec.attrs['name']}.csv"

@@ -39,8 +39,11 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.signal import savgol_filter
 
+from ..errors import ConfigError
+from ..identify.regression import prime_states
 from ..simulate.simulator import replay_many
-from .fitting import CauseFit, Context, smoothed, smoothing_window
+from .fitting import (CauseFit, Context, integrated_time, sample_intervals, smoothed,
+                      smoothing_window)
 
 __all__ = ["Window", "training_windows", "noise_levels", "relative_noise", "refinement_setting",
            "needs_refinement", "refine", "output_error_scores", "score_terms", "refined_posterior"]
@@ -97,8 +100,6 @@ def relative_noise(ctx: Context, records, sigma: np.ndarray | None = None) -> np
 
 def refinement_setting(value):
     """``discover.output_error`` as ``"auto"``, True or False (ConfigError otherwise)."""
-    from ..errors import ConfigError
-
     if isinstance(value, bool):
         return value
     text = str(value).lower()
@@ -339,8 +340,6 @@ def score_terms(ctx: Context, fit: CauseFit, terms: list) -> list[tuple]:
     start for the refinement). Costs one replay of all candidates per window
     and the fit's Jacobian.
     """
-    from ..identify.regression import prime_states
-
     ref = fit.refined
     prob = _Problem(ctx, fit, ref["windows"], ref["sigma"])
     x = np.concatenate([np.zeros(prob.nb + prob.nt), ref["states"]])
@@ -376,8 +375,6 @@ def score_terms(ctx: Context, fit: CauseFit, terms: list) -> list[tuple]:
 
 def _autocorrelation_time(res: np.ndarray) -> float:
     """Largest integrated autocorrelation time over the channels of the data residual."""
-    from .fitting import integrated_time
-
     per = res.reshape(-1, len(CHANNELS))
     return max(integrated_time(per[:, k]) for k in range(per.shape[1]))
 
@@ -396,8 +393,6 @@ def refined_posterior(ctx: Context, fit: CauseFit, walkers: int = 6, steps: int 
     nonlinear parameter: their intervals are the Gaussian (Laplace) ones of
     the linearised fit.
     """
-    from .fitting import sample_intervals
-
     ref = fit.refined
     prob = _Problem(ctx, fit, ref["windows"], ref["sigma"])
     x_star = np.concatenate([np.zeros(prob.nb + prob.nt), ref["states"]])

@@ -4,23 +4,16 @@ from __future__ import annotations
 
 import json
 from collections import Counter
+from html import escape
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from ..plotting import pyplot
 from ..report.tables import markdown_table
 
 __all__ = ["write_discovery", "write_report", "plot_predictions", "plot_ranking", "plot_residuals"]
-
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def _clean(x):
@@ -59,7 +52,7 @@ def write_discovery(path: Path, discovery: dict) -> None:
 
 def plot_predictions(record, predictions: dict, title: str, path: Path) -> None:
     """Track and u, v, r of the measurement against each model's prediction."""
-    plt = _plt()
+    plt = pyplot()
     fig = plt.figure(figsize=(12, 6))
     grid = fig.add_gridspec(3, 2)
     ax = fig.add_subplot(grid[:, 0])
@@ -84,7 +77,7 @@ def plot_predictions(record, predictions: dict, title: str, path: Path) -> None:
 
 
 def plot_ranking(ranking: list, path: Path) -> None:
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(7, 3.5))
     names = [r["cause"] for r in ranking]
     scores = [r["score"] for r in ranking]
@@ -99,7 +92,7 @@ def plot_ranking(ranking: list, path: Path) -> None:
 
 def plot_residuals(problems: dict, residuals: list, path: Path) -> None:
     """Baseline regression residual against heading and rudder, per DOF."""
-    plt = _plt()
+    plt = pyplot()
     fig, axes = plt.subplots(2, 3, figsize=(12, 6))
     for k, dof in enumerate(("X", "Y", "N")):
         s = problems[dof].states
@@ -220,17 +213,15 @@ def write_report(out_dir: Path, discovery: dict, explanation: str, sections: lis
     html = ["<!doctype html><html><head><meta charset='utf-8'><title>discovery</title>",
             "<style>body{font-family:sans-serif;margin:2em;max-width:1300px}table{border-collapse:collapse;"
             "font-size:.85em}td,th{border:1px solid #ccc;padding:2px 6px}img{max-width:100%}</style></head><body>"]
-    import html as h
-
-    html.append(f"<h1>Discovery: {h.escape(d['cause'])}</h1><p>{h.escape(explanation)}</p>")
-    html.append("<pre>" + h.escape("\n".join(verdict[4:])) + "</pre>")
+    html.append(f"<h1>Discovery: {escape(d['cause'])}</h1><p>{escape(explanation)}</p>")
+    html.append("<pre>" + escape("\n".join(verdict[4:])) + "</pre>")
     for title, table in sections:
-        html.append(f"<h2>{h.escape(title)}</h2>")
+        html.append(f"<h2>{escape(title)}</h2>")
         if isinstance(table, pd.DataFrame):
             html.append(table.to_html(float_format=lambda x: f"{x:.4g}", na_rep="-"))
         else:
-            html.append(f"<p>{h.escape(str(table))}</p>")
+            html.append(f"<p>{escape(str(table))}</p>")
     for f in figures:
-        html.append(f"<p><img src='{h.escape(f)}' alt='{h.escape(f)}'></p>")
+        html.append(f"<p><img src='{escape(f)}' alt='{escape(f)}'></p>")
     html.append("</body></html>")
     (out_dir / "report.html").write_text("\n".join(html))

@@ -16,10 +16,12 @@ their initial state.
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 from scipy.optimize import least_squares
 
-from ..roll.records import initial_state
-from ..roll.model import RollModel
+from ..roll.decay import find_extrema
+from ..roll.simulate import predict_record
+from .fitting import sample_intervals
 
 __all__ = ["ROLL_CAUSES", "roll_search", "peak_decay", "PEAK_CYCLES"]
 
@@ -42,8 +44,6 @@ PEAK_CYCLES = (0, 5, 10, 20, 40)
 def _peaks(t, phi) -> dict:
     """Period [s], peak amplitudes [deg] after :data:`PEAK_CYCLES` cycles and the
     time [s] to half the release amplitude of one decay (NaN where not reached)."""
-    from ..roll.analysis import find_extrema
-
     ex = find_extrema(np.asarray(t, float), np.asarray(phi, float))
     a, te = ex.amplitude, ex.t - float(np.asarray(t, float)[0])
     out = {"period_s": 2.0 * float(np.median(np.diff(te))) if len(te) > 1 else np.nan}
@@ -54,7 +54,7 @@ def _peaks(t, phi) -> dict:
     return out
 
 
-def peak_decay(record, predictions: dict) -> "pd.DataFrame":
+def peak_decay(record, predictions: dict) -> pd.DataFrame:
     """Roll peak decay of a measured decay and of its predictions.
 
     ``predictions`` maps a label to ``(t, phi)`` (``t`` [s], ``phi`` [rad]);
@@ -63,8 +63,6 @@ def peak_decay(record, predictions: dict) -> "pd.DataFrame":
     the measured record covers) and the time [s] to half the release
     amplitude.
     """
-    import pandas as pd
-
     rows = {"measured": _peaks(record["t"], record["phi"])}
     for label, (t, phi) in predictions.items():
         rows[label] = _peaks(t, phi)
@@ -75,19 +73,12 @@ def peak_decay(record, predictions: dict) -> "pd.DataFrame":
     return table
 
 
-def _simulate(terms, params, rec):
-    phi0, dphi0 = initial_state(rec)
-    t = rec["t"].to_numpy(float)
-    phi, _ = RollModel(terms=tuple(terms)).simulate(params, phi0, dphi0, t - t[0])
-    return phi
-
-
 def _fit(terms, free, fixed, records, start):
     def resid(x):
         params = {**fixed, **dict(zip(free, x))}
         out = []
         for rec in records:
-            phi = _simulate(terms, params, rec)
+            phi = predict_record(params, terms, rec)
             out.append(np.nan_to_num(phi - rec["phi"].to_numpy(float), nan=1.0))
         return np.concatenate(out)
 
@@ -97,7 +88,8 @@ def _fit(terms, free, fixed, records, start):
 
 
 def _tau(x):
-    import emcee
+    """Integrated autocorrelation time [samples] of residuals ``x`` (at least 1)."""
+    import emcee  # about 0.2 s to load: only when roll causes are scored
 
     return float(max(1.0, emcee.autocorr.integrated_time(np.asarray(x), c=5, tol=0, quiet=True)[0]))
 
@@ -122,14 +114,14 @@ def roll_search(train, validation, simulation=None) -> dict:
                 params, resid = _fit(terms, free, fixed, train, start)
             else:
                 params = dict(fixed)
-                resid = np.concatenate([_simulate(terms, params, r) - r["phi"].to_numpy(float) for r in train])
+                resid = np.concatenate([predict_record(params, terms, r) - r["phi"].to_numpy(float) for r in train])
         else:
             period = train[0].attrs.get("period") or 2 * np.pi
             free = ["omega0", "b1"] + ([term] if term else [])
             params, resid = _fit(terms, free, {}, train, [2 * np.pi / period, 0.02] + ([0.0] if term else []))
         val = []
         for rec in validation:
-            phi = _simulate(terms, params, rec)
+            phi = predict_record(params, terms, rec)
             val.append(float(np.sqrt(np.nanmean((phi - rec["phi"].to_numpy(float)) ** 2))))
         fits.append({"cause": cause, "terms": terms, "params": params, "resid": resid,
                      "k": 1 if term else 0, "explanation": explanation,
@@ -151,8 +143,6 @@ def roll_search(train, validation, simulation=None) -> dict:
 
 def roll_interval(best, train, simulation_fixed, steps: int = 80, seed: int = 0) -> dict:
     """90 % interval of the winning term by emcee on the profile likelihood."""
-    from .fitting import sample_intervals
-
     term = ROLL_CAUSES[best["cause"]][0]
     if term is None:
         return {}
@@ -164,7 +154,7 @@ def roll_interval(best, train, simulation_fixed, steps: int = 80, seed: int = 0)
     def log_prob(x):
         params = dict(best["params"])
         params[term] = x[0]
-        r = np.concatenate([_simulate(terms, params, rec) - rec["phi"].to_numpy(float) for rec in train])
+        r = np.concatenate([predict_record(params, terms, rec) - rec["phi"].to_numpy(float) for rec in train])
         if not np.all(np.isfinite(r)):
             return -np.inf
         return -0.5 * n_eff * np.log(np.sum(r ** 2) / rss0)

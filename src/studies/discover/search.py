@@ -12,8 +12,10 @@ from dataclasses import replace
 import numpy as np
 
 from ..identify.regression import prime_states
-from .causes import Combined, MissingTerm, compact_parameters, manoeuvring_causes, extended_library
-from .fitting import CauseFit, Context, calibrate, fit_cause, posterior, rescore, validate
+from .causes import (Combined, MissingTerm, Setup, compact_parameters, extended_library,
+                     manoeuvring_causes)
+from .fitting import (CauseFit, Context, calibrate, fit_cause, posterior, regression_fit, rescore,
+                      validate)
 from .output_error import (needs_refinement, noise_levels, output_error_scores, refine, refined_posterior,
                            score_terms, training_windows)
 
@@ -34,7 +36,7 @@ def select_missing_terms(ctx: Context, residuals, problems, threshold: float = 0
     ``threshold^2`` of the residual variance). At most ``max_terms`` per DOF,
     the largest first.
     """
-    import pysindy as ps
+    import pysindy as ps  # lazy: pysindy loads scikit-learn (about 1 s), needed by this search only
 
     chosen = []
     library = extended_library(ctx.model, 3)
@@ -238,9 +240,6 @@ def _candidate_fits(ctx: Context, threshold: float, max_terms: int, refined: boo
         if missing is not None:
             fits.append(missing)
         return fits, terms, candidates
-    from .fitting import regression_fit
-    from .causes import Setup
-
     _, _, problems = regression_fit(ctx, Setup(ctx.model, ctx.train))
     candidates = select_missing_terms(ctx, residuals, problems, threshold, max_terms)
     base = fit_cause(ctx, MissingTerm([])).score

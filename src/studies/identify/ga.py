@@ -30,10 +30,19 @@ import logging
 import time
 
 import numpy as np
+import pygad
 
+from ..errors import ConfigError
+from ..plotting import pyplot
 from .base import Identification
+from .ls import LeastSquares
+from .sensitivity import least_sensitive
+from .svm import SupportVectorRegression
 
-__all__ = ["GeneticRefinement", "gene_bounds"]
+__all__ = ["GeneticRefinement", "gene_bounds", "BASE_METHODS"]
+
+#: regressions that give the GA its starting solution (``base=``)
+BASE_METHODS = {"ls": LeastSquares, "svm": SupportVectorRegression}
 
 log = logging.getLogger(__name__)
 
@@ -59,7 +68,8 @@ class GeneticRefinement:
     Parameters
     ----------
     base : str
-        Regression method that gives the starting solution (``ls``, ``svm``).
+        Regression method that gives the starting solution (``ls``, ``svm``;
+        :data:`BASE_METHODS`).
     genes_per_dof : int
         Least sensitive coefficients refined per DOF.
     genes : list of str, optional
@@ -104,14 +114,22 @@ class GeneticRefinement:
 
     def start(self, problems: dict, objective) -> Identification:
         """The regression solution the GA starts from."""
-        from . import make_identifier
+        return self.base_identifier().fit(problems, objective=objective)
 
-        return make_identifier(self.base, self.base_options).fit(problems, objective=objective)
+    def base_identifier(self):
+        """The regression named by ``base`` (:data:`BASE_METHODS`) with ``base_options``."""
+        try:
+            cls = BASE_METHODS[self.base]
+        except KeyError:
+            raise ConfigError(f"method '{self.base}' cannot give the GA its starting solution; "
+                              f"known: {', '.join(sorted(BASE_METHODS))}") from None
+        try:
+            return cls(**self.base_options)
+        except TypeError as exc:
+            raise ConfigError(f"method '{self.base}': {exc}") from None
 
     def select(self, problems: dict, params: dict):
         """Genes: explicit list, or the least Sobol-sensitive per DOF."""
-        from .sensitivity import least_sensitive
-
         if self.genes:
             unknown = set(self.genes) - set(params)
             if unknown:
@@ -122,8 +140,6 @@ class GeneticRefinement:
     def fit(self, problems: dict, objective=None) -> Identification:
         if objective is None:
             raise ValueError("GA refinement needs the trajectory objective of the training records")
-        import pygad
-
         started = self.start(problems, objective)
         model = objective.model
         start = model.vector(started.params)
@@ -208,11 +224,7 @@ class GeneticRefinement:
 
 
 def _plot_history(history, path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6, 3.5))
     ax.semilogy(np.arange(1, len(history) + 1), history)
     ax.set_xlabel("generation")

@@ -51,6 +51,11 @@ Discretisation: RK4 for the mean (rudder linear between samples), and
 J^T dt^3 / 3`` for the covariance (J the Jacobian of the continuous
 dynamics; the model's Jacobian by central differences).
 
+:func:`estimate_derivatives` is the entry point for every acceleration
+estimator of the regression: ``ekf`` and ``ekf_kinematic`` run the filter
+here, ``auto``, ``central`` and ``savgol`` the model-free estimators of
+:mod:`studies.data.derivatives`.
+
 References
 ----------
 Alexandersson, M., Mao, W., Ringsberg, J.W. (2022). System identification
@@ -74,11 +79,15 @@ import pandas as pd
 from numba import njit
 from scipy.signal import savgol_filter
 
+from ..data.derivatives import MODEL_FREE_METHODS, DerivativeEstimate
+from ..data.derivatives import estimate_derivatives as model_free_derivatives
+from ..data.resample import uniform_step
+from ..errors import ConfigError
 from ..simulate.monomials import dense_coefficients, scaled_forces
-from ..data.derivatives import DerivativeEstimate, _uniform_step
 
 __all__ = ["KalmanSettings", "KalmanResult", "kalman_smooth", "ekf_derivatives",
-           "measurement_variance", "smoothed_record", "MEASURABLE", "STATE_NAMES"]
+           "estimate_derivatives", "measurement_variance", "smoothed_record", "MEASURABLE",
+           "STATE_NAMES", "EKF_METHODS"]
 
 #: state vector of the filter
 STATE_NAMES = ("x0", "y0", "psi", "u", "v", "r", "a_u", "a_v", "a_r", "b_u", "b_v", "b_r")
@@ -87,6 +96,8 @@ MEASURABLE = {"x0": 0, "y0": 1, "psi": 2, "u": 3, "v": 4, "r": 5}
 N_STATE = 12
 #: bias state of each velocity channel
 BIAS_INDEX = {"u": 9, "v": 10, "r": 11}
+#: ``method=`` values of :func:`estimate_derivatives` that run the filter
+EKF_METHODS = ("ekf", "ekf_kinematic")
 
 
 @dataclass(frozen=True)
@@ -143,23 +154,17 @@ class KalmanSettings:
         known = set(cls.__dataclass_fields__)
         unknown = set(node) - known - {"iterations"}
         if unknown:
-            from ..errors import ConfigError
-
             raise ConfigError(f"unknown kalman settings {sorted(unknown)}; known: {sorted(known)}")
         kwargs = {k: v for k, v in node.items() if k in known and v is not None}
         if "channels" in kwargs:
             kwargs["channels"] = tuple(str(c) for c in kwargs["channels"])
             bad = [c for c in kwargs["channels"] if c not in MEASURABLE]
             if bad or not kwargs["channels"]:
-                from ..errors import ConfigError
-
                 raise ConfigError(f"kalman.channels must be a non-empty subset of "
                                   f"{list(MEASURABLE)}, got {list(kwargs['channels'])}")
         if "bias" in kwargs and not isinstance(kwargs["bias"], bool):
             kwargs["bias"] = tuple(str(c) for c in kwargs["bias"])
             if set(kwargs["bias"]) - set(BIAS_INDEX):
-                from ..errors import ConfigError
-
                 raise ConfigError(f"kalman.bias must be true, false or a subset of {list(BIAS_INDEX)}")
         if "scale_grid" in kwargs:
             kwargs["scale_grid"] = tuple(float(s) for s in kwargs["scale_grid"])
@@ -230,7 +235,7 @@ def measurement_variance(record: pd.DataFrame, channels, window: float = 10.0,
     perfectly clean data.
     """
     t = record["t"].to_numpy(float)
-    dt = _uniform_step(t)
+    dt = uniform_step(t)
     n = len(t)
     length = _odd_length(window, dt, n)
     roll = max(3, int(round(span / dt)))
@@ -325,6 +330,17 @@ def _jacobian(x, delta, mode, c, k, J):
 
 @njit(cache=True)
 def _rk4(x, d0, d1, dt, mode, c, k):
+    """One RK4 step of the filter's state (:func:`_f`), the rudder linear over
+    the step (``d0`` at its start, ``d1`` at its end).
+
+    The simulator's integrator (:mod:`studies.simulate.integrator`) is a
+    different system: seven states with the rudder servo, wind, current and
+    external forces, the heading's cosine and sine carried through the
+    stages by a Taylor series, compiled with floating-point contraction, and
+    no single step exposed. The filter's twelve states (kinematic or model
+    process, acceleration and bias states) do not fit it without changing
+    the filter's numbers.
+    """
     k1 = np.empty(NS)
     k2 = np.empty(NS)
     k3 = np.empty(NS)
@@ -474,7 +490,7 @@ def _biased_channels(settings: KalmanSettings) -> tuple:
 def _run(record, settings: KalmanSettings, mode: int, c: np.ndarray, k: np.ndarray,
          qa: np.ndarray, smooth: bool):
     t = record["t"].to_numpy(float)
-    dt = _uniform_step(t)
+    dt = uniform_step(t)
     channels = list(settings.channels)
     z = np.column_stack([record[ch].to_numpy(float) for ch in channels])
     R = measurement_variance(record, channels, settings.noise_window, settings.noise_span)
@@ -530,7 +546,7 @@ def kalman_smooth(record: pd.DataFrame, settings: KalmanSettings | None = None, 
     if missing:
         raise ValueError(f"record lacks the columns {missing} for the Kalman filter")
     t = record["t"].to_numpy(float)
-    dt = _uniform_step(t)
+    dt = uniform_step(t)
     qa = _default_qc(record, dt)
     if model is not None:
         if values is None or vessel is None:
@@ -597,3 +613,33 @@ def ekf_derivatives(record: pd.DataFrame, settings: KalmanSettings | None = None
     rates = {"u_dot": res.rates[index, 0], "v_dot": res.rates[index, 1],
              "r_dot": res.rates[index, 2]}
     return DerivativeEstimate(index, states, rates, "ekf" if res.process == "kinematic" else "ekf_model")
+
+
+def estimate_derivatives(record: pd.DataFrame, method: str = "auto", window: float | None = None,
+                         polyorder: int = 3) -> DerivativeEstimate:
+    """States and accelerations of a uniformly sampled record, by any estimator.
+
+    Parameters
+    ----------
+    record : DataFrame
+        Data contract record (t, x0, y0, psi, u, v, r, delta, ...).
+    method : {"auto", "central", "savgol", "ekf", "ekf_kinematic"}
+        ``"ekf"`` and ``"ekf_kinematic"`` run :func:`ekf_derivatives` with the
+        default settings and the kinematic process model (no ship model is
+        known here); the others are the model-free estimators of
+        :func:`studies.data.derivatives.estimate_derivatives`.
+    window, polyorder
+        Savitzky-Golay window [s] and polynomial order of the model-free
+        estimators (unused by the filter).
+
+    Raises
+    ------
+    ValueError
+        ``method`` is none of the above, or the record is not uniformly
+        sampled.
+    """
+    if method in EKF_METHODS:
+        return ekf_derivatives(record)
+    if method not in MODEL_FREE_METHODS:
+        raise ValueError(f"unknown derivative method '{method}' (auto, central, savgol, ekf)")
+    return model_free_derivatives(record, method, window, polyorder)

@@ -6,7 +6,7 @@ its own initial state (so it needs nothing about how the record was made),
 summed over records. Many coefficient sets are simulated in one compiled,
 parallel call: this is what the GA and the trajectory-likelihood posterior
 call. A set whose simulation leaves the physical range gets
-:data:`~studies.analysis.metrics.DIVERGED_PENALTY` instead of NaN.
+:data:`~studies.simulate.simulator.DIVERGED_PENALTY` instead of NaN.
 
 References
 ----------
@@ -17,9 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..analysis.metrics import DIVERGED_PENALTY
 from ..models.abkowitz import ManoeuvringModel
-from ..simulate.simulator import replay_many
+from ..simulate.simulator import DIVERGED_PENALTY, replay_many
 from ..vessels.base import Vessel
 
 __all__ = ["TrajectoryObjective"]

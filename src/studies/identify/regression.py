@@ -2,8 +2,9 @@
 
 For each DOF the model's terms give the columns of ``Theta`` and the measured
 accelerations times the (known) prime mass matrix give ``y`` (thesis eq.
-3.10/3.21, with the thesis' forward difference replaced by the estimator of
-:mod:`studies.data.derivatives`)::
+3.10/3.21, with the thesis' forward difference replaced by an estimator of
+:mod:`studies.data.derivatives` or the Kalman smoother of
+:mod:`studies.identify.kalman`)::
 
     X:  m11 u'_dot                 - tau'_X = Theta_X  a
     Y:  m22 v'_dot + m23 r'_dot    - tau'_Y = Theta_Y  b
@@ -27,11 +28,11 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from ..data.derivatives import estimate_derivatives
 from ..environment.wind import wind_loads_prime
 from ..models.abkowitz import ManoeuvringModel
 from ..models.terms import DOFS
 from ..vessels.base import Vessel
+from .kalman import estimate_derivatives
 
 __all__ = ["RegressionProblem", "prime_states", "assemble_problems", "build_problems"]
 
@@ -139,7 +140,8 @@ def build_problems(model: ManoeuvringModel, vessel: Vessel, records, derivative:
     records : DataFrame or list of DataFrame
         Data contract records; rows of all records are stacked.
     derivative : str
-        Acceleration estimator (:func:`~studies.data.derivatives.estimate_derivatives`).
+        Acceleration estimator (:func:`~studies.identify.kalman.estimate_derivatives`:
+        ``auto``, ``central``, ``savgol``, ``ekf``, ``ekf_kinematic``).
     fixed : dict, optional
         Known coefficients ``{name: value}``: moved to ``y``, not estimated.
     """

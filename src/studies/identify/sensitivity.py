@@ -26,6 +26,8 @@ import warnings
 
 import numpy as np
 import pandas as pd
+from SALib.analyze import sobol as sobol_analyze
+from SALib.sample import sobol as sobol_sample
 
 __all__ = ["sobol_indices", "least_sensitive"]
 
@@ -41,9 +43,6 @@ def sobol_indices(problem, params: dict, n_samples: int = 5000, seed: int = 0) -
     Returns a DataFrame indexed by coefficient name with columns ``S1``,
     ``S1_conf``, ``ST``, ``ST_conf`` (constant terms: zeros).
     """
-    from SALib.analyze import sobol as sobol_analyze
-    from SALib.sample import sobol as sobol_sample
-
     names = list(problem.names)
     inputs = [j for j in range(len(names)) if not _is_constant(problem, j)]
     out = pd.DataFrame(0.0, index=names, columns=["S1", "S1_conf", "ST", "ST_conf"])

@@ -123,7 +123,7 @@ def term_library(terms):
         coefficient names, so equations printed by ``ps.SINDy`` read as the
         model.
     """
-    import pysindy as ps
+    import pysindy as ps  # lazy: pysindy loads scikit-learn (about 1 s)
 
     def monomial(powers):
         a, b, c, d = powers
@@ -209,8 +209,8 @@ class SparseRegression:
 
     def fit_one(self, problem: RegressionProblem) -> tuple[np.ndarray, dict]:
         """Coefficients (prime, in ``problem.names`` order; 0 = not selected) and metrics."""
-        import pysindy as ps
-        from sklearn.exceptions import ConvergenceWarning
+        import pysindy as ps  # lazy: pysindy loads scikit-learn (about 1 s)
+        from sklearn.exceptions import ConvergenceWarning  # lazy, as pysindy
 
         dof = problem.dof
         x, y, col, ys = _unit_rms(problem)

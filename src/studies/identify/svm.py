@@ -147,7 +147,7 @@ def time_blocked_splits(n_rows: int, folds: int) -> list[tuple[np.ndarray, np.nd
     each test fold is one contiguous block and the training set is the rest
     (:class:`sklearn.model_selection.KFold` with ``shuffle=False``).
     """
-    from sklearn.model_selection import KFold
+    from sklearn.model_selection import KFold  # lazy: scikit-learn takes about 1 s to load
 
     if folds < 2 or folds > n_rows:
         raise ValueError(f"need 2 <= folds <= rows, got folds={folds}, rows={n_rows}")
@@ -155,7 +155,7 @@ def time_blocked_splits(n_rows: int, folds: int) -> list[tuple[np.ndarray, np.nd
 
 
 def _count_convergence(caught) -> int:
-    from sklearn.exceptions import ConvergenceWarning
+    from sklearn.exceptions import ConvergenceWarning  # lazy: scikit-learn takes about 1 s to load
 
     return sum(issubclass(w.category, ConvergenceWarning) for w in caught)
 
@@ -225,7 +225,7 @@ class SupportVectorRegression:
 
     def estimator(self, C: float = 1.0, epsilon: float = 0.0):
         """The unfitted :class:`sklearn.svm.LinearSVR` with these settings."""
-        from sklearn.svm import LinearSVR
+        from sklearn.svm import LinearSVR  # lazy: scikit-learn takes about 1 s to load
 
         return LinearSVR(C=C, epsilon=epsilon, loss=self.loss, dual=self.dual,
                          fit_intercept=False, tol=self.tol, max_iter=self.max_iter,
@@ -233,7 +233,7 @@ class SupportVectorRegression:
 
     def search(self, x: np.ndarray, y: np.ndarray, problem: RegressionProblem) -> dict:
         """Grid search of ``C`` and ``eps`` on time-blocked folds of the scaled rows."""
-        from sklearn.model_selection import GridSearchCV
+        from sklearn.model_selection import GridSearchCV  # lazy: scikit-learn takes about 1 s to load
 
         rows = search_rows(problem, self.max_rows)
         folds = min(self.folds, len(rows))

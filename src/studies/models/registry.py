@@ -4,8 +4,10 @@ from __future__ import annotations
 
 from ..errors import ConfigError
 from .abkowitz import ManoeuvringModel, abkowitz
+from .simplified import load_definition
 
 __all__ = ["get_model"]
+
 
 def symmetric() -> ManoeuvringModel:
     """The Abkowitz model without its port-starboard asymmetric terms
@@ -25,8 +27,6 @@ def get_model(name: str, definition=None) -> ManoeuvringModel:
     ``studies simplify``), as a subset of the Abkowitz model.
     """
     if name == "simplified":
-        from .simplified import load_definition
-
         if definition is None:
             raise ConfigError("model=simplified needs model.definition (a file written by `studies simplify`)")
         return load_definition(definition, abkowitz())

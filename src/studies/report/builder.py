@@ -1,8 +1,9 @@
 """``studies report``: comparison pages from the MLflow runs of one experiment.
 
 Everything comes from the store (run params, metrics, tags and artifacts),
-so a report can be rebuilt on any machine that sees the store. The page
-holds:
+so a report can be rebuilt on any machine that sees the store; the command
+line reads the runs (:func:`studies.runtime.tracking.read_experiment`) and
+hands them to :func:`build_report`. The page holds:
 
 - the runs, with failed and killed ones marked as such;
 - coefficient deviation tables in the thesis' layout (Tables 4.6-4.14: rows
@@ -26,9 +27,10 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from jinja2 import Environment, select_autoescape
 
-from ..runtime import tracking
 from ..analysis.metrics import DIVERGED_PENALTY
+from ..plotting import pyplot
 from .tables import (condition_label, deviation_table, fitness_table, markdown_table,
                      method_label, winners)
 
@@ -80,11 +82,7 @@ def _mean_tables(tables: list[pd.DataFrame]) -> pd.DataFrame:
 
 
 def _plot_fitness(table: pd.DataFrame, key: str | None, manoeuvre: str, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.5, 4))
     labels = [condition_label(key, c) for c in table.index]
     x = np.arange(len(labels))
@@ -103,11 +101,7 @@ def _plot_fitness(table: pd.DataFrame, key: str | None, manoeuvre: str, path: Pa
 
 def _plot_overlays(curves: dict, title: str, path: Path) -> None:
     """Trajectory and u, v, r of the reference and every method's prediction."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     fig = plt.figure(figsize=(12, 6))
     grid = fig.add_gridspec(3, 2)
     ax_traj = fig.add_subplot(grid[:, 0])
@@ -149,9 +143,32 @@ def _summary_sentences(win: pd.DataFrame, key: str | None) -> list[str]:
     return lines
 
 
-def build_report(uri: str | None, root, experiment: str | None, report_dir) -> Path:
-    """Write ``<report_dir>/<experiment>/index.md`` and ``index.html``; return the .md path."""
-    name, runs = tracking.read_experiment(uri, root, experiment)
+def build_report(name: str, runs, report_dir) -> Path:
+    """Write the comparison page of one experiment's runs.
+
+    Parameters
+    ----------
+    name : str
+        The experiment's name: the page's title and the directory under
+        ``report_dir``.
+    runs : list of StoredRun
+        The experiment's runs as read from the store, newest first (the
+        second item of :func:`studies.runtime.tracking.read_experiment`):
+        each with ``name``, ``run_id``, ``status``, ``params``, ``metrics``,
+        ``tags`` and ``artifact(path, destination)``.
+    report_dir : str or os.PathLike
+        Directory of the reports.
+
+    Returns
+    -------
+    Path
+        ``<report_dir>/<name>/index.md``; ``index.html`` is written beside it.
+
+    Raises
+    ------
+    LookupError
+        ``<report_dir>/<name>`` exists and is not a report.
+    """
     out = _report_directory(Path(report_dir), name)
     if out.exists():
         shutil.rmtree(out)
@@ -308,8 +325,6 @@ def _slug(text) -> str:
 
 
 def _write_html(path: Path, name: str, header: str, sections) -> None:
-    from jinja2 import Environment, select_autoescape
-
     env = Environment(autoescape=select_autoescape(["html"]))
     template = env.from_string(HTML)
     blocks = []

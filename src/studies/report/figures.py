@@ -1,7 +1,8 @@
 """Run figures: trajectory and velocity overlays, coefficient deviations.
 
 Every function returns nothing and writes one PNG; matplotlib uses the
-non-interactive Agg backend so it works on machines without a screen.
+non-interactive Agg backend (:func:`studies.plotting.pyplot`) so it works on
+machines without a screen.
 """
 
 from __future__ import annotations
@@ -11,16 +12,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..plotting import pyplot
+
 __all__ = ["plot_overlay", "plot_deviations"]
-
-
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def plot_overlay(records: dict, path: str | Path, title: str) -> None:
@@ -28,7 +22,7 @@ def plot_overlay(records: dict, path: str | Path, title: str) -> None:
 
     ``records`` maps a label ("reference", "identified", ...) to a record.
     """
-    plt = _pyplot()
+    plt = pyplot()
     fig = plt.figure(figsize=(12, 7))
     grid = fig.add_gridspec(3, 3)
     ax_traj = fig.add_subplot(grid[:, 0])
@@ -54,7 +48,7 @@ def plot_overlay(records: dict, path: str | Path, title: str) -> None:
 
 def plot_deviations(table: pd.DataFrame, path: str | Path, title: str) -> None:
     """Bar chart of ``deviation_pct`` per coefficient (symlog axis)."""
-    plt = _pyplot()
+    plt = pyplot()
     data = table.dropna(subset=["deviation_pct"])
     fig, ax = plt.subplots(figsize=(12, 4))
     ax.bar(data["name"], data["deviation_pct"], color="tab:blue")

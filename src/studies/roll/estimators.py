@@ -5,7 +5,8 @@ constructor stores the settings and whose ``fit(record)`` returns a
 :class:`RollFit` (``params``, ``cpu_s``, ``meta``). ``record`` is a prepared
 decay (``DataFrame`` with ``t`` [s] from the release and ``phi`` [rad] about
 equilibrium; see :func:`studies.roll.records.load_roll_decay`) or a list of
-them (identified jointly).
+them (identified jointly). A record is predicted with the identified model
+by :func:`studies.roll.simulate.predict_record`.
 
 - :class:`NLSEstimator` ("nls", Chen et al. Fig. 6): output-error fit of the
   RK4-simulated trajectory to the record with ``scipy.optimize.least_squares``;
@@ -37,8 +38,13 @@ from typing import Sequence
 
 import numpy as np
 import pandas as pd
+from scipy.interpolate import make_smoothing_spline
+from scipy.optimize import least_squares
 
-from studies.roll.model import RollModel
+from studies.roll.decay import decay_curve, estimate_period, fit_decay_curve
+from studies.roll.lssvm import WindowedLSSVM, cv_select
+from studies.roll.model import RollModel, compiled_rk4
+from studies.roll.records import initial_state
 
 __all__ = [
     "RollFit",
@@ -49,7 +55,6 @@ __all__ = [
     "make_estimator",
     "ode_least_squares",
     "harmonic_filter",
-    "predict_record",
 ]
 
 
@@ -87,8 +92,6 @@ def _as_records(record) -> list[pd.DataFrame]:
 def _period(rec: pd.DataFrame) -> float:
     p = rec.attrs.get("period")
     if p is None or not np.isfinite(p):
-        from studies.roll.analysis import estimate_period
-
         p = estimate_period(rec["t"].to_numpy(float), rec["phi"].to_numpy(float))
     if not np.isfinite(p):
         raise ValueError("cannot estimate the roll period of the record")
@@ -206,10 +209,8 @@ def _initial_guess(model: RollModel, records: Sequence[pd.DataFrame]) -> dict:
 
     ``omega0`` from the median half period, the damping terms from the
     decrement per half-cycle against amplitude (see
-    :func:`studies.roll.analysis.fit_decay_curve`), ``c3 = 0``.
+    :func:`studies.roll.decay.fit_decay_curve`), ``c3 = 0``.
     """
-    from studies.roll.analysis import decay_curve, fit_decay_curve
-
     curve = pd.concat([decay_curve(r) for r in records], ignore_index=True)
     damp = [t for t in model.terms if t in ("b1", "b2", "b3")]
     g = fit_decay_curve(curve, damp)
@@ -217,35 +218,6 @@ def _initial_guess(model: RollModel, records: Sequence[pd.DataFrame]) -> dict:
     for t in model.terms:
         out[t] = float(g.get(t, 0.0))
     return out
-
-
-def predict_record(params: dict, terms: Sequence[str], record: pd.DataFrame,
-                   initial: tuple[float, float] | None = None) -> np.ndarray:
-    """Simulate a record from its initial state with the identified model (RK4).
-
-    Parameters
-    ----------
-    params : dict
-        Identified coefficients.
-    terms : sequence of str
-        Terms of the model.
-    record : DataFrame
-        Prepared decay (``t`` [s], ``phi`` [rad]).
-    initial : (phi0, dphi0), optional
-        Initial state [rad, rad/s]; default from the record's first samples
-        (:func:`studies.roll.records.initial_state`).
-
-    Returns
-    -------
-    ndarray
-        Predicted roll angle [rad] at ``record.t``.
-    """
-    from studies.roll.records import initial_state
-
-    if initial is None:
-        initial = initial_state(record)
-    phi, _ = RollModel(tuple(terms)).simulate(params, initial[0], initial[1], record["t"].to_numpy(float))
-    return phi
 
 
 @contextmanager
@@ -347,15 +319,9 @@ class NLSEstimator(_Estimator):
         self.max_nfev = int(max_nfev)
 
     def _prepare(self) -> None:
-        from studies.roll.model import _get_kernel
-
-        _get_kernel()
+        compiled_rk4()
 
     def _fit(self, records):
-        from scipy.optimize import least_squares
-
-        from studies.roll.records import initial_state
-
         names = list(self.model.param_names)
         guess = _initial_guess(self.model, records)
         if self.points_per_period is None:
@@ -538,8 +504,6 @@ class FLSEstimator(_EquationErrorEstimator):
     def _select(self, records, T):
         if self.lam is not None:
             return {"smoothing_lam": float(self.lam)}
-        from scipy.interpolate import make_smoothing_spline
-
         t, y, _ = _subsample(records[0], self.points_per_period)
         if t.size > self.cv_points:
             a = (t.size - self.cv_points) // 2
@@ -562,8 +526,6 @@ class FLSEstimator(_EquationErrorEstimator):
         return {"smoothing_lam": float(self.lam_grid[i]) * T**3, "smoothing_lam_periods": float(self.lam_grid[i])}
 
     def _smoother(self, t, y, T, settings):
-        from scipy.interpolate import make_smoothing_spline
-
         spl = make_smoothing_spline(t, y, lam=settings["smoothing_lam"])
         return lambda te, k: spl(te, k) if k else spl(te)
 
@@ -663,16 +625,12 @@ class NLSSVMEstimator(_EquationErrorEstimator):
         return [cands[i] for i in pick]
 
     def _select(self, records, T):
-        from studies.roll.lssvm import cv_select
-
         segs = self._cv_segments(records, T)
         s_rel, gamma, scores = cv_select(segs, self.sigma_grid, self.gamma_grid, self.n_folds, self.cv_mode)
         return {"sigma_s": s_rel * T, "sigma_periods": s_rel, "gamma": gamma,
                 "cv_mse": float(np.min(scores)), "cv_mode": self.cv_mode}
 
     def _smoother(self, t, y, T, settings):
-        from studies.roll.lssvm import WindowedLSSVM
-
         ws = WindowedLSSVM(settings["sigma_s"], settings["gamma"], self.window_periods * T,
                            self.stride_periods * T).fit(t, y)
         return ws.predict

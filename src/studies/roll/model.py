@@ -18,8 +18,11 @@ absorbed into ``b1`` (and the frequency-dependent added inertia into
 coefficients at the roll natural frequency, as in the paper, which also
 leaves ``h_44`` out of its identification.
 
-Nothing is computed at import time; the numba kernel is compiled on the first
-simulation (and cached on disk by numba).
+:meth:`RollModel.simulate` is the one integrator of the roll equation
+(fixed-step RK4, :func:`compiled_rk4`); :mod:`studies.roll.simulate` predicts
+records and writes synthetic decays with it. Nothing is computed at import
+time; the numba kernel is compiled on the first simulation (and cached on
+disk by numba).
 
 References
 ----------
@@ -40,6 +43,7 @@ import numpy as np
 __all__ = [
     "OPTIONAL_TERMS",
     "RollModel",
+    "compiled_rk4",
     "dimensional_coefficients",
     "froude_scale_params",
     "equivalent_linear_damping",
@@ -102,14 +106,19 @@ def _rk4_kernel(phi0, dphi0, t, b1, b2, b3, w2, c3, nsub):  # pragma: no cover -
 _COMPILED: dict[str, object] = {}
 
 
-def _get_kernel():
-    """Return the numba-compiled RK4 kernel (compiled on first use), or Python."""
+def compiled_rk4():
+    """The RK4 kernel of the roll equation, numba-compiled on the first call.
+
+    Later calls return the same function. Without numba (or when compilation
+    fails) the plain-Python kernel is returned, about 100 times slower. Call it
+    ahead of a timed identification so that the compilation is not timed.
+    """
     kern = _COMPILED.get("rk4")
     if kern is None:
         kern = _rk4_kernel  # fallback: plain Python (about 100x slower)
         for cache in (True, False):  # the on-disk cache needs a writable location
             try:
-                import numba
+                import numba  # heavy: loaded only when a decay is first simulated
 
                 cand = numba.njit(cache=cache, nogil=True)(_rk4_kernel)
                 # compile now with representative types so that callers' timings are clean
@@ -271,7 +280,7 @@ class RollModel:
             max_step = 2.0 * math.pi / w0 / 60.0
         dt_max = float(np.max(np.diff(t))) if t.size > 1 else 0.0
         nsub = max(1, int(math.ceil(dt_max / max_step - 1e-9)))
-        out = _get_kernel()(float(phi0), float(dphi0), t, b1, b2, b3, w2, c3, nsub)
+        out = compiled_rk4()(float(phi0), float(dphi0), t, b1, b2, b3, w2, c3, nsub)
         return out[:, 0].copy(), out[:, 1].copy()
 
 

@@ -1,4 +1,4 @@
-"""Roll-decay records: loading, release detection, offset removal, resampling, refusal.
+"""Roll-decay records: loading, release detection, offset removal, resampling, refusal, scaling.
 
 Formats read (CSV, one row per sample):
 
@@ -13,7 +13,10 @@ Formats read (CSV, one row per sample):
 equilibrium, on a uniform time step. Metadata are in ``DataFrame.attrs``
 (``file``, ``name``, ``t_release``, ``offset``, ``dt``, ``period``,
 ``n_extrema``). Every refused input raises :class:`studies.errors.DataError`
-naming the file and the reason.
+naming the file and the reason. :func:`initial_state` estimates the state a
+record starts from; :func:`froude_scale_record` brings a record's time to
+another geometric scale; :func:`find_particulars` reads the ship particulars
+filed beside a record.
 
 References
 ----------
@@ -33,7 +36,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from studies.data.resample import resample, uniform_grid
 from studies.errors import DataError
+from studies.roll.decay import find_extrema, noise_std
 
 __all__ = [
     "read_roll_decay_csv",
@@ -46,6 +51,7 @@ __all__ = [
     "read_fnpf_parameters",
     "find_particulars",
     "initial_state",
+    "froude_scale_record",
 ]
 
 _TIME_COLUMNS = ("t", "time", "Time")
@@ -110,12 +116,6 @@ def read_roll_decay_csv(path) -> pd.DataFrame:
 
 
 # ---------------------------------------------------------- preprocessing
-def _extrema(t, phi, centre):
-    from studies.roll.analysis import find_extrema
-
-    return find_extrema(t, phi, centre)
-
-
 def find_release(t, phi, file: str = "<array>", min_peaks: int = 3) -> int:
     """Index of the release instant of a free decay.
 
@@ -149,8 +149,6 @@ def find_release(t, phi, file: str = "<array>", min_peaks: int = 3) -> int:
         ``min_peaks`` extrema after the release, irregular (noise-like) or
         non-decaying oscillation.
     """
-    from studies.roll.analysis import noise_std
-
     t = np.asarray(t, float)
     phi = np.asarray(phi, float)
     span = float(np.ptp(phi))
@@ -159,7 +157,7 @@ def find_release(t, phi, file: str = "<array>", min_peaks: int = 3) -> int:
     n = phi.size
     c0 = float(np.median(phi[int(0.75 * n):]))  # equilibrium estimate: tail of the decay
     noise = noise_std(phi)
-    ex = _extrema(t, phi, c0)
+    ex = find_extrema(t, phi, c0)
     if len(ex) < 2:
         raise DataError(file, "no oscillation found: not a roll decay", column="phi")
     amp = ex.amplitude
@@ -236,7 +234,7 @@ def estimate_offset(t, phi, method: str = "centre") -> float:
     t = np.asarray(t, float)
     phi = np.asarray(phi, float)
     c0 = float(np.median(phi[int(0.75 * phi.size):]))
-    ex = _extrema(t, phi, c0)
+    ex = find_extrema(t, phi, c0)
     e = ex.value + c0
     if method == "centre" and e.size >= 3:
         centres = (e[:-2] + 2 * e[1:-1] + e[2:]) / 4.0
@@ -270,9 +268,8 @@ def resample_uniform(t, phi, dt: float | None = None) -> tuple[np.ndarray, np.nd
     phi = np.asarray(phi, float)
     if dt is None:
         dt = round(float(np.median(np.diff(t))), 6)
-    n = int(math.floor((t[-1] - t[0]) / dt + 1e-9)) + 1
-    tu = t[0] + dt * np.arange(n)
-    return tu, np.interp(tu, t, phi)
+    tu = uniform_grid(t[0], t[-1], dt)
+    return tu, resample(pd.DataFrame({"t": t, "phi": phi}), tu)["phi"].to_numpy()
 
 
 def prepare_decay(raw: pd.DataFrame, file: str = "<data>", dt: float | None = None,
@@ -320,8 +317,6 @@ def prepare_decay(raw: pd.DataFrame, file: str = "<data>", dt: float | None = No
         tr, pr = tr[keep], pr[keep]
     off = float(offset) if isinstance(offset, (int, float)) else estimate_offset(tr, pr, offset)
     tu, pu = resample_uniform(tr, pr - off, dt)
-    from studies.roll.analysis import find_extrema
-
     ex = find_extrema(tu, pu, 0.0)
     if len(ex) < min_peaks + 1:
         raise DataError(file, f"fewer than {min_peaks} peaks after the release: not a roll decay",
@@ -417,6 +412,33 @@ def initial_state(record: pd.DataFrame, period: float | None = None) -> tuple[fl
     n = min(8, t.size)
     c = np.polyfit(tt[:n], phi[:n], min(3, n - 1))
     return float(np.polyval(c, 0.0)), float(np.polyval(np.polyder(c), 0.0))
+
+
+def froude_scale_record(record: pd.DataFrame, from_scale: float, to_scale: float) -> pd.DataFrame:
+    """Froude-scale the time of a roll record (angles are unchanged).
+
+    Parameters
+    ----------
+    record : DataFrame
+        ``t`` [s], ``phi`` [rad].
+    from_scale, to_scale : float
+        Geometric scale factors (1 = full scale, 68 = model 1:68).
+
+    Returns
+    -------
+    DataFrame
+        Copy with ``t`` multiplied by ``sqrt(from_scale / to_scale)`` (and
+        ``period``, ``dt`` in ``attrs`` likewise).
+    """
+    f = math.sqrt(float(from_scale) / float(to_scale))
+    out = record.copy()
+    out["t"] = record["t"] * f
+    out.attrs = dict(record.attrs)
+    for k in ("period", "dt"):
+        if k in out.attrs:
+            out.attrs[k] = out.attrs[k] * f
+    out.attrs["scale"] = float(to_scale)
+    return out
 
 
 # ----------------------------------------------------------- particulars

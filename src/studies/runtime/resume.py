@@ -14,9 +14,8 @@ from __future__ import annotations
 
 import hashlib
 import json
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-
-from omegaconf import OmegaConf
 
 __all__ = ["config_hash", "IGNORED_KEYS"]
 
@@ -38,12 +37,22 @@ def _file_digest(path: str, root: Path) -> str:
     return digest.hexdigest()
 
 
-def config_hash(cfg, root=".") -> str:
-    """16 hex digits identifying what a job computes."""
-    if OmegaConf.is_config(cfg):
-        data = OmegaConf.to_container(cfg, resolve=True)
-    else:
-        data = dict(cfg)
+def _plain(node):
+    """Nested mappings and sequences as dicts and lists (values resolved)."""
+    if isinstance(node, Mapping):
+        return {str(k): _plain(v) for k, v in node.items()}
+    if isinstance(node, Sequence) and not isinstance(node, (str, bytes)):
+        return [_plain(v) for v in node]
+    return node
+
+
+def config_hash(config: dict, root=".") -> str:
+    """16 hex digits identifying what a job computes.
+
+    ``config`` is the job's resolved configuration: nested mappings and
+    sequences (plain containers, as logged to MLflow, or any mapping type).
+    """
+    data = _plain(config)
     for key in IGNORED_KEYS:
         data.pop(key, None)
     files = {}

@@ -40,7 +40,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..data.io import read_table
+from ..errors import ConfigError, DataError
 
 __all__ = ["Manoeuvre", "MANOEUVRE_KINDS", "zigzag", "turning"]
 
@@ -168,9 +169,6 @@ class Manoeuvre:
 
 def _read_series(path) -> tuple:
     """(t, delta_deg) pairs from a CSV with columns t [s] and delta [deg]."""
-    from ..data.io import read_table
-    from ..errors import DataError
-
     table = read_table(path)
     for col in ("t", "delta"):
         if col not in table:

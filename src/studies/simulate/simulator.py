@@ -5,6 +5,10 @@ contract (t, x0, y0, psi, u, v, r, delta and the true wind when there is
 some). Velocities in the record are over ground (what a GNSS/IMU measures);
 with a current they differ from the velocities through the water that the
 hydrodynamics see. The model is never mutated.
+
+A run that leaves the physical range (see :mod:`studies.simulate.integrator`)
+is marked diverged; scores of it use the finite :data:`DIVERGED_PENALTY`
+instead of NaN.
 """
 
 from __future__ import annotations
@@ -14,13 +18,19 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from ..data.resample import resample
 from ..environment.conditions import Environment
 from ..models.abkowitz import ManoeuvringModel
 from ..vessels.base import Vessel
 from .integrator import rk4_simulate, rk4_simulate_many
 from .manoeuvres import Manoeuvre
 
-__all__ = ["simulate", "simulate_many", "replay", "replay_many", "SimulationInputs"]
+__all__ = ["simulate", "simulate_many", "replay", "replay_many", "SimulationInputs",
+           "DIVERGED_PENALTY"]
+
+#: finite fitness (thesis eq. 3.43, SI units) given to a simulation that left
+#: the physical range, in place of NaN
+DIVERGED_PENALTY = 1.0e6
 
 
 @dataclass(frozen=True)
@@ -161,7 +171,9 @@ def _replay_inputs(model: ManoeuvringModel, vessel: Vessel, record: pd.DataFrame
     duration = dt * (len(t) - 1)
     man = Manoeuvre(str(record.attrs.get("name", "record")), "rudder", duration, dt)
     grid = man.step_times()
-    delta = np.interp(grid, t - t[0], record["delta"].to_numpy(float))
+    # the rudder on the integrator's steps, which count from the record's first sample
+    rudder = pd.DataFrame({"t": t - t[0], "delta": record["delta"].to_numpy(float)})
+    delta = resample(rudder, grid, ["delta"])["delta"].to_numpy()
     environment = environment or Environment()
     first = record.iloc[0]
     initial = {**{k: float(first[k]) for k in ("u", "v", "r", "x0", "y0", "psi", "delta")}, **(initial or {})}

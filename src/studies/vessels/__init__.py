@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from ..errors import ConfigError
 from .base import Vessel, WindParticulars
 from .kvlcc2 import kvlcc2
 from .mariner import MARINER_COEFFICIENTS, mariner
@@ -13,8 +14,6 @@ _REGISTRY = {"mariner": mariner, "kvlcc2": kvlcc2}
 
 def get_vessel(name: str) -> Vessel:
     """Return the vessel registered under ``name`` (e.g. ``"mariner"``)."""
-    from ..errors import ConfigError
-
     try:
         return _REGISTRY[name]()
     except KeyError:

@@ -1,1 +1,12 @@
-"""End-to-end pipelines behind the command line (one module per study type)."""
+"""The pipelines behind the command line, one per kind of study.
+
+- :mod:`~studies.workflows.study`: the Study protocol the command line uses;
+- :mod:`~studies.workflows.kinds`: the kinds of study by ``model.study``;
+- :mod:`~studies.workflows.manoeuvring` (+ :mod:`~studies.workflows.measured`
+  for measured records): ``studies run`` on manoeuvring records;
+- :mod:`~studies.workflows.discover`: ``studies discover`` on manoeuvring records;
+- :mod:`~studies.workflows.roll_run`, :mod:`~studies.workflows.roll` and
+  :mod:`~studies.workflows.roll_discover`: the same for roll decays;
+- :mod:`~studies.workflows.simplify`: ``studies simplify`` (Li et al. 2023);
+- :mod:`~studies.workflows.settings`: what a study derives from its settings.
+"""

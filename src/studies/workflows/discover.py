@@ -1,53 +1,51 @@
-"""``studies discover``: show what the simulation gets wrong, name the cause,
-extend the model with it and measure the gain on data it was not fitted to.
+"""``studies discover`` on manoeuvring records: show what the simulation gets
+wrong, name the cause, extend the model with it and measure the gain on data
+it was not fitted to.
 
-Manoeuvring records (``model=abkowitz|simplified``) go through the cause
-catalogue of :mod:`studies.discover.causes`; roll decays (``model=roll``)
-through :mod:`studies.discover.roll`. Inputs are checked before the MLflow
-run exists (:func:`prepare_discover`); :func:`execute_discover` writes
-``discovery.json``, ``report.md``/``report.html`` and figures.
+The causes come from the catalogue of :mod:`studies.discover.causes`.
+:func:`prepare_discovery` checks the options and loads every record before
+any tracked run exists; :func:`execute_discovery` writes ``discovery.json``,
+``report.md``/``report.html`` and figures. Roll decays have their own
+discovery (:mod:`studies.workflows.roll_discover`); the command line reaches
+both through :mod:`studies.workflows.kinds`.
 """
 
 from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from omegaconf import OmegaConf
 
+from ..config import DiscoverConfig
+from ..data.resample import resample
+from ..discover import diagnostics as dg
+from ..discover.causes import Setup, compact_parameters
+from ..discover.diagnostics import explains
+from ..discover.fitting import Context, regression_fit, training_error
+from ..discover.report import (indistinguishable, plot_predictions, plot_ranking, plot_residuals,
+                               write_discovery, write_report)
+from ..discover.search import breaks_down, not_named, search
 from ..errors import ConfigError
+from ..identify.kalman import ekf_derivatives
 from ..vessels import get_vessel
+from .manoeuvring import get_study_model
+from .measured import load_measured
 from .settings import as_path_list
+from .study import DiscoverStudy, Recorder, Study, gain_pct
 
-__all__ = ["DiscoverStudy", "prepare_discover", "execute_discover", "holdout", "split_discoveries",
-           "gain_pct"]
+__all__ = ["prepare_discovery", "execute_discovery", "holdout", "split_discoveries", "gain_pct",
+           "smooth_measured", "on_record_time"]
 
 log = logging.getLogger(__name__)
-
-
-@dataclass
-class DiscoverStudy:
-    cfg: object
-    kind: str                     # "manoeuvring" or "roll"
-    vessel: object
-    model: object
-    train: list
-    validation: list
-    simulation: object = None
-    notes: list = field(default_factory=list)
-    #: every whole record given (data.path, then validate.path), for ``discover.splits``
-    records: list = field(default_factory=list)
 
 
 def smooth_measured(record: pd.DataFrame) -> pd.DataFrame:
     """Velocities and heading of a measured record replaced by their EKF/RTS
     estimates (kinematic pass; positions and rudder kept): discovery then
     fits every cause on consistent states, estimated once."""
-    from ..identify.kalman import ekf_derivatives
 
     est = ekf_derivatives(record)
     out = record.iloc[est.index].copy()
@@ -76,49 +74,27 @@ def holdout(records: list, share: float) -> tuple[list, list, str]:
     return [train], [val], f"held out the last {100 * share:.0f} % of {rec.attrs.get('name')}"
 
 
-def prepare_discover(cfg, root: Path) -> DiscoverStudy:
-    """Check options and load every input (raises ConfigError/DataError)."""
-    data = as_path_list(OmegaConf.select(cfg, "data.path"))
+def prepare_discovery(cfg: DiscoverConfig, root: Path, kind: Study,
+                      record: Recorder | None = None) -> DiscoverStudy:
+    """Check the options and load every manoeuvring record (raises ConfigError/DataError)."""
+    data = as_path_list(cfg.data.path)
     if not data:
         raise ConfigError("discover needs measured records: data.path=FILE or data.path=[a,b]")
-    validate = as_path_list(OmegaConf.select(cfg, "validate.path"))
-    simulation = OmegaConf.select(cfg, "simulation.path")
-    share = float(cfg.discover.holdout)
-    from ..discover.output_error import refinement_setting
-
-    refinement_setting(cfg.discover.get("output_error", "auto"))     # ConfigError before the run exists
-    if not 0.05 <= share <= 0.8:
-        raise ConfigError(f"discover.holdout must be in [0.05, 0.8], got {share}")
-    if str(cfg.model.name) == "roll":
-        from ..roll.records import load_roll_decay
-
-        train = [load_roll_decay(p) for p in data]
-        val = [load_roll_decay(p) for p in validate]
-        sim = load_roll_decay(str(simulation)) if simulation else None
-        study = DiscoverStudy(cfg, "roll", None, None, train, val, sim)
-        if not val:
-            if len(train) < 2:
-                raise ConfigError("roll discover needs two decays (data.path=[a,b]) or validate.path")
-            study.train, study.validation = train[:-1], train[-1:]
-            study.notes.append(f"held out the decay {train[-1].attrs.get('name')}")
-        return study
-    from .manoeuvring import get_study_model
-
-    vessel = get_vessel(str(cfg.vessel.name))
-    model = get_study_model(cfg, root)
-    from .measured import load_measured
-
+    validate = as_path_list(cfg.validate.path)
+    simulation = cfg.simulation.path
+    vessel = get_vessel(cfg.vessel.name)
+    model = get_study_model(cfg, root, record)
     records = load_measured(data, min_samples=60)
     val = load_measured(validate, min_samples=20) if validate else []
     sim = load_measured([str(simulation)])[0] if simulation else None
-    if str(cfg.data.get("derivative", "auto")) in ("ekf", "ekf_kinematic"):
+    if cfg.data.derivative in ("ekf", "ekf_kinematic"):
         records = [smooth_measured(r) for r in records]
-    study = DiscoverStudy(cfg, "manoeuvring", vessel, model, records, val, sim, records=records + val)
-    if bool(cfg.discover.get("splits", False)) and len(study.records) < 2:
+    study = DiscoverStudy(cfg, kind, vessel, model, records, val, sim, records=records + val)
+    if cfg.discover.splits and len(study.records) < 2:
         raise ConfigError("discover.splits=true needs two or more records (data.path + validate.path) "
                           "to hold out in turn")
     if not val:
-        study.train, study.validation, note = holdout(records, share)
+        study.train, study.validation, note = holdout(records, float(cfg.discover.holdout))
         study.notes.append(note)
     return study
 
@@ -127,20 +103,6 @@ def _interval_dict(names, post) -> dict:
     if not post:
         return {}
     return {n: [float(lo), float(hi)] for n, lo, hi in zip(names, post["q05"], post["q95"])}
-
-
-def execute_discover(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
-    """Run the discovery; returns (discovery, metrics)."""
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    if study.kind == "roll":
-        return _execute_roll(study, out_dir)
-    return _execute_manoeuvring(study, out_dir)
-
-
-def gain_pct(baseline_rmse: float, extended_rmse: float) -> float:
-    """What the extension gains on the validation error [%] (0 for a zero baseline error)."""
-    return 100.0 * (baseline_rmse - extended_rmse) / baseline_rmse if baseline_rmse > 0 else 0.0
 
 
 def _same_records(a: list, b: list) -> bool:
@@ -154,9 +116,6 @@ def split_discoveries(study: DiscoverStudy, ctx, opts, main: dict, main_training
     was kept for validation. The split that is the main discovery's own
     (same training and validation records) reuses its search ``main`` and
     its named model's training error ``main_training_rmse``."""
-    from ..discover.diagnostics import explains
-    from ..discover.fitting import Context, training_error
-    from ..discover.search import not_named, search
 
     rows = []
     for k, held in enumerate(study.records):
@@ -167,7 +126,7 @@ def split_discoveries(study: DiscoverStudy, ctx, opts, main: dict, main_training
             split = Context(ctx.vessel, ctx.model, train, [held], ctx.derivative)
             split.horizon = ctx.horizon
             result = search(split, float(opts.terms_threshold), int(opts.max_terms), second=False,
-                            seed=int(study.cfg.seed), output_error=opts.get("output_error", "auto"),
+                            seed=int(study.cfg.seed), output_error=opts.output_error,
                             intervals=False)
             own = training_error(split, result["best"])
         best, base = result["best"], result["baseline"]
@@ -197,7 +156,6 @@ def _departures(records: list, models: dict, vessel) -> pd.DataFrame:
     """Departures of every model's replays (``models``: label -> one prediction
     per record, None where there is none) from the validation records, largest
     first per model (:func:`studies.discover.diagnostics.departures`)."""
-    from ..discover import diagnostics as dg
 
     tables = [dg.departures(rec, pred, str(rec.attrs.get("name", "record")), vessel).assign(model=label)
               for label, predictions in models.items() for rec, pred in zip(records, predictions)
@@ -222,10 +180,8 @@ def on_record_time(simulation: pd.DataFrame, record: pd.DataFrame) -> pd.DataFra
     step = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
     if ts[0] > t[0] + step or ts[-1] < t[-1] - step:
         return None
-    out = pd.DataFrame({"t": t})
-    for c in ("x0", "y0", "psi", "u", "v", "r", "delta"):
-        if c in simulation:
-            out[c] = np.interp(t, ts, simulation[c].to_numpy(float))
+    out = resample(simulation, t, [c for c in ("x0", "y0", "psi", "u", "v", "r", "delta") if c in simulation])
+    out.attrs = {}
     if "delta" in out:
         measured, run = record["delta"].to_numpy(float), out["delta"].to_numpy()
         tolerance = max(np.deg2rad(2.0), 0.2 * float(np.max(np.abs(measured))))
@@ -234,23 +190,20 @@ def on_record_time(simulation: pd.DataFrame, record: pd.DataFrame) -> pd.DataFra
     return out
 
 
-def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
-    from ..discover import diagnostics as dg
-    from ..discover.causes import Setup, compact_parameters
-    from ..discover.fitting import Context, regression_fit, training_error
-    from ..discover.report import (indistinguishable, plot_predictions, plot_ranking, plot_residuals,
-                                   write_discovery, write_report)
-    from ..discover.search import breaks_down, not_named, search
+def execute_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
+    """Run the discovery on manoeuvring records; ``(discovery, metrics)``."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
 
     opts = study.cfg.discover
     t0 = time.perf_counter()
-    derivative = str(study.cfg.data.get("derivative", "auto"))
+    derivative = study.cfg.data.derivative
     if any(r.attrs.get("smoothed") == "ekf" for r in study.train):
         derivative = "central"      # states already smoothed once by the EKF/RTS pass
     ctx = Context(study.vessel, study.model, study.train, study.validation, derivative)
     ctx.horizon = float(opts.horizon) if opts.horizon else None
     result = search(ctx, float(opts.terms_threshold), int(opts.max_terms), bool(opts.second_cause),
-                    int(opts.posterior_steps), int(study.cfg.seed), opts.get("output_error", "auto"))
+                    int(opts.posterior_steps), int(study.cfg.seed), opts.output_error)
     best, baseline = result["best"], result["baseline"]
     # whole-record predictions for the figures and the characteristics
     full_base, full_best = baseline.whole, best.whole
@@ -308,7 +261,7 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
     departed = _departures(ctx.validation, models, study.vessel)
     discovery["departures"] = (departed.groupby("model", sort=False).head(DEPARTURES).to_dict("records")
                                if not departed.empty else [])
-    if bool(opts.get("splits", False)):
+    if opts.splits:
         discovery["splits"] = split_discoveries(study, ctx, opts, result, e_train)
     # what the baseline gets wrong
     base_params, residuals, problems = regression_fit(ctx, Setup(ctx.model, ctx.train))
@@ -366,99 +319,4 @@ def _execute_manoeuvring(study: DiscoverStudy, out_dir: Path):
         metrics["discover/splits"] = float(len(discovery["splits"]))
         metrics["discover/splits_explained"] = float(sum(bool(r["explains_validation"])
                                                          for r in discovery["splits"]))
-    return discovery, metrics
-
-
-def _execute_roll(study: DiscoverStudy, out_dir: Path):
-    from ..roll.analysis import decay_curve, plot_decay_curves
-    from ..discover.diagnostics import explains
-    from ..discover.report import indistinguishable, write_discovery, write_report
-    from ..discover.roll import ROLL_CAUSES, _simulate, peak_decay, roll_interval, roll_search
-
-    t0 = time.perf_counter()
-    res = roll_search(study.train, study.validation, study.simulation)
-    best, base = res["best"], res["baseline"]
-    term = ROLL_CAUSES[best["cause"]][0]
-    params = {term: float(best["params"][term])} if term else {}
-    interval = roll_interval(best, study.train, res["simulation_params"],
-                             seed=int(study.cfg.seed)) if term else {}
-    b, e = base["validation_rmse_deg"], best["validation_rmse_deg"]
-    b_train, e_train = (float(np.degrees(np.sqrt(np.mean(f["resid"] ** 2)))) for f in (base, best))
-    release = float(np.degrees(np.mean([abs(r["phi"].iloc[0]) for r in study.validation])))
-    explained = explains(e, e_train, release)
-    ranked = sorted(res["fits"], key=lambda f: f["score"])
-    extended = f"extended ({best['cause']})"
-    # every record (validation first) with its predictions, simulated once
-    records = study.validation + study.train
-    predicted = []
-    for rec in records:
-        t = rec["t"].to_numpy(float)
-        preds = {"baseline": (t, _simulate(base["terms"], base["params"], rec))}
-        if best is not base:
-            preds[extended] = (t, _simulate(best["terms"], best["params"], rec))
-        if study.simulation is not None:
-            preds["other simulator"] = (study.simulation["t"].to_numpy(float),
-                                        study.simulation["phi"].to_numpy(float))
-        predicted.append(preds)
-    peaks = [peak_decay(rec, preds) for rec, preds in zip(records, predicted)]
-    explanation = best["explanation"] if explained or term else (
-        "No roll term in the catalogue gains on the held-out decay, yet the model does not explain it: its "
-        "error there is many times that on the decay it was fitted to.")
-    discovery = {
-        "cause": best["cause"], "parameters": params, "uncertainty": interval,
-        "explanation": explanation,
-        "baseline": {"validation_rmse": b, "training_rmse": b_train, "params": base["params"],
-                     "source": "simulation.path" if study.simulation is not None else "data"},
-        "extended": {"validation_rmse": e, "training_rmse": e_train, "params": best["params"]},
-        "explains_validation": explained,
-        "gain_pct": gain_pct(b, e), "units": "deg (roll angle RMSE)",
-        "ranking": [{"cause": f["cause"], "score": float(f["score"] - ranked[0]["score"]),
-                     "validation_rmse": f["validation_rmse_deg"]} for f in ranked],
-        "second_cause": None, "notes": study.notes,
-        "peak_decay": {table.index.name: table.to_dict("index") for table in peaks},
-    }
-    discovery["indistinguishable_from"] = indistinguishable(discovery["ranking"], discovery["cause"])
-    figures = []
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    for rec, preds in zip(records, predicted):
-        name = str(rec.attrs.get("name", "decay"))
-        fig, ax = plt.subplots(figsize=(10, 3.5))
-        ax.plot(rec["t"], np.rad2deg(rec["phi"]), "k", lw=1.5, label="measured")
-        for label, (t, phi) in preds.items():
-            n = min(len(t), len(rec)) if label == "other simulator" else len(t)
-            ax.plot(t[:n], np.rad2deg(phi[:n]), ":" if label == "other simulator" else "-", label=label)
-        ax.set_xlabel("t [s]")
-        ax.set_ylabel("roll [deg]")
-        ax.legend(fontsize=8)
-        ax.set_title(name)
-        fig.tight_layout()
-        fname = f"decay_{name}.png"
-        fig.savefig(out_dir / fname, dpi=85)
-        plt.close(fig)
-        figures.append(fname)
-    curves = {f"measured {rec.attrs.get('name', 'decay')}": decay_curve(rec) for rec in records}
-    if study.simulation is not None:
-        curves["other simulator"] = decay_curve(study.simulation)
-    models = {"baseline": base["params"]}
-    if best is not base:
-        models[extended] = best["params"]
-    plot_decay_curves(curves, str(out_dir / "decay_curves.png"), models,
-                      "Decrement per half-cycle: measured (points), models (lines)")
-    plt.close("all")
-    figures.insert(0, "decay_curves.png")
-    table = pd.DataFrame([{**{"cause": f["cause"], "score": f["score"] - ranked[0]["score"],
-                              "validation_rmse_deg": f["validation_rmse_deg"]}, **f["params"]}
-                          for f in ranked]).set_index("cause")
-    sections = [("Ranking and fitted parameters", table)]
-    sections += [(f"Roll peak decay: {p.index.name} (period s, peaks deg, time s)", p) for p in peaks]
-    write_discovery(out_dir / "discovery.json", discovery)
-    write_report(out_dir, discovery, explanation, sections, figures)
-    metrics = {"discover/gain_pct": discovery["gain_pct"], "discover/baseline_validation_rmse": b,
-               "discover/extended_validation_rmse": e, "discover/baseline_training_rmse": b_train,
-               "discover/extended_training_rmse": e_train, "discover/explains_validation": float(explained),
-               "runtime/total_s": time.perf_counter() - t0}
     return discovery, metrics

@@ -28,32 +28,37 @@ plus ``iterations``), ``validate.band_draws``, ``validate.compare_derivatives``.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import time
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from omegaconf import OmegaConf
 
+from ..config import RunConfig
 from ..analysis.characteristics import characteristics, manoeuvre_kind
 from ..analysis.metrics import error_metrics
 from ..data import load_manoeuvres
+from ..data.derivatives import STATE_COLUMNS, noise_ratio
 from ..errors import ConfigError
 from ..environment.noise import add_measurement_noise, disturbance_forces, record_wind
 from ..identify import build_problems, make_identifier
+from ..identify.ls import LeastSquares
 from ..identify.objective import TrajectoryObjective
 from ..identify.regression import prime_states
 from ..models.abkowitz import ManoeuvringModel
 from ..models.abkowitz import abkowitz
 from ..models.registry import get_model
 from ..report.figures import plot_deviations, plot_overlay
-from ..simulate import replay, simulate
+from ..simulate import replay, simulate, zigzag
 from ..vessels import get_vessel
 from ..vessels.base import Vessel
-from .settings import Settings, named_manoeuvre, read_settings
 from . import measured as _measured
+from .settings import Settings, named_manoeuvre, read_settings
+from .simplify import ensure_definition
+from .study import Recorder
 
 __all__ = ["Study", "prepare", "execute", "simulate_training", "coefficient_table", "run_name"]
 
@@ -64,7 +69,7 @@ MIN_SAMPLES_PER_COEFFICIENT = 3
 class Study:
     """A checked configuration with its training records."""
 
-    cfg: object
+    cfg: RunConfig
     settings: Settings
     vessel: Vessel
     model: ManoeuvringModel
@@ -73,6 +78,20 @@ class Study:
     truth: dict | None
     validation_records: list = field(default_factory=list)
     measured: bool = False
+
+    @property
+    def name(self) -> str:
+        """The tracked run's name (:func:`run_name`)."""
+        return run_name(self.cfg, self.settings)
+
+    @property
+    def tags(self) -> dict:
+        """The tracked run's tags (:func:`run_tags`)."""
+        return run_tags(self.cfg, self.settings)
+
+    def execute(self, out_dir: Path) -> dict:
+        """Identify, validate, write the files (:func:`execute`); the metrics."""
+        return execute(self, out_dir)
 
 
 def simulate_training(vessel: Vessel, model: ManoeuvringModel, truth: dict, manoeuvre,
@@ -110,46 +129,33 @@ def reference_model(vessel: Vessel) -> tuple[ManoeuvringModel, dict]:
     return full, {name: vessel.coefficients[name] for name in full.names}
 
 
-def get_study_model(cfg, root: Path | None = None) -> ManoeuvringModel:
-    """The model to identify; ``simplified`` is derived first when its file is missing."""
+def get_study_model(cfg: RunConfig, root: Path | None = None,
+                    record: Recorder | None = None) -> ManoeuvringModel:
+    """The model to identify; ``simplified`` is derived first when its file
+    is missing (the derivation recorded by ``record``)."""
     name = str(cfg.model.name)
     if name == "simplified":
-        from .simplify import ensure_definition
-
         root = Path(root or Path.cwd())
-        return get_model(name, ensure_definition(cfg, root))
+        return get_model(name, ensure_definition(cfg, root, record))
     return get_model(name)
 
 
-def prepare(cfg, root: Path | None = None) -> Study:
+def prepare(cfg: RunConfig, root: Path | None = None, record: Recorder | None = None) -> Study:
     """Check the configuration and get the training records.
 
     Raises ``ConfigError``/``DataError`` on bad input before anything is
-    written (deriving a missing simplified-model definition is logged as its
-    own MLflow run).
+    written (deriving a missing simplified-model definition is recorded as
+    its own run by ``record``).
     """
     settings = read_settings(cfg)
     vessel = get_vessel(str(cfg.vessel.name))
-    model = get_study_model(cfg, root)
+    model = get_study_model(cfg, root, record)
     method = str(cfg.method.name)
     make_identifier(method, _method_options(cfg))
     n_params = max(len(model.terms_of(d)) for d in ("X", "Y", "N"))
-    resample_dt = OmegaConf.select(cfg, "data.resample", default=None)
-    if resample_dt is not None:
-        try:
-            resample_dt = float(resample_dt)
-        except (TypeError, ValueError):
-            raise ConfigError(f"data.resample must be a step in seconds, got {resample_dt!r}") from None
-        if not (np.isfinite(resample_dt) and resample_dt > 0):
-            raise ConfigError(f"data.resample must be a positive step in seconds, got {resample_dt}")
-    derivative = str(OmegaConf.select(cfg, "data.derivative", default="auto"))
-    if derivative not in DERIVATIVES:
-        raise ConfigError(f"data.derivative must be one of {', '.join(DERIVATIVES)}, got '{derivative}'")
+    resample_dt = cfg.data.resample
+    derivative = cfg.data.derivative
     _measured.kalman_options(cfg)           # refuse bad kalman.* settings before any run
-    weights = str(OmegaConf.select(cfg, "identify.weights", default="speed"))
-    if weights not in _measured.WEIGHTINGS:
-        raise ConfigError(f"identify.weights must be one of {', '.join(_measured.WEIGHTINGS)}, "
-                          f"got '{weights}'")
     if settings.data_paths:
         min_samples = MIN_SAMPLES_PER_COEFFICIENT * n_params + 5
         if _is_measured_study(vessel, settings.data_paths, derivative, resample_dt):
@@ -188,15 +194,14 @@ def _is_measured_study(vessel: Vessel, paths, derivative: str, resample_dt) -> b
             or derivative in _measured.EKF_METHODS or resample_dt is not None)
 
 
-def _method_options(cfg) -> dict:
-    options = OmegaConf.to_container(cfg.method, resolve=True) or {}
-    options.pop("name", None)
-    return options
+def _method_options(cfg: RunConfig) -> dict:
+    """The identifier's constructor arguments: the ``method`` settings but its name."""
+    return {k: v for k, v in asdict(cfg.method).items() if k != "name"}
 
 
-def _manoeuvre_overrides(cfg) -> dict:
-    node = OmegaConf.to_container(cfg.manoeuvre, resolve=True) or {}
-    return {k: v for k, v in node.items() if k != "name"}
+def _manoeuvre_overrides(cfg: RunConfig) -> dict:
+    """The ``manoeuvre`` settings given (not None) but its name."""
+    return {k: v for k, v in asdict(cfg.manoeuvre).items() if k != "name" and v is not None}
 
 
 def coefficient_table(model: ManoeuvringModel, params: dict, lower: dict, upper: dict,
@@ -212,9 +217,9 @@ def coefficient_table(model: ManoeuvringModel, params: dict, lower: dict, upper:
     return pd.DataFrame(rows, columns=["name", "value", "lower", "upper", "true", "deviation_pct"])
 
 
-def run_name(cfg, settings: Settings) -> str:
+def run_name(cfg: RunConfig, settings: Settings) -> str:
     """Readable MLflow run name, e.g. ``ls zigzag_20_20 wind=12 dir=45 err=-5%``."""
-    if cfg.get("run_name"):
+    if cfg.run_name:
         return str(cfg.run_name)
     parts = [str(cfg.method.name)]
     parts.append(", ".join(Path(p).stem for p in settings.data_paths) if settings.data_paths
@@ -233,7 +238,7 @@ def run_name(cfg, settings: Settings) -> str:
     return " ".join(parts)
 
 
-def run_tags(cfg, settings: Settings) -> dict:
+def run_tags(cfg: RunConfig, settings: Settings) -> dict:
     """Tags that make the MLflow UI's filters useful."""
     return {
         "method": cfg.method.name, "vessel": cfg.vessel.name, "model": cfg.model.name,
@@ -242,7 +247,7 @@ def run_tags(cfg, settings: Settings) -> dict:
         "wind_speed": f"{settings.environment.wind_speed:g}",
         "wind_direction_deg": f"{np.rad2deg(settings.environment.wind_direction):g}",
         "wind_speed_error_pct": f"{100 * settings.wind_speed_error:g}",
-        "preset": cfg.get("preset") or "none",
+        "preset": cfg.preset or "none",
     }
 
 
@@ -253,7 +258,7 @@ def _validate_simulated(study: Study, params: dict, out_dir: Path) -> dict:
         return metrics
     full, ref_values = reference_model(study.vessel)
     env = study.settings.validation_environment
-    duration = study.cfg.validate.get("duration")
+    duration = study.cfg.validate.duration
     for name in study.settings.validate_manoeuvres:
         man = named_manoeuvre(name, {"duration": float(duration)} if duration else None)
         ref = simulate(full, ref_values, study.vessel, man, env)
@@ -312,7 +317,7 @@ def _validate_records(study: Study, params: dict, out_dir: Path, result=None) ->
     """
     metrics = {}
     rows = []
-    n_draws = int(OmegaConf.select(study.cfg, "validate.band_draws", default=50))
+    n_draws = int(study.cfg.validate.band_draws)
     vectors = None
     if result is not None and result.samples and n_draws > 0:
         vectors = _measured.posterior_vectors(study.model, result, n_draws, study.settings.seed)
@@ -404,10 +409,6 @@ def _closed_loop_zigzag(study: Study, params: dict, rec: pd.DataFrame) -> dict:
     angle to the degree; rudder reversed when the model's heading has
     changed by N from the initial one. Both overshoots are measured from N.
     """
-    import dataclasses
-
-    from ..simulate import zigzag
-
     name = rec.attrs.get("name", "record")
     measured = characteristics(rec, "zigzag")
     if "execute_heading_deg" not in measured:
@@ -444,8 +445,6 @@ def measured_derivative(records, derivative: str) -> str:
     differences otherwise."""
     if derivative != "auto":
         return derivative
-    from ..data.derivatives import STATE_COLUMNS, noise_ratio
-
     noisy = any(max(noise_ratio(r[c].to_numpy(float)) for c in STATE_COLUMNS) > 1e-3 for r in records)
     return "ekf" if noisy else "central"
 
@@ -484,11 +483,9 @@ def _compare_derivatives(study: Study, derivative: str, estimates, params: dict,
     ``derivatives/<estimator>/regression/<dof>/r2``; table
     ``derivatives.csv``.
     """
-    from ..identify.ls import LeastSquares
-
     cfg = study.cfg
     kalman, iterations = _measured.kalman_options(cfg)
-    weights = str(OmegaConf.select(cfg, "identify.weights", default="speed"))
+    weights = cfg.identify.weights
     metrics, rows = {}, []
     for est in COMPARED_DERIVATIVES:
         t0 = time.perf_counter()
@@ -544,10 +541,10 @@ def write_overlay_table(reference: pd.DataFrame, prediction: pd.DataFrame, path:
     pd.DataFrame(table).to_csv(path, index=False)
 
 
-def training_manoeuvres(cfg) -> list:
+def training_manoeuvres(cfg: RunConfig) -> list:
     """The simulated training manoeuvres: ``train.manoeuvres`` (a list of names,
     e.g. several zig-zags as in Wang et al. 2021) or the ``manoeuvre`` group."""
-    names = OmegaConf.select(cfg, "train.manoeuvres") or []
+    names = cfg.train.manoeuvres or []
     if names:
         return [named_manoeuvre(str(n)) for n in names]
     return [named_manoeuvre(str(cfg.manoeuvre.name), _manoeuvre_overrides(cfg))]
@@ -584,14 +581,14 @@ def execute(study: Study, out_dir: Path) -> dict:
     out_dir.mkdir(parents=True, exist_ok=True)
     cfg = study.cfg
     started = time.perf_counter()
-    derivative = str(cfg.data.get("derivative", "auto"))
+    derivative = cfg.data.derivative
     identifier = make_identifier(study.method, _method_options(cfg))
     objective = TrajectoryObjective(study.model, study.vessel, study.records)
     info = {}
     if study.measured:
         derivative = measured_derivative(study.records, derivative)
         kalman, iterations = _measured.kalman_options(cfg)
-        weights = str(OmegaConf.select(cfg, "identify.weights", default="speed"))
+        weights = cfg.identify.weights
         t0 = time.perf_counter()
         result, info = _measured.identify_measured(study.model, study.vessel, study.records, derivative,
                                                    identifier, objective, kalman, iterations, weights)
@@ -623,7 +620,7 @@ def execute(study: Study, out_dir: Path) -> dict:
         metrics.update(_replay_training(study, params, out_dir))
     if study.validation_records:
         metrics.update(_validate_records(study, params, out_dir, result))
-        compare = OmegaConf.select(cfg, "validate.compare_derivatives", default=True)
+        compare = cfg.validate.compare_derivatives
         if study.measured and compare:
             metrics.update(_compare_derivatives(study, derivative, estimates, params, out_dir))
     else:

@@ -40,15 +40,18 @@ of vessel manoeuvring models. Ocean Engineering 266, 112940.
 from __future__ import annotations
 
 import time
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from omegaconf import OmegaConf
 
+from ..config import RunConfig
 from ..data import load_manoeuvre
 from ..data.derivatives import DerivativeEstimate, estimate_derivatives
-from ..identify.kalman import KalmanSettings, ekf_derivatives
+from ..data.marin import read_marin
+from ..data.resample import resample as resample_record, uniform_grid
+from ..identify.kalman import KalmanSettings, ekf_derivatives, measurement_variance
 from ..environment.wind import wind_loads_prime
 from ..errors import ConfigError
 from ..identify.base import Identification
@@ -56,6 +59,7 @@ from ..identify.ls import LeastSquares
 from ..identify.regression import RegressionProblem, assemble_problems, prime_states
 from ..models.abkowitz import ManoeuvringModel
 from ..models.terms import DOFS
+from ..plotting import pyplot
 from ..simulate.simulator import replay_many
 from ..vessels.base import Vessel
 
@@ -81,13 +85,7 @@ def resample(record: pd.DataFrame, dt: float | None = None) -> pd.DataFrame:
     step = float(np.median(np.diff(t))) if dt is None else float(dt)
     if not step > 0:
         raise ConfigError(f"data.resample must be a positive step [s], got {dt}")
-    grid = t[0] + step * np.arange(int(np.floor((t[-1] - t[0]) / step + 1e-9)) + 1)
-    out = pd.DataFrame({"t": grid})
-    for col in record.columns:
-        if col != "t":
-            out[col] = np.interp(grid, t, record[col].to_numpy(float))
-    out.attrs = dict(record.attrs)
-    return out
+    return resample_record(record, uniform_grid(t[0], t[-1], step))
 
 
 def _uniform(t: np.ndarray) -> bool:
@@ -98,8 +96,6 @@ def _uniform(t: np.ndarray) -> bool:
 
 def load_measured(paths, min_samples: int = 10, resample_dt: float | None = None) -> list:
     """Load records for identification or validation (see the module docstring)."""
-    from ..data.marin import read_marin
-
     out = []
     for path in paths:
         if str(path).lower().endswith(".dat"):
@@ -132,13 +128,13 @@ def mirror_record(record: pd.DataFrame) -> pd.DataFrame:
 
 # ------------------------------------------------------------------ estimation
 
-def kalman_options(cfg) -> tuple[KalmanSettings, int]:
-    """``kalman.*`` settings (optional config block) and the number of model iterations."""
-    node = OmegaConf.select(cfg, "kalman") if cfg is not None else None
-    node = OmegaConf.to_container(node, resolve=True) if node is not None else {}
-    iterations = int(node.pop("iterations", 2)) if node else 2
-    if iterations < 0:
-        raise ConfigError(f"kalman.iterations must be >= 0, got {iterations}")
+def kalman_options(cfg: RunConfig | None) -> tuple[KalmanSettings, int]:
+    """The smoother's settings (``kalman.*``, those given) and the number of
+    model iterations (``kalman.iterations``)."""
+    if cfg is None:
+        return KalmanSettings.from_config({}), 2
+    node = {k: v for k, v in asdict(cfg.kalman).items() if v is not None}
+    iterations = int(node.pop("iterations", 2))
     return KalmanSettings.from_config(node), iterations
 
 
@@ -382,8 +378,6 @@ def posterior_band(model: ManoeuvringModel, vectors: np.ndarray, vessel: Vessel,
     the channel (:func:`studies.identify.kalman.measurement_variance`), which
     matters at the start where every replay begins at the measured state.
     """
-    from ..identify.kalman import measurement_variance
-
     states, diverged = replay_many(model, vectors, vessel, record)
     n = min(states.shape[1], len(record))
     out = {"t": record["t"].to_numpy(float)[:n], "diverged": float(np.mean(diverged >= 0))}
@@ -433,9 +427,7 @@ def _covered_until(t: np.ndarray, inside: np.ndarray, grace: float = 10.0) -> fl
 
 def plot_band(record: pd.DataFrame, prediction: pd.DataFrame, band: dict, path, title: str) -> None:
     """Trajectory and heading with the posterior predictive band."""
-    from ..report.figures import _pyplot
-
-    plt = _pyplot()
+    plt = pyplot()
     fig, (ax_xy, ax_psi) = plt.subplots(1, 2, figsize=(12, 5.5))
     t = band["t"]
     # the trajectory band as the replayed posterior draws themselves

@@ -1,8 +1,9 @@
 """Roll-decay study: identify, validate, compare with a simulation, write the outputs.
 
 One entry point for the command line, :func:`run_roll_study`; plus
-:func:`compare_methods` (Chen et al. 2019, Table 6 and Fig. 8) and
-:func:`simulate_decay_record` (synthetic decays for tests and demos).
+:func:`compare_methods` (Chen et al. 2019, Table 6 and Fig. 8). The roll
+domain itself (model, estimators, records, simulation, decay analysis,
+figures) is :mod:`studies.roll`.
 
 Outputs written into ``out_dir`` (the output contract of DESIGN.md):
 
@@ -32,93 +33,28 @@ import numpy as np
 import pandas as pd
 
 from studies.errors import ConfigError
+from studies.roll.comparison import compare_simulation_with_tests, mae, rmse
+from studies.roll.decay import decay_curve
+from studies.roll.estimators import make_estimator
+from studies.roll.figures import plot_decay_curves, plot_prediction
+from studies.roll.model import (
+    OPTIONAL_TERMS,
+    damping_ratio,
+    dimensional_coefficients,
+    equivalent_linear_damping,
+    froude_scale_params,
+)
+from studies.roll.records import froude_scale_record, load_roll_decay
+from studies.roll.simulate import predict_record
 
-__all__ = ["run_roll_study", "compare_methods", "simulate_decay_record", "froude_scale_record"]
+__all__ = ["run_roll_study", "compare_methods"]
 
 METHODS = ("nls", "fls", "nls_svm")
 COEFFICIENT_COLUMNS = ["name", "value", "lower", "upper", "true", "deviation_pct"]
 
 
-# ------------------------------------------------------------- synthetic
-def simulate_decay_record(params: Mapping[str, float], terms: Sequence[str] = ("b1", "b2"),
-                          duration: float = 60.0, dt: float = 0.01, phi0: float = math.radians(10.0),
-                          noise: float = 0.0, seed: int = 0, path: str | None = None,
-                          dphi0: float = 0.0) -> str | pd.DataFrame:
-    """Simulate a free roll decay (RK4) and write it as a data-contract CSV (``t``, ``phi``).
-
-    Parameters
-    ----------
-    params : mapping
-        ``omega0`` [rad/s] and the coefficients of ``terms``.
-    terms : sequence of str
-        Model terms (see :class:`studies.roll.model.RollModel`).
-    duration : float
-        Record length [s].
-    dt : float
-        Sampling step [s].
-    phi0 : float
-        Release angle [rad] (the model is released from rest unless ``dphi0``).
-    noise : float
-        Standard deviation of additive white Gaussian measurement noise as a
-        fraction of ``|phi0|`` (0.01 = "1 % noise").
-    seed : int
-        Seed of the noise generator.
-    path : str, optional
-        CSV file to write. Without it the record is returned as a DataFrame.
-    dphi0 : float
-        Initial roll rate [rad/s].
-
-    Returns
-    -------
-    str or DataFrame
-        The path written, or the record.
-    """
-    from studies.roll.model import RollModel
-
-    model = RollModel(tuple(terms))
-    t = np.arange(int(round(duration / dt)) + 1) * dt
-    phi, _ = model.simulate(params, phi0, dphi0, t)
-    if noise:
-        phi = phi + float(noise) * abs(phi0) * np.random.default_rng(seed).standard_normal(t.size)
-    df = pd.DataFrame({"t": t, "phi": phi})
-    if path is None:
-        return df
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    df.to_csv(path, index=False, float_format="%.10g")
-    return str(path)
-
-
-def froude_scale_record(record: pd.DataFrame, from_scale: float, to_scale: float) -> pd.DataFrame:
-    """Froude-scale the time of a roll record (angles are unchanged).
-
-    Parameters
-    ----------
-    record : DataFrame
-        ``t`` [s], ``phi`` [rad].
-    from_scale, to_scale : float
-        Geometric scale factors (1 = full scale, 68 = model 1:68).
-
-    Returns
-    -------
-    DataFrame
-        Copy with ``t`` multiplied by ``sqrt(from_scale / to_scale)`` (and
-        ``period``, ``dt`` in ``attrs`` likewise).
-    """
-    f = math.sqrt(float(from_scale) / float(to_scale))
-    out = record.copy()
-    out["t"] = record["t"] * f
-    out.attrs = dict(record.attrs)
-    for k in ("period", "dt"):
-        if k in out.attrs:
-            out.attrs[k] = out.attrs[k] * f
-    out.attrs["scale"] = float(to_scale)
-    return out
-
-
 # --------------------------------------------------------------- helpers
 def _load(x) -> pd.DataFrame:
-    from studies.roll.records import load_roll_decay
-
     if isinstance(x, pd.DataFrame):
         return x
     return load_roll_decay(x)
@@ -137,8 +73,6 @@ def _stem(rec: pd.DataFrame, i: int) -> str:
 
 
 def _check_method_terms(method: str, terms: Sequence[str]) -> tuple[str, ...]:
-    from studies.roll.model import OPTIONAL_TERMS
-
     if method not in METHODS:
         raise ConfigError(f"method={method}: unknown roll identification method; choose from {list(METHODS)}")
     terms = tuple(terms)
@@ -160,8 +94,6 @@ def _particulars(records: Sequence[pd.DataFrame]) -> dict | None:
 
 def _dimensional_metrics(params: Mapping[str, float], part: dict, amplitude: float) -> dict[str, float]:
     """Dimensional coefficients at full and model scale from Froude-scaled params."""
-    from studies.roll.model import dimensional_coefficients, equivalent_linear_damping, froude_scale_params
-
     lam = float(part["scale"])
     f = part["full"]
     out: dict[str, float] = {"dimensional/scale_factor": lam}
@@ -197,9 +129,6 @@ def _clean(metrics: Mapping[str, float]) -> dict[str, float]:
 
 
 def _error_metrics(params, terms, rec) -> tuple[np.ndarray, float, float]:
-    from studies.roll.analysis import mae, rmse
-    from studies.roll.estimators import predict_record
-
     pred = predict_record(params, terms, rec)
     meas = rec["phi"].to_numpy(float)
     return pred, math.degrees(rmse(meas, pred)), math.degrees(mae(meas, pred))
@@ -259,15 +188,6 @@ def run_roll_study(data_paths: list[str], method: str, out_dir: str,
     ----------
     Chen, C. et al. (2019). Ocean Engineering 191, 106479 (Tables 5-6, Figs 5 and 8).
     """
-    from studies.roll.analysis import (
-        compare_simulation_with_tests,
-        decay_curve,
-        plot_decay_curves,
-        plot_prediction,
-    )
-    from studies.roll.estimators import make_estimator
-    from studies.roll.model import damping_ratio, equivalent_linear_damping
-
     terms = _check_method_terms(method, terms)
     train_in = _as_list(data_paths)
     if not train_in:
@@ -388,8 +308,6 @@ def run_roll_study(data_paths: list[str], method: str, out_dir: str,
         inertia = None
         if part is not None:
             # total inertia at full scale from the identified natural frequency
-            from studies.roll.model import dimensional_coefficients, froude_scale_params
-
             full = froude_scale_params(fit.params, test_scale, "full")
             f = part["full"]
             inertia = dimensional_coefficients(full, f["displacement"], f["gm"], rho=f["rho"], g=f["g"])["I_total"]
@@ -446,10 +364,6 @@ def compare_methods(data_paths, validate_paths=None, terms: Sequence[str] = ("b1
     ----------
     Chen, C. et al. (2019). Ocean Engineering 191, 106479, Table 6 and Fig. 8.
     """
-    from studies.roll.analysis import mae, plot_prediction, rmse
-    from studies.roll.estimators import make_estimator, predict_record
-    from studies.roll.model import damping_ratio
-
     terms = tuple(terms)
     for meth in methods:
         _check_method_terms(meth, terms)

@@ -1,19 +1,22 @@
 """``studies run model=roll``: the roll-decay study behind the common command.
 
-Inputs are checked (:func:`prepare_roll`) before the MLflow run exists; the
+Inputs are checked (:func:`prepare_roll`) before the tracked run exists; the
 study itself is :func:`studies.workflows.roll.run_roll_study`.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
-from omegaconf import OmegaConf
+import numpy as np
 
+from ..config import RunConfig
 from ..roll.records import load_roll_decay
 from ..errors import ConfigError
 from ..roll.estimators import ESTIMATORS
+from ..roll.simulate import simulate_decay_record
+from .roll import run_roll_study
 from .settings import as_path_list
 
 __all__ = ["RollStudy", "prepare_roll", "execute_roll", "ROLL_TERMS"]
@@ -23,7 +26,15 @@ ROLL_TERMS = ("b1", "b2", "b3", "c3")
 
 @dataclass
 class RollStudy:
-    cfg: object
+    """A checked roll-decay configuration with its record paths.
+
+    ``synthetic`` holds the decay to simulate when no record is given
+    (``model.synthetic``: omega0 [rad/s], b1 [1/s], b2 [-], release angle
+    ``phi0_deg`` [deg], ``duration``/``dt`` [s], ``noise`` as a fraction
+    of the release angle).
+    """
+
+    cfg: RunConfig
     data_paths: list
     validate_paths: list
     simulation_path: str | None
@@ -33,38 +44,47 @@ class RollStudy:
     seed: int
 
 
-def prepare_roll(cfg) -> RollStudy:
+    @property
+    def name(self) -> str:
+        """The tracked run's name, e.g. ``nls_svm roll b1+b2 decay1 seed=0``."""
+        if self.cfg.run_name:
+            return str(self.cfg.run_name)
+        records = ", ".join(Path(p).stem for p in self.data_paths) or "synthetic"
+        return f"{self.method} roll {'+'.join(self.terms)} {records} seed={self.seed}"
+
+    @property
+    def tags(self) -> dict:
+        """The tracked run's tags."""
+        return {"method": self.method, "model": self.cfg.model.name, "manoeuvre": "roll_decay",
+                "data": "measured" if self.data_paths else "simulated",
+                "preset": self.cfg.preset or "none"}
+
+    def execute(self, out_dir: Path) -> dict:
+        """Identify and validate (:func:`execute_roll`); the metrics."""
+        return execute_roll(self, out_dir)
+
+
+def prepare_roll(cfg: RunConfig) -> RollStudy:
     """Check the roll configuration and every input file (raises on bad input)."""
     method = str(cfg.method.name)
     if method not in ESTIMATORS:
         raise ConfigError(f"method '{method}' is not a roll-decay method; use one of "
                           f"{', '.join(sorted(ESTIMATORS))}")
     terms = [str(t) for t in cfg.model.terms]
-    unknown = set(terms) - set(ROLL_TERMS)
-    if unknown:
-        raise ConfigError(f"model.terms: unknown roll terms {sorted(unknown)}; known: {', '.join(ROLL_TERMS)}")
-    data = as_path_list(OmegaConf.select(cfg, "data.path"))
-    validate = as_path_list(OmegaConf.select(cfg, "validate.path"))
-    simulation = OmegaConf.select(cfg, "model.simulation_path")
+    data = as_path_list(cfg.data.path)
+    validate = as_path_list(cfg.validate.path)
+    simulation = cfg.model.simulation_path
     for path in data + validate + ([str(simulation)] if simulation else []):
         load_roll_decay(path)
     synthetic = None
     if not data:
-        synthetic = OmegaConf.to_container(cfg.model.synthetic, resolve=True)
-        if not (synthetic["omega0"] > 0 and synthetic["duration"] > 0 and 0 < synthetic["dt"] < synthetic["duration"]):
-            raise ConfigError("model.synthetic: omega0, duration and dt must be positive (dt < duration)")
-        if not (0 <= synthetic["noise"] < 1):
-            raise ConfigError(f"model.synthetic.noise is a fraction in [0, 1), got {synthetic['noise']}")
+        synthetic = asdict(cfg.model.synthetic)
     return RollStudy(cfg, data, validate, str(simulation) if simulation else None, terms, method,
                      synthetic, int(cfg.seed))
 
 
 def execute_roll(study: RollStudy, out_dir: Path) -> dict:
     """Run the roll study into ``out_dir``; returns its metrics."""
-    import numpy as np
-
-    from .roll import run_roll_study, simulate_decay_record
-
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     data, validate, truth = study.data_paths, study.validate_paths, None

@@ -1,17 +1,20 @@
-"""Reading and checking the run configuration before anything is written.
+"""What a study derives from its typed configuration before anything is written.
 
-Every impossible value is refused here with a :class:`ConfigError` naming the
-key, so that a bad override never creates an MLflow run.
+The values themselves are checked where they are declared
+(:mod:`studies.config`); here they become the objects a study works with:
+environments in radians, noise levels, the named manoeuvres of
+``conf/manoeuvre/``, lists of record paths, and output paths that must lie
+inside the project.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
-from omegaconf import OmegaConf
 
+from ..config import RunConfig, manoeuvre_config
 from ..environment.conditions import Environment
 from ..environment.noise import noise_level
 from ..errors import ConfigError
@@ -23,41 +26,21 @@ __all__ = ["Settings", "read_settings", "named_manoeuvre", "as_path_list", "CONF
 CONF_DIR = Path(__file__).resolve().parents[1] / "conf"
 
 
-def _number(cfg, key: str, low: float | None = None, high: float | None = None) -> float:
-    node = OmegaConf.select(cfg, key)
-    if node is None:
-        return 0.0
-    try:
-        value = float(node)
-    except (TypeError, ValueError):
-        raise ConfigError(f"{key} must be a number, got {node!r}") from None
-    if not np.isfinite(value):
-        raise ConfigError(f"{key} must be finite, got {value}")
-    if low is not None and value < low:
-        raise ConfigError(f"{key} must be >= {low}, got {value}")
-    if high is not None and value > high:
-        raise ConfigError(f"{key} must be <= {high}, got {value}")
-    return value
-
-
 def as_path_list(value) -> list[str]:
     """``data.path``/``validate.path``: None, one path or a list -> list of str."""
     if value is None or value == "":
         return []
-    if isinstance(value, (list, tuple)) or OmegaConf.is_list(value):
+    if isinstance(value, (list, tuple)):
         return [str(v) for v in value]
     return [str(value)]
 
 
 def named_manoeuvre(name: str, overrides: dict | None = None) -> Manoeuvre:
-    """The manoeuvre defined in ``conf/manoeuvre/<name>.yaml``."""
-    path = CONF_DIR / "manoeuvre" / f"{name}.yaml"
-    if not path.is_file():
-        known = sorted(p.stem for p in (CONF_DIR / "manoeuvre").glob("*.yaml"))
-        raise ConfigError(f"unknown manoeuvre '{name}'; known: {', '.join(known)}")
-    cfg = OmegaConf.to_container(OmegaConf.load(path), resolve=True)
-    cfg.update(overrides or {})
-    return Manoeuvre.from_config(cfg)
+    """The manoeuvre defined in ``conf/manoeuvre/<name>.yaml`` (``overrides``
+    replace its settings, e.g. ``{"duration": 600.0}`` [s])."""
+    given = {k: v for k, v in asdict(manoeuvre_config(name)).items() if v is not None}
+    given.update(overrides or {})
+    return Manoeuvre.from_config(given)
 
 
 @dataclass(frozen=True)
@@ -76,48 +59,25 @@ class Settings:
     validate_manoeuvres: list
 
 
-def read_settings(cfg) -> Settings:
-    """Check a composed Hydra config of ``studies run``."""
-    wind_speed = _number(cfg, "wind.speed", 0.0, 100.0)
-    wind_dir = np.deg2rad(_number(cfg, "wind.direction"))
-    current_speed = _number(cfg, "current.speed", 0.0, 10.0)
-    current_dir = np.deg2rad(_number(cfg, "current.direction"))
-    env = Environment(wind_speed, wind_dir, current_speed, current_dir)
-    v_speed = OmegaConf.select(cfg, "validate.wind.speed")
-    v_dir = OmegaConf.select(cfg, "validate.wind.direction")
-    venv = Environment(
-        wind_speed if v_speed is None else _number(cfg, "validate.wind.speed", 0.0, 100.0),
-        wind_dir if v_dir is None else np.deg2rad(_number(cfg, "validate.wind.direction")),
-        current_speed, current_dir)
-    seed = OmegaConf.select(cfg, "seed")
-    try:
-        seed = int(seed)
-    except (TypeError, ValueError):
-        raise ConfigError(f"seed must be an integer, got {seed!r}") from None
-    if seed < 0:
-        raise ConfigError(f"seed must be non-negative, got {seed}")
-    manoeuvres = OmegaConf.select(cfg, "validate.manoeuvres") or []
-    if isinstance(manoeuvres, str) or not (OmegaConf.is_list(manoeuvres) or isinstance(manoeuvres, list)):
-        manoeuvres = [manoeuvres]
-    if OmegaConf.select(cfg, "validate.duration", default=None) is not None:
-        duration = _number(cfg, "validate.duration")
-        if duration <= 0:
-            raise ConfigError(f"validate.duration must be positive [s], got {duration:g}")
-    known = sorted(p.stem for p in (CONF_DIR / "manoeuvre").glob("*.yaml"))
-    for name in manoeuvres:
-        if str(name) not in known:
-            raise ConfigError(f"validate.manoeuvres: unknown manoeuvre '{name}'; known: {', '.join(known)}")
+def read_settings(cfg: RunConfig) -> Settings:
+    """The environments, noise levels and inputs of a ``studies run`` (angles in radians)."""
+    env = Environment(cfg.wind.speed, np.deg2rad(cfg.wind.direction),
+                      cfg.current.speed, np.deg2rad(cfg.current.direction))
+    v_wind = cfg.validate.wind
+    venv = Environment(env.wind_speed if v_wind.speed is None else float(v_wind.speed),
+                       env.wind_direction if v_wind.direction is None else np.deg2rad(v_wind.direction),
+                       env.current_speed, env.current_direction)
     return Settings(
         environment=env,
         validation_environment=venv,
-        wind_speed_error=_number(cfg, "noise.wind_speed_error", -0.99, 0.99),
-        measurement_noise=_number(cfg, "noise.measurement", 0.0, 1.0),
-        bias_level=noise_level(OmegaConf.select(cfg, "disturbance.level") or 0),
-        process_level=noise_level(OmegaConf.select(cfg, "disturbance.process") or 0),
-        seed=seed,
-        data_paths=as_path_list(OmegaConf.select(cfg, "data.path")),
-        validate_paths=as_path_list(OmegaConf.select(cfg, "validate.path")),
-        validate_manoeuvres=[str(m) for m in manoeuvres],
+        wind_speed_error=float(cfg.noise.wind_speed_error),
+        measurement_noise=float(cfg.noise.measurement),
+        bias_level=noise_level(cfg.disturbance.level or 0),
+        process_level=noise_level(cfg.disturbance.process or 0),
+        seed=int(cfg.seed),
+        data_paths=as_path_list(cfg.data.path),
+        validate_paths=as_path_list(cfg.validate.path),
+        validate_manoeuvres=[str(m) for m in cfg.validate.manoeuvres],
     )
 
 
@@ -143,8 +103,10 @@ def output_path(value, key: str, root, *allowed) -> Path:
 
 
 def check_output_paths(cfg, root, *allowed) -> None:
-    """Refuse every :data:`OUTPUT_KEYS` value outside the project (or run) directory."""
+    """Refuse every :data:`OUTPUT_KEYS` value of ``cfg`` (typed settings)
+    outside the project (or run) directory."""
     for key in OUTPUT_KEYS:
-        value = OmegaConf.select(cfg, key, default=None)
+        group, _, name = key.partition(".")
+        value = getattr(getattr(cfg, group, None), name, None)
         if value is not None:
             output_path(value, key, root, *allowed)

@@ -16,12 +16,14 @@ from __future__ import annotations
 import fcntl
 import json
 import time
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from omegaconf import OmegaConf
 
+from ..config import RunConfig
+from ..plotting import pyplot
 from ..analysis.correlation import correlated_groups, spearman_matrix
 from ..analysis.pawn import trajectory_pawn
 from ..environment.noise import add_measurement_noise
@@ -31,16 +33,16 @@ from ..models.simplified import PAPER_SIMPLIFIED, save_definition, select_terms,
 from ..simulate import simulate
 from ..vessels import get_vessel
 from .settings import named_manoeuvre
+from .study import Recorder
 
 __all__ = ["derive", "ensure_definition"]
 
 
-def _options(cfg) -> dict:
-    opts = OmegaConf.to_container(cfg.simplify, resolve=True)
-    return opts
+def _options(cfg: RunConfig) -> dict:
+    return asdict(cfg.simplify)
 
 
-def derive(cfg, out_dir: Path) -> dict:
+def derive(cfg: RunConfig, out_dir: Path) -> dict:
     """Run the analysis; write artifacts into ``out_dir``; return the result."""
     opts = _options(cfg)
     out_dir = Path(out_dir)
@@ -91,11 +93,7 @@ def derive(cfg, out_dir: Path) -> dict:
 
 
 def _plot_dof(rho, pawn, groups, dof, path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     fig, (a, b) = plt.subplots(1, 2, figsize=(12, 5))
     im = a.imshow(rho.to_numpy(), vmin=-1, vmax=1, cmap="RdBu_r")
     a.set_xticks(range(len(rho)), rho.columns, rotation=90, fontsize=8)
@@ -114,14 +112,30 @@ def _plot_dof(rho, pawn, groups, dof, path) -> None:
     plt.close(fig)
 
 
-def ensure_definition(cfg, root: Path, run_dir: Path | None = None, force: bool = False) -> Path:
-    """The simplified model definition, derived (and logged) first if missing.
+class _Unrecorded:
+    """A run that is not tracked (library use without a store)."""
+
+    run_id = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> bool:
+        return False
+
+    def log_outputs(self, metrics: dict, directory: Path) -> None:
+        """Nothing to log: the outputs stay in ``directory``."""
+
+
+def ensure_definition(cfg: RunConfig, root: Path, record: Recorder | None = None,
+                      run_dir: Path | None = None, force: bool = False) -> Path:
+    """The simplified model definition, derived first if missing, the
+    analysis recorded as its own run by ``record`` (experiment
+    ``simplification``; None: written to ``run_dir`` only).
 
     Parallel jobs of a sweep wait for one another on a lock file, so the
     analysis runs once.
     """
-    from ..runtime import tracking
-
     path = Path(root) / str(cfg.simplify.output)
     path.parent.mkdir(parents=True, exist_ok=True)
     with open(path.with_suffix(".lock"), "a+") as lock:
@@ -131,8 +145,8 @@ def ensure_definition(cfg, root: Path, run_dir: Path | None = None, force: bool 
                 return path
             out_dir = Path(run_dir) if run_dir else path.parent / "simplification_run"
             params = {"simplify": _options(cfg), "vessel": {"name": str(cfg.vessel.name)}}
-            with tracking.start_run("simplification", "simplify abkowitz", cfg.tracking.uri, root,
-                                    params, {"kind": "simplification"}) as run:
+            record = record or (lambda *args: _Unrecorded())
+            with record("simplification", "simplify abkowitz", params, {"kind": "simplification"}) as run:
                 result = derive(cfg, out_dir)
                 save_definition(path, abkowitz(), result["keep"],
                                 {"mlflow_run": run.run_id, "groups": result["groups"],

@@ -1,0 +1,1160 @@
+"""The typed configuration of the command line: one dataclass per block of settings.
+
+The YAML files under ``studies/conf/`` hold the values; the dataclasses here
+are their schema. :func:`register` stores them in Hydra's ``ConfigStore``
+(called at import of this module), and every YAML names its schema first in
+its ``defaults:`` list (``- run_schema``, ``- bayes_schema``, ...), so that
+Hydra type-checks every composed configuration: a key that is not declared
+here, or a value of the wrong type, is refused while composing.
+
+``OmegaConf.to_object(cfg)`` on a composed configuration (without its
+``hydra`` node) then builds a :class:`RunConfig`, :class:`DiscoverConfig` or
+:class:`ReportCommandConfig` whose ``method``, ``model`` and ``manoeuvre``
+are instances of the dataclass of the chosen option. Every dataclass checks
+its own values in ``__post_init__`` and raises
+:class:`~studies.errors.ConfigError` naming the key in full (``wind.speed
+must be >= 0.0, got -3.0``). Checks that depend on the working directory
+(input files that must exist, output paths that must stay inside the
+project) are left to the command line.
+
+Units follow the YAML comments: speeds in m/s, angles in degrees, times in
+seconds; fractions are plain numbers (0.05 = 5 %).
+"""
+
+import math
+from dataclasses import dataclass, field, fields, is_dataclass
+from pathlib import Path
+from typing import Any, List, Optional, Union, get_args, get_origin, get_type_hints
+
+from hydra.core.config_store import ConfigStore
+from omegaconf import II, MISSING, OmegaConf, flag_override
+from omegaconf.errors import OmegaConfBaseException
+
+from .errors import ConfigError
+
+__all__ = [
+    "Wind", "Current", "Noise", "Disturbance", "Train", "Data", "Identify", "Kalman",
+    "ValidationWind", "Validate", "Simplify", "ReportOptions", "Tracking",
+    "VesselConfig", "ModelConfig", "SimplifiedModelConfig", "RollSynthetic", "RollModelConfig",
+    "MethodConfig", "SvmMethod", "GaMethod", "BayesMethod", "SindyMethod", "ManoeuvreConfig",
+    "RunConfig", "DiscoverOptions", "SimulationInput", "DiscoverConfig", "ReportCommandConfig",
+    "register", "SCHEMAS", "known_manoeuvres", "manoeuvre_config", "explain_validation_error",
+    "CONF_DIR", "compose_settings", "DERIVATIVES", "WEIGHTINGS", "STUDIES", "ROLL_TERMS", "ROLL_DAMPING_TERMS",
+    "MANOEUVRE_KINDS",
+    "SVM_LOSSES", "SINDY_LIBRARIES", "BAYES_MOVES",
+]
+
+#: the packaged config folder (``studies/conf``)
+CONF_DIR = Path(__file__).resolve().parent / "conf"
+
+#: ``data.derivative``: state/acceleration estimators
+DERIVATIVES = ("auto", "central", "savgol", "ekf", "ekf_kinematic")
+#: ``identify.weights``: row weightings of the measured regression
+WEIGHTINGS = ("none", "speed", "record", "speed_record")
+#: ``model.study``: the study that runs a model
+STUDIES = ("manoeuvring", "roll_decay")
+#: ``model.terms`` of the roll model (omega0 is always identified)
+ROLL_TERMS = ("b1", "b2", "b3", "c3")
+#: roll damping terms, at least one of which the roll model needs
+ROLL_DAMPING_TERMS = ("b1", "b2", "b3")
+#: ``manoeuvre.kind``: the simulated kinds, and ``decay`` (roll decay, not simulated)
+MANOEUVRE_KINDS = ("zigzag", "turning", "course", "rudder", "decay")
+#: ``method.loss`` of the SVM
+SVM_LOSSES = ("squared_epsilon_insensitive", "epsilon_insensitive")
+#: ``method.library`` of SINDy
+SINDY_LIBRARIES = ("model", "extended")
+#: ``method.moves`` of the Bayesian regression
+BAYES_MOVES = ("de", "stretch")
+
+
+# ------------------------------------------------------------------ value checks
+
+def _number(key: str, value, low: Optional[float] = None, high: Optional[float] = None) -> float:
+    """``value`` as a finite float within ``[low, high]`` (ConfigError naming ``key``)."""
+    if isinstance(value, bool):
+        raise ConfigError(f"{key} must be a number, got {value!r}")
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ConfigError(f"{key} must be a number, got {value!r}") from None
+    if not math.isfinite(number):
+        raise ConfigError(f"{key} must be finite, got {number}")
+    if low is not None and number < low:
+        raise ConfigError(f"{key} must be >= {low}, got {number}")
+    if high is not None and number > high:
+        raise ConfigError(f"{key} must be <= {high}, got {number}")
+    return number
+
+
+def _optional_number(key: str, value, low: Optional[float] = None,
+                     high: Optional[float] = None) -> Optional[float]:
+    return None if value is None else _number(key, value, low, high)
+
+
+def _integer(key: str, value) -> int:
+    """``value`` as an int (ConfigError naming ``key`` unless it is a whole number)."""
+    if isinstance(value, bool):
+        raise ConfigError(f"{key} must be an integer, got {value!r}")
+    try:
+        number = int(value)
+    except (TypeError, ValueError):
+        raise ConfigError(f"{key} must be an integer, got {value!r}") from None
+    if number != value and not isinstance(value, str):
+        raise ConfigError(f"{key} must be an integer, got {value!r}")
+    return number
+
+
+def _flag(key: str, value) -> bool:
+    if not isinstance(value, bool):
+        raise ConfigError(f"{key} must be true or false, got {value!r}")
+    return value
+
+
+def _choice(key: str, value, allowed) -> str:
+    if str(value) not in allowed:
+        raise ConfigError(f"{key} must be one of {', '.join(allowed)}, got '{value}'")
+    return str(value)
+
+
+def _names(value) -> list:
+    """A name or a list of names as a list of str."""
+    if value is None:
+        return []
+    if isinstance(value, str):
+        return [value]
+    return [str(v) for v in value]
+
+
+def known_manoeuvres() -> list:
+    """Names of the packaged manoeuvres (``conf/manoeuvre/*.yaml``), sorted."""
+    return sorted(p.stem for p in (CONF_DIR / "manoeuvre").glob("*.yaml"))
+
+
+def _check_manoeuvre_names(key: str, names) -> None:
+    known = known_manoeuvres()
+    for name in names:
+        if str(name) not in known:
+            raise ConfigError(f"{key}: unknown manoeuvre '{name}'; known: {', '.join(known)}")
+
+
+# ------------------------------------------------------------------ environment and data
+
+@dataclass
+class Wind:
+    """True wind during the training manoeuvres (``wind``).
+
+    Attributes
+    ----------
+    speed : float
+        True wind speed V_w [m/s], in [0, 100].
+    direction : float
+        Direction the wind comes from [deg], 0 = north; any finite value.
+    """
+
+    speed: float = 0.0
+    direction: float = 45.0
+
+    def __post_init__(self):
+        self.speed = _number("wind.speed", self.speed, 0.0, 100.0)
+        self.direction = _number("wind.direction", self.direction)
+
+
+@dataclass
+class Current:
+    """Uniform current (``current``).
+
+    Attributes
+    ----------
+    speed : float
+        Current speed [m/s], in [0, 10].
+    direction : float
+        Direction the current flows to [deg]; any finite value.
+    """
+
+    speed: float = 0.0
+    direction: float = 0.0
+
+    def __post_init__(self):
+        self.speed = _number("current.speed", self.speed, 0.0, 10.0)
+        self.direction = _number("current.direction", self.direction)
+
+
+@dataclass
+class Noise:
+    """Sensor errors of the simulated records (``noise``).
+
+    Attributes
+    ----------
+    wind_speed_error : float
+        Anemometer accuracy as a fraction, in [-0.99, 0.99]: the record
+        carries ``V_p = V_w (1 + error)`` (thesis eq. 4.1).
+    measurement : float
+        Degree of measurement noise k0 of Sutulo & Guedes Soares, a
+        fraction in [0, 1] (0.05 = 5 %).
+    """
+
+    wind_speed_error: float = 0.0
+    measurement: float = 0.0
+
+    def __post_init__(self):
+        self.wind_speed_error = _number("noise.wind_speed_error", self.wind_speed_error, -0.99, 0.99)
+        self.measurement = _number("noise.measurement", self.measurement, 0.0, 1.0)
+
+
+@dataclass
+class Disturbance:
+    """Disturbance forces of the SVM paper (``disturbance``).
+
+    Attributes
+    ----------
+    level : int
+        Noise level NL0-NL3 (0-3) of the earth-fixed slowly varying bias.
+    process : int
+        Noise level NL0-NL3 (0-3) of the body-fixed process noise.
+    """
+
+    level: int = 0
+    process: int = 0
+
+    def __post_init__(self):
+        for key in ("level", "process"):
+            value = getattr(self, key)
+            if isinstance(value, bool) or value not in (0, 1, 2, 3):
+                raise ConfigError(f"disturbance.{key} must be one of NL0-NL3 (0-3), got {value!r}")
+            setattr(self, key, int(value))
+
+
+@dataclass
+class Train:
+    """Training manoeuvres (``train``).
+
+    Attributes
+    ----------
+    manoeuvres : list of str
+        Names of simulated training manoeuvres (``conf/manoeuvre/``);
+        empty: the ``manoeuvre`` group alone.
+    """
+
+    manoeuvres: List[str] = field(default_factory=list)
+
+    def __post_init__(self):
+        self.manoeuvres = _names(self.manoeuvres)
+        _check_manoeuvre_names("train.manoeuvres", self.manoeuvres)
+
+
+@dataclass
+class Data:
+    """Measured training records (``data``).
+
+    Attributes
+    ----------
+    path : None, str or list of str
+        A record file or a list of them; None: simulate ``manoeuvre`` of
+        ``vessel``.
+    derivative : str
+        State/acceleration estimator: one of :data:`DERIVATIVES`.
+    resample : float or None
+        Step [s] to resample measured records to, > 0; None: their own
+        median step.
+    """
+
+    path: Any = None
+    derivative: str = "auto"
+    resample: Optional[float] = None
+
+    def __post_init__(self):
+        self.derivative = _choice("data.derivative", self.derivative, DERIVATIVES)
+        if self.resample is not None:
+            try:
+                step = float(self.resample)
+            except (TypeError, ValueError):
+                raise ConfigError(f"data.resample must be a step in seconds, got {self.resample!r}") from None
+            if not (math.isfinite(step) and step > 0):
+                raise ConfigError(f"data.resample must be a positive step in seconds, got {step}")
+            self.resample = step
+
+
+@dataclass
+class Identify:
+    """Options of the measured regression (``identify``).
+
+    Attributes
+    ----------
+    weights : str
+        Row weights: one of :data:`WEIGHTINGS` (``speed``: (U/U0)^4).
+    """
+
+    weights: str = "speed"
+
+    def __post_init__(self):
+        self.weights = _choice("identify.weights", self.weights, WEIGHTINGS)
+
+
+@dataclass
+class Kalman:
+    """The Kalman smoother of measured records (``kalman``).
+
+    Attributes
+    ----------
+    iterations : int
+        EKF/RTS passes with the identified ship model after the kinematic
+        one, >= 0.
+    channels, noise_window, noise_span, measurement_std, process_scale,
+    scale_grid, discrepancy, bias, bias_fraction, bias_time
+        The smoother's settings (units and meaning in
+        :class:`studies.identify.kalman.KalmanSettings`); null keeps its
+        default. Set with ``kalman.<name>=value``.
+    """
+
+    iterations: int = 2
+    channels: Optional[List[str]] = None
+    noise_window: Optional[float] = None
+    noise_span: Optional[float] = None
+    measurement_std: Optional[Any] = None
+    process_scale: Optional[float] = None
+    scale_grid: Optional[List[float]] = None
+    discrepancy: Optional[float] = None
+    bias: Optional[Any] = None
+    bias_fraction: Optional[float] = None
+    bias_time: Optional[float] = None
+
+    def __post_init__(self):
+        self.iterations = _integer("kalman.iterations", self.iterations)
+        if self.iterations < 0:
+            raise ConfigError(f"kalman.iterations must be >= 0, got {self.iterations}")
+
+
+@dataclass
+class ValidationWind:
+    """Wind during the validation manoeuvres (``validate.wind``).
+
+    Attributes
+    ----------
+    speed : float or None
+        True wind speed [m/s], in [0, 100]; None: as in training.
+    direction : float or None
+        Direction the wind comes from [deg]; None: as in training.
+    """
+
+    speed: Optional[float] = None
+    direction: Optional[float] = None
+
+    def __post_init__(self):
+        self.speed = _optional_number("validate.wind.speed", self.speed, 0.0, 100.0)
+        self.direction = _optional_number("validate.wind.direction", self.direction)
+
+
+@dataclass
+class Validate:
+    """What the identified model is judged on (``validate``).
+
+    Attributes
+    ----------
+    path : None, str or list of str
+        Measured records to predict (replayed with their own rudder).
+    manoeuvres : list of str
+        Simulated validation manoeuvres, names of ``conf/manoeuvre/`` (one
+        name is taken as a list of one).
+    duration : float or None
+        Length [s] of the validation manoeuvres, > 0; None: their own.
+    band_draws : int
+        Posterior draws replayed for the predictive band (method=bayes), >= 0.
+    compare_derivatives : bool
+        Measured data: also validate with Savitzky-Golay derivatives.
+    wind : ValidationWind
+        Wind of the validation manoeuvres.
+    """
+
+    path: Any = None
+    manoeuvres: Any = field(default_factory=lambda: ["zigzag_10_10", "zigzag_20_20",
+                                                      "zigzag_40_40", "turning_35"])
+    duration: Optional[float] = None
+    band_draws: int = 50
+    compare_derivatives: bool = True
+    wind: ValidationWind = field(default_factory=ValidationWind)
+
+    def __post_init__(self):
+        self.manoeuvres = _names(self.manoeuvres)
+        if self.duration is not None:
+            duration = _number("validate.duration", self.duration)
+            if duration <= 0:
+                raise ConfigError(f"validate.duration must be positive [s], got {duration:g}")
+            self.duration = duration
+        _check_manoeuvre_names("validate.manoeuvres", self.manoeuvres)
+        self.band_draws = _integer("validate.band_draws", self.band_draws)
+        if self.band_draws < 0:
+            raise ConfigError(f"validate.band_draws must be >= 0, got {self.band_draws}")
+        self.compare_derivatives = _flag("validate.compare_derivatives", self.compare_derivatives)
+
+
+@dataclass
+class Simplify:
+    """``studies simplify`` / model=simplified: correlation + PAWN (Li et al. 2023) (``simplify``).
+
+    Attributes
+    ----------
+    output : str
+        The model definition it writes (project-relative path).
+    manoeuvre : str
+        The simulated manoeuvre (a name of ``conf/manoeuvre/``).
+    duration : float
+        Length of that manoeuvre [s].
+    dt : float
+        Its sampling step [s].
+    realisations : int
+        Noisy realisations identified by least squares.
+    noise : float
+        k0 of the measurement noise (fraction).
+    derivative : str
+        Derivative estimator of the regressions (one of :data:`DERIVATIVES`).
+    threshold : float
+        ``|Spearman rho|`` above which coefficients are grouped [-].
+    pawn_samples : int
+        Trajectories per DOF for PAWN.
+    pawn_spread : float
+        Coefficients sampled within ``(1 -/+ spread)`` of the estimates [-].
+    seed : int
+        Seed of the noise and of the PAWN samples.
+    """
+
+    output: str = "models/simplified.json"
+    manoeuvre: str = "zigzag_20_20"
+    duration: float = 600.0
+    dt: float = 0.1
+    realisations: int = 50
+    noise: float = 0.05
+    derivative: str = "savgol"
+    threshold: float = 0.7
+    pawn_samples: int = 1000
+    pawn_spread: float = 0.2
+    seed: int = 0
+
+    def __post_init__(self):
+        _check_manoeuvre_names("simplify.manoeuvre", [self.manoeuvre])
+
+
+@dataclass
+class ReportOptions:
+    """``studies report``: comparison pages of one experiment (``report``).
+
+    Attributes
+    ----------
+    dir : str
+        Folder of the pages (project-relative); they go to ``<dir>/<experiment>/``.
+    condition : str or None
+        The swept config key that makes a table's column groups (several
+        keys separated by commas).
+    series : str
+        The config key whose values are the columns within a group.
+    experiment : str or None
+        MLflow experiment to report; None: the one with the latest run.
+    """
+
+    dir: str = "reports"
+    condition: Optional[str] = None
+    series: str = "method.name"
+    experiment: Optional[str] = None
+
+
+@dataclass
+class Tracking:
+    """MLflow tracking (``tracking``).
+
+    Attributes
+    ----------
+    uri : str or None
+        Tracking URI; None: sqlite store ``mlruns/mlflow.db`` in the working
+        directory.
+    experiment : str
+        MLflow experiment name (presets set their own).
+    """
+
+    uri: Optional[str] = None
+    experiment: str = "studies"
+
+
+# ------------------------------------------------------------------ config groups
+
+@dataclass
+class VesselConfig:
+    """An option of the ``vessel`` group.
+
+    Attributes
+    ----------
+    name : str
+        Registered vessel (``mariner``, ``kvlcc2``).
+    """
+
+    name: str = MISSING
+
+
+@dataclass
+class ModelConfig:
+    """An option of the ``model`` group (``abkowitz``, ``symmetric``).
+
+    Attributes
+    ----------
+    name : str
+        Registered model.
+    study : str
+        The study that runs the model: one of :data:`STUDIES`.
+    """
+
+    name: str = MISSING
+    study: str = "manoeuvring"
+
+    def __post_init__(self):
+        if self.study not in STUDIES:
+            raise ConfigError(f"model.study must be one of {', '.join(STUDIES)}, got '{self.study}'")
+
+
+@dataclass
+class SimplifiedModelConfig(ModelConfig):
+    """``model=simplified``: the model derived by ``studies simplify``.
+
+    Attributes
+    ----------
+    definition : str
+        The model definition file (default ``${simplify.output}``); derived
+        on first use when it does not exist.
+    """
+
+    definition: str = II("simplify.output")
+
+
+@dataclass
+class RollSynthetic:
+    """The roll decay simulated when ``data.path`` is empty (``model.synthetic``).
+
+    Attributes
+    ----------
+    omega0 : float
+        Natural frequency [rad/s], > 0.
+    b1 : float
+        Linear damping [1/s].
+    b2 : float
+        Quadratic damping [-].
+    b3 : float
+        Cubic damping [s] (angles in radians).
+    c3 : float
+        Cubic restoring [1/s^2] (angles in radians).
+    phi0_deg : float
+        Release angle [deg].
+    duration : float
+        Length of the record [s], > 0.
+    dt : float
+        Sampling step [s], in (0, duration).
+    noise : float
+        Standard deviation of the added noise as a fraction of the release
+        angle, in [0, 1).
+    """
+
+    omega0: float = 2.5
+    b1: float = 0.06
+    b2: float = 0.40
+    b3: float = 0.0
+    c3: float = 0.0
+    phi0_deg: float = 10.0
+    duration: float = 60.0
+    dt: float = 0.01
+    noise: float = 0.0
+
+    def __post_init__(self):
+        if not (self.omega0 > 0 and self.duration > 0 and 0 < self.dt < self.duration):
+            raise ConfigError("model.synthetic: omega0, duration and dt must be positive (dt < duration)")
+        if not (0 <= self.noise < 1):
+            raise ConfigError(f"model.synthetic.noise is a fraction in [0, 1), got {self.noise}")
+
+
+@dataclass
+class RollModelConfig(ModelConfig):
+    """``model=roll``: 1-DOF roll decay (Chen et al. 2019).
+
+    Attributes
+    ----------
+    terms : list of str
+        Identified terms besides omega0: a subset of :data:`ROLL_TERMS`
+        with at least one damping term (b1, b2, b3).
+    simulation_path : str or None
+        A record of another simulator to judge against ``data.path``.
+    synthetic : RollSynthetic
+        The decay simulated when ``data.path`` is empty.
+    """
+
+    terms: List[str] = field(default_factory=lambda: ["b1", "b2"])
+    simulation_path: Optional[str] = None
+    synthetic: RollSynthetic = field(default_factory=RollSynthetic)
+    study: str = "roll_decay"
+
+    def __post_init__(self):
+        super().__post_init__()
+        self.terms = [str(t) for t in self.terms]
+        unknown = set(self.terms) - set(ROLL_TERMS)
+        if unknown:
+            raise ConfigError(f"model.terms: unknown roll terms {sorted(unknown)}; "
+                              f"known: {', '.join(ROLL_TERMS)}")
+        if not any(t in ROLL_DAMPING_TERMS for t in self.terms):
+            raise ConfigError(f"model.terms={self.terms}: the roll model needs at least one "
+                              "damping term (b1, b2, b3)")
+
+
+@dataclass
+class MethodConfig:
+    """An option of the ``method`` group without settings (``ls``, ``nls``, ``fls``, ``nls_svm``).
+
+    Attributes
+    ----------
+    name : str
+        Identification method.
+    """
+
+    name: str = MISSING
+
+
+@dataclass
+class SvmMethod(MethodConfig):
+    """``method=svm``: linear epsilon-SVR per DOF (Zhu 2021; Wang et al. 2021).
+
+    Attributes
+    ----------
+    c_grid : list of float
+        Penalty C candidates [-], each > 0.
+    epsilon_grid : list of float
+        Tube half-width candidates, fraction of the RMS force/moment of the
+        DOF [-], each >= 0.
+    folds : int
+        Contiguous time blocks of the cross-validation, >= 2.
+    max_rows : int or None
+        Rows for the search (None: all).
+    loss : str
+        One of :data:`SVM_LOSSES`.
+    dual : bool or str
+        liblinear formulation: ``auto``, true or false.
+    max_iter : int
+        Iteration limit of every liblinear fit.
+    tol : float
+        Relative stopping tolerance.
+    scoring : str
+        sklearn scorer of the search.
+    seed : int
+        Random state of the dual coordinate descent (default ``${seed}``).
+    """
+
+    c_grid: List[float] = field(default_factory=lambda: [1.0, 1.0e+2, 1.0e+4, 1.0e+6, 1.0e+8])
+    epsilon_grid: List[float] = field(default_factory=lambda: [0.0, 1.0e-3, 1.0e-2])
+    folds: int = 5
+    max_rows: Optional[int] = 5000
+    loss: str = "squared_epsilon_insensitive"
+    dual: Any = "auto"
+    max_iter: int = 10000
+    tol: float = 1.0e-9
+    scoring: str = "neg_mean_squared_error"
+    seed: int = II("seed")
+
+    def __post_init__(self):
+        self.loss = _choice("method.loss", self.loss, SVM_LOSSES)
+        if int(self.folds) < 2:
+            raise ConfigError(f"method.folds must be at least 2, got {self.folds}")
+        if not len(self.c_grid) or not len(self.epsilon_grid):
+            raise ConfigError("method.c_grid and method.epsilon_grid need at least one value each")
+        if min(self.c_grid) <= 0 or min(self.epsilon_grid) < 0:
+            raise ConfigError("method.c_grid (C) must be > 0 and method.epsilon_grid >= 0")
+
+
+@dataclass
+class GaMethod(MethodConfig):
+    """``method=ls_ga`` / ``svm_ga``: Sobol selection and GA refinement (Zhu 2021, 3.2.3-3.2.4).
+
+    Attributes
+    ----------
+    base : str
+        Regression giving the starting solution (``ls``, ``svm``).
+    genes_per_dof : int
+        Least Sobol-sensitive coefficients refined per DOF.
+    genes : list of str or None
+        Explicit coefficient names instead.
+    sobol_samples : int
+        N of the Sobol design.
+    generations, population, parents_mating, keep_parents : int
+        GA sizes (the population holds the identified solution and copies).
+    crossover_probability, mutation_probability : float
+        Probabilities in [0, 1].
+    parent_selection : str
+        pygad parent selection (``rank``).
+    spread : float
+        Gene bounds ``(1 -/+ spread)`` x identified value [-].
+    stop_fitness : float
+        Stop when the fitness (thesis eq. 3.43) reaches this.
+    seed : int
+        Seed of the GA (default ``${seed}``).
+    """
+
+    base: str = "ls"
+    genes_per_dof: int = 5
+    genes: Optional[List[str]] = None
+    sobol_samples: int = 5000
+    generations: int = 200
+    population: int = 5
+    parents_mating: int = 4
+    keep_parents: int = 3
+    crossover_probability: float = 0.6
+    mutation_probability: float = 1.0
+    parent_selection: str = "rank"
+    spread: float = 0.5
+    stop_fitness: float = 1.0e-5
+    seed: int = II("seed")
+
+
+@dataclass
+class BayesMethod(MethodConfig):
+    """``method=bayes``: regression posterior per DOF, optionally a trajectory posterior (emcee).
+
+    Attributes
+    ----------
+    n_walkers : int or None
+        Walkers per DOF, even and >= 4; None: max(32, 2 (p + 1)).
+    n_samples : int
+        Posterior samples kept per DOF, >= 1.
+    burn_in : int
+        Steps discarded, >= 0.
+    thin : int
+        Keep every thin-th step, >= 1.
+    seed : int
+        Seed of the samplers (default ``${seed}``; DOF k uses seed + k).
+    init_scale : float
+        Initial ball around the LS solution [LS standard errors], > 0.
+    moves : str
+        One of :data:`BAYES_MOVES`.
+    autocorr_correction : bool
+        Likelihood tempered by n_eff / n.
+    corner_max : int
+        Coefficients per corner plot.
+    trajectory_terms : None, str or list of str
+        None (skip), ``ga`` or coefficient names.
+    trajectory_walkers : int or None
+        Even and >= 4; None: max(8, 2 k + 2) for k terms.
+    trajectory_steps : int
+        Steps kept after burn-in, >= 1.
+    trajectory_burn_in : int
+        >= 0.
+    trajectory_thin : int
+        >= 1.
+    trajectory_max_samples : int
+        Compared samples per record and channel, >= 10.
+    trajectory_duration : float or None
+        First part of each record simulated [s]; None: whole record.
+    trajectory_prior_width : float
+        Flat prior ``|c - c_reg| <= width |c_reg|``, > 0.
+    trajectory_init_scale : float
+        Initial ball relative to ``|c_reg|``, > 0.
+    trajectory_autocorr_correction : bool
+        Effective-sample-size correction of the trajectory likelihood.
+    """
+
+    n_walkers: Optional[int] = None
+    n_samples: int = 10000
+    burn_in: int = 500
+    thin: int = 12
+    seed: int = II("seed")
+    init_scale: float = 0.1
+    moves: str = "de"
+    autocorr_correction: bool = True
+    corner_max: int = 8
+    trajectory_terms: Any = None
+    trajectory_walkers: Optional[int] = None
+    trajectory_steps: int = 300
+    trajectory_burn_in: int = 200
+    trajectory_thin: int = 1
+    trajectory_max_samples: int = 300
+    trajectory_duration: Optional[float] = 600.0
+    trajectory_prior_width: float = 1.0
+    trajectory_init_scale: float = 0.01
+    trajectory_autocorr_correction: bool = True
+
+    def __post_init__(self):
+        for key, low in (("n_samples", 1), ("burn_in", 0), ("thin", 1), ("trajectory_steps", 1),
+                         ("trajectory_burn_in", 0), ("trajectory_thin", 1),
+                         ("trajectory_max_samples", 10)):
+            value = getattr(self, key)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                    or int(value) != value or value < low:
+                raise ConfigError(f"method.{key} must be an integer >= {low}, got {value!r}")
+        for key in ("n_walkers", "trajectory_walkers"):
+            value = getattr(self, key)
+            if value is not None and (int(value) != value or value < 4 or value % 2):
+                raise ConfigError(f"method.{key} must be an even integer >= 4, got {value!r}")
+        if self.moves not in BAYES_MOVES:
+            raise ConfigError(f"method.moves must be 'de' or 'stretch', got {self.moves!r}")
+        if not (self.init_scale > 0 and self.trajectory_init_scale > 0 and self.trajectory_prior_width > 0):
+            raise ConfigError("method.init_scale, trajectory_init_scale and "
+                              "trajectory_prior_width must be positive")
+        terms = self.trajectory_terms
+        if terms is not None and terms != "ga" and (
+                isinstance(terms, str) or not all(isinstance(t, str) for t in terms)):
+            raise ConfigError("method.trajectory_terms must be null, 'ga' or a list of "
+                              f"coefficient names, got {terms!r}")
+
+
+@dataclass
+class SindyMethod(MethodConfig):
+    """``method=sindy``: sparse regression (STLSQ, Brunton et al. 2016).
+
+    Attributes
+    ----------
+    threshold : float
+        Smallest kept RMS contribution of a term / RMS force of its DOF [-], >= 0.
+    alpha : float
+        Ridge weight of the STLSQ passes relative to the mean squared residual [-], >= 0.
+    library : str
+        One of :data:`SINDY_LIBRARIES`.
+    max_order : int
+        Highest total order of the extended library, >= 1.
+    max_iter : int
+        Most STLSQ passes, >= 1.
+    """
+
+    threshold: float = 1.0e-4
+    alpha: float = 1.0e-12
+    library: str = "model"
+    max_order: int = 3
+    max_iter: int = 20
+
+    def __post_init__(self):
+        self.library = _choice("method.library", self.library, SINDY_LIBRARIES)
+        if self.threshold < 0 or self.alpha < 0:
+            raise ConfigError("method.threshold and method.alpha must be >= 0")
+        if int(self.max_order) < 1 or int(self.max_iter) < 1:
+            raise ConfigError("method.max_order and method.max_iter must be >= 1")
+
+
+@dataclass
+class ManoeuvreConfig:
+    """An option of the ``manoeuvre`` group: the simulated training manoeuvre.
+
+    Attributes
+    ----------
+    name : str
+        Record name (``zigzag_20_20``, ...).
+    kind : str
+        One of :data:`MANOEUVRE_KINDS`.
+    amplitude : float or None
+        Rudder amplitude [deg], in (0, 90] (zigzag, turning).
+    heading : float or None
+        Heading change that reverses the rudder (zigzag, > 0) or starts the
+        pull-out (turning) [deg].
+    duration : float or None
+        Length of the record [s], > 0.
+    dt : float or None
+        Sampling step [s], in (0, duration].
+    schedule : list of [t_start, t_end, value_deg] or None
+        Heading reference (course) or commanded rudder (rudder) segments.
+
+    None leaves the simulator's default.
+    """
+
+    name: str = MISSING
+    kind: str = MISSING
+    amplitude: Optional[float] = None
+    heading: Optional[float] = None
+    duration: Optional[float] = None
+    dt: Optional[float] = None
+    schedule: Optional[List[List[float]]] = None
+
+    def __post_init__(self):
+        where = f"(manoeuvre '{self.name}')"
+        if self.kind not in MANOEUVRE_KINDS:
+            raise ConfigError(f"manoeuvre.kind: unknown kind '{self.kind}' {where} "
+                              f"(known: {', '.join(MANOEUVRE_KINDS)})")
+        if self.duration is not None and not self.duration > 0:
+            raise ConfigError(f"manoeuvre.duration must be positive, got {self.duration} {where}")
+        if self.dt is not None and not (0 < self.dt <= (self.duration or math.inf)):
+            raise ConfigError(f"manoeuvre.dt must be in (0, duration], got {self.dt} {where}")
+        if self.kind in ("zigzag", "turning") and self.amplitude is not None \
+                and not (0 < abs(self.amplitude) <= 90):
+            raise ConfigError(f"manoeuvre.amplitude: rudder amplitude must be in (0, 90] deg, "
+                              f"got {self.amplitude} {where}")
+        if self.kind == "zigzag" and self.heading is not None and not self.heading > 0:
+            raise ConfigError(f"manoeuvre.heading: zig-zag heading must be positive, "
+                              f"got {self.heading} {where}")
+
+
+def manoeuvre_config(name: str) -> ManoeuvreConfig:
+    """The packaged manoeuvre ``conf/manoeuvre/<name>.yaml``, checked.
+
+    Raises :class:`ConfigError` for a name that is not packaged (listing
+    the known ones) or a file whose values are impossible.
+    """
+    path = CONF_DIR / "manoeuvre" / f"{name}.yaml"
+    if not path.is_file():
+        raise ConfigError(f"unknown manoeuvre '{name}'; known: {', '.join(known_manoeuvres())}")
+    node = OmegaConf.load(path)
+    with flag_override(node, "struct", False):
+        node.pop("defaults", None)
+    return OmegaConf.to_object(OmegaConf.merge(ManoeuvreConfig, node))
+
+
+# ------------------------------------------------------------------ commands
+
+@dataclass
+class RunConfig:
+    """``studies run`` / ``studies simplify`` (``conf/config.yaml``).
+
+    Attributes
+    ----------
+    seed : int
+        Seed of everything random, >= 0.
+    verbose : bool
+        Show tracebacks instead of one-line errors.
+    resume : bool
+        Skip jobs whose config already has a FINISHED run.
+    run_name : str or None
+        MLflow run name; None: built from method/manoeuvre/wind.
+    preset : str or None
+        Set by experiment presets.
+    wind, current, noise, disturbance, train, data, identify, kalman, validate, simplify, report, tracking
+        The blocks of settings (see their classes).
+    vessel, model, method, manoeuvre
+        The chosen option of each config group.
+    """
+
+    seed: int = 0
+    verbose: bool = False
+    resume: bool = False
+    run_name: Optional[str] = None
+    preset: Optional[str] = None
+    wind: Wind = field(default_factory=Wind)
+    current: Current = field(default_factory=Current)
+    noise: Noise = field(default_factory=Noise)
+    disturbance: Disturbance = field(default_factory=Disturbance)
+    train: Train = field(default_factory=Train)
+    data: Data = field(default_factory=Data)
+    identify: Identify = field(default_factory=Identify)
+    kalman: Kalman = field(default_factory=Kalman)
+    validate: Validate = field(default_factory=Validate)
+    simplify: Simplify = field(default_factory=Simplify)
+    report: ReportOptions = field(default_factory=ReportOptions)
+    tracking: Tracking = field(default_factory=Tracking)
+    vessel: VesselConfig = MISSING
+    model: ModelConfig = MISSING
+    method: MethodConfig = MISSING
+    manoeuvre: ManoeuvreConfig = MISSING
+
+    def __post_init__(self):
+        self.seed = _integer("seed", self.seed)
+        if self.seed < 0:
+            raise ConfigError(f"seed must be non-negative, got {self.seed}")
+        self.verbose = _flag("verbose", self.verbose)
+        self.resume = _flag("resume", self.resume)
+
+
+@dataclass
+class DiscoverOptions:
+    """Options of ``studies discover`` (``discover``).
+
+    Attributes
+    ----------
+    holdout : float
+        Share of a single training record held out when ``validate.path``
+        is empty, in [0.05, 0.8].
+    horizon : float or None
+        Prediction windows of the validation error [s]; None: whole records.
+    terms_threshold : float
+        STLSQ threshold (unit-variance columns) of the missing-term search.
+    max_terms : int
+        Most terms added per DOF.
+    second_cause : bool
+        Try a second cause on top of the best one.
+    posterior_steps : int
+        emcee steps (after 15 of burn-in) for the winner's intervals.
+    output_error : str or bool
+        Refine by simulation (output error) before validating: ``auto``
+        (noisy records), true or false.
+    splits : bool
+        Also hold out every record of data.path + validate.path in turn.
+    """
+
+    holdout: float = 0.3
+    horizon: Optional[float] = 120.0
+    terms_threshold: float = 0.1
+    max_terms: int = 3
+    second_cause: bool = True
+    posterior_steps: int = 40
+    output_error: Any = "auto"
+    splits: bool = False
+
+    def __post_init__(self):
+        value = self.output_error
+        if not isinstance(value, bool) and str(value).lower() not in ("auto", "true", "false"):
+            raise ConfigError(f"discover.output_error must be auto, true or false, got {value!r}")
+        share = _number("discover.holdout", self.holdout)
+        if not 0.05 <= share <= 0.8:
+            raise ConfigError(f"discover.holdout must be in [0.05, 0.8], got {share}")
+        self.holdout = share
+        self.splits = _flag("discover.splits", self.splits)
+
+
+@dataclass
+class SimulationInput:
+    """Another simulator's record (``simulation``).
+
+    Attributes
+    ----------
+    path : str or None
+        A record to judge against the measurements.
+    """
+
+    path: Optional[str] = None
+
+
+@dataclass
+class DiscoverConfig(RunConfig):
+    """``studies discover`` (``conf/discover.yaml``): the run configuration plus
+    the discovery's options.
+
+    Attributes
+    ----------
+    discover : DiscoverOptions
+        The discovery's own options.
+    simulation : SimulationInput
+        Another simulator's record.
+    """
+
+    tracking: Tracking = field(default_factory=lambda: Tracking(experiment="discover"))
+    discover: DiscoverOptions = field(default_factory=DiscoverOptions)
+    simulation: SimulationInput = field(default_factory=SimulationInput)
+
+
+@dataclass
+class ReportCommandConfig:
+    """``studies report`` (``conf/report.yaml``).
+
+    Attributes
+    ----------
+    verbose : bool
+        Show tracebacks instead of one-line errors.
+    report : ReportOptions
+        Which experiment, and where the pages go.
+    tracking : Tracking
+        Where the runs are.
+    """
+
+    verbose: bool = False
+    report: ReportOptions = field(default_factory=ReportOptions)
+    tracking: Tracking = field(default_factory=Tracking)
+
+    def __post_init__(self):
+        self.verbose = _flag("verbose", self.verbose)
+
+
+# ------------------------------------------------------------------ Hydra
+
+def _extension(schema: type, base: type):
+    """``schema`` (a subclass of ``base``) without the fields it inherits.
+
+    Merged after a config of type ``base`` it changes that config's type to
+    ``schema`` and adds (and type-checks) the new fields, leaving every node
+    composed before it as it is (the chosen ``model``, ``method``, ... keep
+    their own types).
+    """
+    node = OmegaConf.structured(schema)
+    with flag_override(node, ["struct", "readonly"], [False, False]):
+        for item in fields(base):
+            del node[item.name]
+    return node
+
+
+#: (group, name, schema) stored by :func:`register`; a YAML extends one by
+#: naming it in its ``defaults:`` list: first (before ``_self_``), except
+#: ``discover_schema``, which comes after ``config`` (see :func:`_extension`)
+SCHEMAS = (
+    (None, "run_schema", RunConfig),
+    (None, "discover_schema", lambda: _extension(DiscoverConfig, RunConfig)),
+    (None, "report_schema", ReportCommandConfig),
+    ("vessel", "vessel_schema", VesselConfig),
+    ("model", "model_schema", ModelConfig),
+    ("model", "simplified_schema", SimplifiedModelConfig),
+    ("model", "roll_schema", RollModelConfig),
+    ("method", "method_schema", MethodConfig),
+    ("method", "svm_schema", SvmMethod),
+    ("method", "ga_schema", GaMethod),
+    ("method", "bayes_schema", BayesMethod),
+    ("method", "sindy_schema", SindyMethod),
+    ("manoeuvre", "manoeuvre_schema", ManoeuvreConfig),
+)
+
+
+def register() -> None:
+    """Store every schema of :data:`SCHEMAS` in Hydra's ConfigStore (idempotent)."""
+    store = ConfigStore.instance()
+    for group, name, node in SCHEMAS:
+        store.store(group=group, name=name, node=node if is_dataclass(node) else node())
+
+
+_KINDS = {float: "a number", int: "an integer", bool: "true or false", str: "a string"}
+
+
+def _declared_type(owner, key):
+    """The type declared for field ``key`` of dataclass ``owner`` (Optional removed), or None."""
+    if not (isinstance(owner, type) and is_dataclass(owner)):
+        return None
+    try:
+        declared = get_type_hints(owner).get(key)
+    except (NameError, TypeError):
+        return None
+    if get_origin(declared) is Union:
+        members = [a for a in get_args(declared) if a is not type(None)]
+        declared = members[0] if len(members) == 1 else None
+    return declared
+
+
+def explain_validation_error(error: BaseException) -> Optional[ConfigError]:
+    """One line for a value of the wrong type refused while composing.
+
+    ``error`` is an OmegaConf ``ValidationError`` or a Hydra error caused by
+    one (its ``__cause__``). Returns e.g. ``ConfigError("wind.speed must be a
+    number, got 'fast'")``, or None when the error is not about the type of
+    a declared setting.
+    """
+    for candidate in (error, error.__cause__, getattr(error.__cause__, "__cause__", None)):
+        if not isinstance(candidate, OmegaConfBaseException):
+            continue
+        key = getattr(candidate, "full_key", None)
+        if not key:
+            continue
+        value = getattr(candidate, "value", None)
+        if "is not Optional" in str(candidate):
+            return ConfigError(f"{key} must not be null")
+        declared = _declared_type(getattr(candidate, "object_type", None), getattr(candidate, "key", None))
+        if declared in _KINDS:
+            return ConfigError(f"{key} must be {_KINDS[declared]}, got {value!r}")
+        if get_origin(declared) in (list, List):
+            return ConfigError(f"{key} must be a list (written {key}=[a,b]), got {value!r}")
+        if is_dataclass(declared):
+            names = [item.name for item in fields(declared)]
+            return ConfigError(f"{key}: is a group of settings ({', '.join(names)}), not a value; "
+                               f"set one of them, e.g. {key}.{names[0]}=...")
+    return None
+
+
+
+def compose_settings(config_name: str = "config", overrides=()) -> "RunConfig":
+    """The typed settings of a command, composed as the command line would.
+
+    ``config_name`` is ``config`` (``studies run``), ``discover`` or
+    ``report``; ``overrides`` are Hydra overrides (``["wind.speed=12",
+    "method=svm"]``). For scripts and tests; works inside an initialised
+    Hydra context or alone. Raises Hydra's composition errors, or
+    :class:`ConfigError` from the dataclasses' checks.
+    """
+    from hydra import compose, initialize_config_module
+    from hydra.core.global_hydra import GlobalHydra
+
+    if GlobalHydra.instance().is_initialized():
+        cfg = compose(config_name, overrides=list(overrides))
+    else:
+        with initialize_config_module("studies.conf", version_base="1.3"):
+            cfg = compose(config_name, overrides=list(overrides))
+    return OmegaConf.to_object(cfg)
+
+
+register()

@@ -1,0 +1,84 @@
+"""The kinds of study, chosen by the model group's ``study`` setting.
+
+=============  =================================  ==========================================
+``study``      models                             pipeline
+=============  =================================  ==========================================
+manoeuvring    abkowitz, symmetric, simplified    :mod:`studies.workflows.manoeuvring`,
+                                                  :mod:`studies.workflows.discover`
+roll_decay     roll                               :mod:`studies.workflows.roll_run`,
+                                                  :mod:`studies.workflows.roll_discover`
+=============  =================================  ==========================================
+
+A new kind is a class with the methods of
+:class:`studies.workflows.study.Study` and one entry in :data:`STUDIES`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..config import DiscoverConfig, RunConfig
+from ..errors import ConfigError
+from . import discover as _discover
+from . import manoeuvring as _manoeuvring
+from . import roll_discover as _roll_discover
+from . import roll_run as _roll_run
+from .study import DiscoverStudy, PreparedRun, Recorder, Study
+
+__all__ = ["ManoeuvringStudy", "RollDecayStudy", "STUDIES", "study_for", "prepare_discover",
+           "execute_discover"]
+
+
+class ManoeuvringStudy:
+    """Manoeuvring records of a ship (3-DOF surge, sway, yaw models)."""
+
+    kind = "manoeuvring"
+
+    def prepare(self, cfg: RunConfig, root: Path, record: Recorder | None = None) -> PreparedRun:
+        return _manoeuvring.prepare(cfg, root, record)
+
+    def prepare_discovery(self, cfg: DiscoverConfig, root: Path,
+                          record: Recorder | None = None) -> DiscoverStudy:
+        return _discover.prepare_discovery(cfg, root, self, record)
+
+    def discover(self, study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
+        return _discover.execute_discovery(study, out_dir)
+
+
+class RollDecayStudy:
+    """Free roll decays (1-DOF roll model, Chen et al. 2019)."""
+
+    kind = "roll_decay"
+
+    def prepare(self, cfg: RunConfig, root: Path, record: Recorder | None = None) -> PreparedRun:
+        return _roll_run.prepare_roll(cfg)
+
+    def prepare_discovery(self, cfg: DiscoverConfig, root: Path,
+                          record: Recorder | None = None) -> DiscoverStudy:
+        return _roll_discover.prepare_roll_discovery(cfg, root, self, record)
+
+    def discover(self, study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
+        return _roll_discover.execute_roll_discovery(study, out_dir)
+
+
+#: the kinds of study by the ``model.study`` setting
+STUDIES: dict[str, Study] = {s.kind: s for s in (ManoeuvringStudy(), RollDecayStudy())}
+
+
+def study_for(cfg: RunConfig) -> Study:
+    """The kind of study the configuration's model belongs to."""
+    try:
+        return STUDIES[cfg.model.study]
+    except KeyError:
+        raise ConfigError(f"model.study: unknown kind of study '{cfg.model.study}'; "
+                          f"known: {', '.join(sorted(STUDIES))}") from None
+
+
+def prepare_discover(cfg: DiscoverConfig, root: Path, record: Recorder | None = None) -> DiscoverStudy:
+    """Check the options and load every record of a discovery (before any tracked run)."""
+    return study_for(cfg).prepare_discovery(cfg, Path(root), record)
+
+
+def execute_discover(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
+    """Run a prepared discovery into ``out_dir``; ``(discovery, metrics)``."""
+    return study.kind.discover(study, Path(out_dir))
