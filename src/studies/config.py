@@ -575,14 +575,11 @@ class RollModelConfig(ModelConfig):
     terms : list of str
         Identified terms besides omega0: a subset of :data:`ROLL_TERMS`
         with at least one damping term (b1, b2, b3).
-    simulation_path : str or None
-        A record of another simulator to judge against ``data.path``.
     synthetic : RollSynthetic
         The decay simulated when ``data.path`` is empty.
     """
 
     terms: List[str] = field(default_factory=lambda: ["b1", "b2"])
-    simulation_path: Optional[str] = None
     synthetic: RollSynthetic = field(default_factory=RollSynthetic)
     study: str = "roll_decay"
 
@@ -896,6 +893,21 @@ def manoeuvre_config(name: str) -> ManoeuvreConfig:
 # ------------------------------------------------------------------ commands
 
 @dataclass
+class SimulationInput:
+    """Another simulator's record (``simulation``).
+
+    Attributes
+    ----------
+    path : str or None
+        A record of another simulator (e.g. a potential-flow roll decay) to
+        judge against the measurements of ``data.path``: by ``studies run
+        model=roll`` and by ``studies discover``.
+    """
+
+    path: Optional[str] = None
+
+
+@dataclass
 class RunConfig:
     """``studies run`` / ``studies simplify`` (``conf/config.yaml``).
 
@@ -911,7 +923,7 @@ class RunConfig:
         MLflow run name; None: built from method/manoeuvre/wind.
     preset : str or None
         Set by experiment presets.
-    wind, current, noise, disturbance, train, data, identify, kalman, validate, simplify, report, tracking
+    wind, current, noise, disturbance, train, data, identify, kalman, validate, simplify, report, tracking, simulation
         The blocks of settings (see their classes).
     vessel, model, method, manoeuvre
         The chosen option of each config group.
@@ -933,6 +945,7 @@ class RunConfig:
     validate: Validate = field(default_factory=Validate)
     simplify: Simplify = field(default_factory=Simplify)
     report: ReportOptions = field(default_factory=ReportOptions)
+    simulation: SimulationInput = field(default_factory=SimulationInput)
     tracking: Tracking = field(default_factory=Tracking)
     vessel: VesselConfig = MISSING
     model: ModelConfig = MISSING
@@ -994,19 +1007,6 @@ class DiscoverOptions:
 
 
 @dataclass
-class SimulationInput:
-    """Another simulator's record (``simulation``).
-
-    Attributes
-    ----------
-    path : str or None
-        A record to judge against the measurements.
-    """
-
-    path: Optional[str] = None
-
-
-@dataclass
 class DiscoverConfig(RunConfig):
     """``studies discover`` (``conf/discover.yaml``): the run configuration plus
     the discovery's options.
@@ -1015,13 +1015,10 @@ class DiscoverConfig(RunConfig):
     ----------
     discover : DiscoverOptions
         The discovery's own options.
-    simulation : SimulationInput
-        Another simulator's record.
     """
 
     tracking: Tracking = field(default_factory=lambda: Tracking(experiment="discover"))
     discover: DiscoverOptions = field(default_factory=DiscoverOptions)
-    simulation: SimulationInput = field(default_factory=SimulationInput)
 
 
 @dataclass

@@ -276,8 +276,7 @@ def _typed(cfg):
 def _paths_exist(settings, root: Path) -> None:
     from .workflows.settings import as_path_list
 
-    given = [settings.data.path, settings.validate.path, getattr(settings.model, "simulation_path", None),
-             getattr(getattr(settings, "simulation", None), "path", None)]
+    given = [settings.data.path, settings.validate.path, settings.simulation.path]
     for value in given:
         for path in as_path_list(value):
             p = Path(path).expanduser()

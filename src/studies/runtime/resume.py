@@ -4,7 +4,7 @@ Every run is tagged ``config_hash``: a digest of the job's resolved
 configuration without the keys that do not change what is computed
 (``hydra.*``, ``run_name``, ``verbose``, ``resume``, ``tracking.*``), and of
 the contents of the data files it names (``data.path``, ``validate.path``,
-``model.simulation_path``), so that an edited file is not taken for a done
+``simulation.path``), so that an edited file is not taken for a done
 job. With ``resume=true`` a job whose hash has a FINISHED run in the
 experiment is skipped; FAILED, KILLED and RUNNING (crashed) runs do not
 count, so those jobs run again.
@@ -20,7 +20,7 @@ from pathlib import Path
 __all__ = ["config_hash", "IGNORED_KEYS"]
 
 IGNORED_KEYS = ("hydra", "run_name", "verbose", "resume", "tracking")
-FILE_KEYS = ("data.path", "validate.path", "model.simulation_path")
+FILE_KEYS = ("data.path", "validate.path", "simulation.path")
 
 
 def _file_digest(path: str, root: Path) -> str:

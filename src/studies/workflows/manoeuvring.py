@@ -20,10 +20,10 @@ EKF/RTS smoother (``auto`` picks it for noisy records), a regression
 weighted by ``(U/U0)^4`` (``identify.weights``), the training records
 replayed (``training/<record>/...``) and, with ``validate.path``, the same
 validation repeated with least squares on Savitzky-Golay and on EKF/RTS
-estimates (``derivatives/<estimator>/...``). Optional keys (not in
-``config.yaml``; give them with ``+``): ``data.resample``,
-``identify.weights``, ``kalman.*`` (:class:`studies.identify.kalman.KalmanSettings`
-plus ``iterations``), ``validate.band_draws``, ``validate.compare_derivatives``.
+estimates (``derivatives/<estimator>/...``). The settings involved
+(``data.resample``, ``identify.weights``, ``kalman.*``,
+``validate.band_draws``, ``validate.compare_derivatives``) are declared,
+with units, in :mod:`studies.config`.
 """
 
 from __future__ import annotations

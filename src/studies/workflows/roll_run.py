@@ -73,7 +73,7 @@ def prepare_roll(cfg: RunConfig) -> RollStudy:
     terms = [str(t) for t in cfg.model.terms]
     data = as_path_list(cfg.data.path)
     validate = as_path_list(cfg.validate.path)
-    simulation = cfg.model.simulation_path
+    simulation = cfg.simulation.path
     for path in data + validate + ([str(simulation)] if simulation else []):
         load_roll_decay(path)
     synthetic = None
