@@ -7,7 +7,6 @@ parameter must come out within 20 % (angles: within 0.2 rad).
 """
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest

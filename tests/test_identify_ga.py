@@ -4,7 +4,6 @@ import numpy as np
 import pytest
 
 from studies.analysis.metrics import DIVERGED_PENALTY, fitness
-from studies.environment.conditions import Environment
 from studies.environment.noise import record_wind
 from studies.identify import GeneticRefinement, LeastSquares, build_problems
 from studies.identify.base import Identification

@@ -4,10 +4,8 @@ import numpy as np
 import pytest
 
 from conftest import deviations
-from studies.environment.conditions import Environment
 from studies.environment.noise import record_wind
 from studies.identify import LeastSquares, build_problems
-from studies.simulate import simulate, zigzag
 
 # Thesis Tables 4.3-4.5, columns "Original" and "LS" (clean 20/20 zig-zag).
 THESIS_LS_CLEAN = {

@@ -11,7 +11,6 @@ from studies.config import compose_settings
 from studies.identify.regression import RegressionProblem, build_problems
 from studies.identify.svm import (SupportVectorRegression, scale_problem, search_rows,
                                   time_blocked_splits)
-from studies.simulate import simulate, zigzag
 
 
 

@@ -37,10 +37,7 @@ from studies.errors import ConfigError
 from studies.identify.kalman import (KalmanSettings, _model_constants, _model_rates, ekf_derivatives,
                                  kalman_smooth, measurement_variance, smoothed_record)
 from studies.identify.ls import LeastSquares
-from studies.models import abkowitz
-from studies.simulate import simulate, zigzag
 from studies.simulate.monomials import dense_coefficients
-from studies.vessels import get_vessel
 from studies.workflows.measured import identify_measured
 
 NOISE = {"x0": 1.0, "y0": 1.0, "psi": np.deg2rad(0.1), "u": 0.02, "v": 0.02, "r": np.deg2rad(0.01)}

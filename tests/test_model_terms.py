@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from studies.models import abkowitz, candidate_terms, monomial_name
+from studies.models import candidate_terms, monomial_name
 from studies.simulate.monomials import CUBIC_BASIS, cubic_forces, dense_coefficients, scaled_forces
 from studies.vessels import MARINER_COEFFICIENTS
 

@@ -9,10 +9,8 @@ whose repeated time stamps are repaired, not refused.
 """
 
 import numpy as np
-import pandas as pd
 import pytest
 
-import reference_mariner as ref
 from conftest import SHARED_DATA, mlflow_runs, run_studies
 
 

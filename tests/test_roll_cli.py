@@ -1,12 +1,11 @@
 """``studies run model=roll`` as a user runs it."""
 
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from conftest import SHARED_DATA, mlflow_runs, run_studies
+from conftest import mlflow_runs, run_studies
 
 
 @pytest.mark.slow

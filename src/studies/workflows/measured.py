@@ -56,7 +56,7 @@ from ..environment.wind import wind_loads_prime
 from ..errors import ConfigError
 from ..identify.base import Identification
 from ..identify.ls import LeastSquares
-from ..identify.regression import RegressionProblem, assemble_problems, prime_states
+from ..identify.regression import assemble_problems, prime_states
 from ..models.abkowitz import ManoeuvringModel
 from ..models.terms import DOFS
 from ..plotting import pyplot
