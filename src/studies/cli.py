@@ -24,6 +24,17 @@ import os
 import sys
 from pathlib import Path
 
+# Only light modules at the top: numpy must not be loaded before main() sets
+# one BLAS thread per process, and `studies --help` or `studies ui` should not
+# pay for the scientific stack; the workflows, MLflow and Hydra are imported
+# by the sub-command that needs them.
+from . import interrupt
+from .config_check import check_arguments, verbose_requested
+from .errors import StudiesError
+from .progress import ENV_TOTAL
+from .runtime import jobstate
+from .runtime.jobstate import JobState
+
 __all__ = ["main"]
 
 USAGE = """usage: studies <command> [key=value ...]
@@ -85,10 +96,6 @@ def _run_job(cfg, body) -> dict:
 
     from hydra.core.hydra_config import HydraConfig
     from hydra.utils import get_original_cwd
-
-    from . import interrupt
-    from .runtime import jobstate
-    from .errors import StudiesError
 
     verbose = cfg.get("verbose", False) is True
     multirun, num, overrides = _job_info()
@@ -257,7 +264,6 @@ def _discover_task(cfg):
 def _report_task(cfg) -> None:
     from hydra.utils import get_original_cwd
 
-    from .errors import StudiesError
     from .report.builder import build_report
     from .runtime import tracking
     from .workflows.settings import output_path
@@ -293,8 +299,6 @@ def _sweep_summary(state, checked) -> int:
     counts = {}
     for r in results:
         counts[r["status"]] = counts.get(r["status"], 0) + 1
-    from .progress import ENV_TOTAL
-
     try:
         total = int(os.environ.get(ENV_TOTAL) or 0) or len(results)
     except ValueError:
@@ -329,8 +333,6 @@ def _close_orphans(state, root: Path, reason: str) -> int:
 
 def _interrupted(state, error: KeyboardInterrupt, root: Path, command: str = "run") -> int:
     """After SIGINT/SIGTERM: close runs whose worker died, say what is left; exit status."""
-    from . import interrupt
-
     signum = getattr(error, "signum", None) or interrupt.received() or 2
     closed = _close_orphans(state, root, "interrupted: the job's process ended before closing its run")
     results = state.results()
@@ -348,11 +350,6 @@ def _interrupted(state, error: KeyboardInterrupt, root: Path, command: str = "ru
 def _hydra(task, config_name: str, command: str, args: list[str]) -> int:
     """Check the command line, run the Hydra app, report the outcome in one line."""
     import hydra
-
-    from . import interrupt
-    from .config_check import check_arguments, verbose_requested
-    from .errors import StudiesError
-    from .runtime.jobstate import JobState
 
     verbose = verbose_requested(args)
     root = Path.cwd()

@@ -38,7 +38,7 @@ from ..data.derivatives import choose_window
 from ..identify import LeastSquares, build_problems
 from ..identify.bayes import run_with_progress
 from ..simulate.simulator import replay
-from .causes import Cause, Setup
+from .causes.base import Cause, Setup
 
 __all__ = ["Context", "CauseFit", "regression_fit", "scored_fit", "nominal_residuals", "fit_cause",
            "validate", "training_error", "posterior", "sample_intervals"]

@@ -5,14 +5,19 @@ Default store (DESIGN.md): ``mlruns/mlflow.db`` (sqlite) with artifacts under
 from). ``tracking.uri=`` selects any other MLflow URI; artifacts then go where
 that server or store puts them.
 
-Parallel sweep jobs share one sqlite file, and sqlite allows one writer at a
-time: concurrent writers get "database is locked" once the busy timeout runs
-out, and MLflow's first-use schema creation races. So every access to a
-sqlite store goes through :func:`store_lock`, an exclusive ``flock`` on a
-file next to the database, held only for short sections (create the run; log
-the results and close it); the computation in between runs unlocked. Jobs on
-one machine (joblib launcher) therefore never write at the same time. A
-shared server or a PostgreSQL URI needs no lock and gets none.
+Parallel sweep jobs share one sqlite file. MLflow creates a new store's
+tables and runs its schema migrations in whichever process opens it first,
+without a lock of its own: measured with MLflow 3.17 (2, 4 and 8 processes
+logging 5 runs each into a fresh store, 3 trials each), processes that
+opened the store together lost 20 of 30, 60 of 60 and 115 of 120 runs and
+left the schema half-migrated (``table _alembic_tmp_... already exists``),
+while with the lock no run was lost. Once the tables exist, sqlite's busy
+timeout (20 s, set by MLflow) serialised the same writers without a loss,
+but a writer kept waiting longer would fail. So every access to a sqlite
+store goes through :func:`store_lock`, an exclusive ``flock`` on a file next
+to the database, held only for short sections (create the run; log the
+results and close it); the computation in between runs unlocked. A shared
+server or a PostgreSQL URI needs no lock and gets none.
 """
 
 from __future__ import annotations

@@ -1,0 +1,58 @@
+"""The cause catalogue of ``studies discover`` for manoeuvring records (ids
+are the DESIGN.md contract).
+
+A cause is a parameterised extension of the baseline that may explain what
+the identified model misses; the protocol every cause follows (its id, what
+it changes, its parameters and their no-effect values, how it is fitted,
+its explanation) is :class:`~studies.discover.causes.base.Cause`.
+
+Modules: :mod:`.base` (the protocol, :class:`Setup`), one module per cause
+(:mod:`.none`, :mod:`.rudder_offset`, :mod:`.current`, :mod:`.wind`,
+:mod:`.environmental_bias`, :mod:`.missing_term`) and :mod:`.combined` (two
+causes at once).
+
+Adding a cause
+--------------
+1. Write its module here: a subclass of :class:`Cause` with ``id``,
+   ``params``, ``no_effect`` and ``explanation``, overriding only the hooks
+   for what it changes (and ``starts``/``bounds`` for its fit).
+2. Add the class to ``CATALOGUE`` below and, when the search is to try it,
+   to :func:`manoeuvring_causes`; its id to DESIGN.md's table.
+``tests/test_discover_causes.py`` then checks that it declares the protocol
+and that its no-effect values leave a record unchanged.
+"""
+
+from __future__ import annotations
+
+from .base import Cause, Setup, compact_parameters
+from .combined import Combined
+from .current import Current
+from .environmental_bias import EnvironmentalBias
+from .missing_term import MissingTerm, extended_library
+from .none import NoCause
+from .rudder_offset import RudderOffset
+from .wind import WindSpeedBias, WindUnmodelled
+
+__all__ = ["Setup", "Cause", "CATALOGUE", "manoeuvring_causes", "compact_parameters", "NoCause",
+           "RudderOffset", "Current", "WindUnmodelled", "WindSpeedBias", "EnvironmentalBias",
+           "MissingTerm", "Combined", "extended_library"]
+
+#: every manoeuvring cause by its contract id, ``none`` first
+CATALOGUE = {c.id: c for c in (NoCause, RudderOffset, Current, WindUnmodelled, WindSpeedBias,
+                               EnvironmentalBias, MissingTerm)}
+
+
+def manoeuvring_causes(ctx, missing_terms=()) -> list[Cause]:
+    """The applicable manoeuvring causes, ``none`` first.
+
+    Parameters
+    ----------
+    ctx : studies.discover.fitting.Context
+        The baseline model and the training records.
+    missing_terms : sequence of Term
+        The terms :class:`MissingTerm` adds (none: it is not applicable).
+    """
+    has_n0 = any(t.powers == (0, 0, 0, 0) for t in ctx.model.terms_of("N"))
+    causes = [NoCause(), RudderOffset(), Current(), WindUnmodelled(), WindSpeedBias(),
+              EnvironmentalBias(fit_moment=not has_n0), MissingTerm(missing_terms)]
+    return [c for c in causes if c.applicable(ctx)]

@@ -1,0 +1,187 @@
+"""The protocol every cause of ``studies discover`` follows: :class:`Cause`,
+the :class:`Setup` it hands the fitting, and :func:`compact_parameters`.
+
+Every cause is a parameterised extension of the baseline: given parameter
+values it says how the training records must be read (what the
+hydrodynamics really saw), which model to identify, and how to simulate the
+extended model (environment, external forces, rudder). Fitting profiles the
+hydrodynamic coefficients out by least squares for every trial of the cause's
+own parameters (:mod:`studies.discover.fitting`).
+
+Conventions: angles in radians; current direction is where it flows *to*,
+wind direction where the wind comes *from* (earth-fixed, 0 = north); forces
+are prime (thesis eq. 3.6); the rudder offset is the indicated angle at which
+the rudder gives no force (the hydrodynamics see ``delta - delta0``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from ...environment.conditions import Environment
+from ...models.abkowitz import ManoeuvringModel
+from ...simulate.simulator import record_environment
+
+__all__ = ["Setup", "Cause", "compact_parameters"]
+
+
+@dataclass
+class Setup:
+    """How to identify and simulate one candidate explanation.
+
+    Attributes
+    ----------
+    model : ManoeuvringModel
+        Model whose coefficients are identified by LS.
+    fit_records : list of DataFrame
+        Training records as the hydrodynamics saw them.
+    fixed : dict
+        Coefficients held at given values (the cause's own, for added terms).
+    bias : ndarray (3,) or None
+        Earth-fixed prime force bias (bx, by, bn) subtracted from the regression.
+    cause : Cause or None
+        The cause that made the setup (None: the baseline).
+    theta : ndarray or None
+        The cause's nonlinear parameters (:attr:`Cause.nl_params`).
+    """
+
+    model: ManoeuvringModel
+    fit_records: list
+    fixed: dict = field(default_factory=dict)
+    bias: np.ndarray | None = None
+    cause: "Cause | None" = None
+    theta: np.ndarray | None = None
+
+    def sim_record(self, record: pd.DataFrame) -> pd.DataFrame:
+        """The record to replay (its rudder as the hydrodynamics see it)."""
+        return self.cause.sim_record(record, self.theta) if self.cause else record
+
+    def environment(self, record: pd.DataFrame) -> Environment:
+        """The wind and current to replay ``record`` in (the cause's, else the record's own wind)."""
+        return self.cause.environment(record, self.theta) if self.cause else record_environment(record)
+
+    def external(self):
+        """The external prime forces of the replay: ``(bx, by, bn, 0, 0, 0)``, or None without a bias."""
+        if self.bias is None:
+            return None
+        return np.concatenate([self.bias, np.zeros(3)])
+
+
+def compact_parameters(params: dict) -> str:
+    """A cause's parameters (:meth:`Cause.parameters`) on one line, added terms by name."""
+    flat = {}
+    for key, value in params.items():
+        flat.update(value if isinstance(value, dict) else {key: value})
+    return ", ".join(f"{k} = {v:.4g}" if isinstance(v, float) else f"{k} = {v}" for k, v in flat.items())
+
+
+class Cause:
+    """Base class: a named, parameterised extension of the baseline.
+
+    A cause is one subclass in a module of its own under
+    :mod:`studies.discover.causes`, entered in ``CATALOGUE``. It declares
+    the class attributes below and overrides only the hooks that concern
+    what it changes; every hook of the base class leaves the baseline as it
+    is.
+
+    Attributes
+    ----------
+    id : str
+        The contract id of the cause (DESIGN.md's catalogue): its name in
+        ``discovery.json`` and the report.
+    params : tuple of str
+        Names of the cause's parameters, in the order of ``theta``.
+    no_effect : dict
+        The parameters, as :meth:`parameters` writes them, at which the
+        cause changes nothing: the extended model is then the baseline
+        (``{}`` for a cause without parameters). ``tests/test_discover_causes.py``
+        checks that the hooks leave a record unchanged there.
+    explanation : str
+        What the cause is physically, in words the report prints when the
+        cause is named.
+
+    Notes
+    -----
+    The hooks, in the order the search uses them:
+
+    Applicability
+        :meth:`applicable` says whether the cause can be fitted to the
+        training records of ``ctx`` (:class:`studies.discover.fitting.Context`),
+        e.g. a wind cause needs the vessel's wind coefficients.
+    What it changes in the baseline (at parameters ``theta``)
+        - :meth:`transform`: the training record as the hydrodynamics saw it
+          (the regression is built on it), e.g. velocities through the water.
+        - :meth:`sim_record`: the record replayed to validate the model (its
+          rudder as the hydrodynamics see it).
+        - :meth:`environment`: the wind and current of the replay.
+        - :meth:`model`: the model whose coefficients are identified (added
+          terms).
+        - :meth:`setup`: all of it in one :class:`Setup`, which also carries
+          external forces (an earth-fixed bias) and fixed coefficients.
+    Its parameters
+        :attr:`nl_params` are searched by the outer nonlinear fit; the
+        others (added terms' coefficients) come out of the LS.
+        :meth:`parameters` writes them for ``discovery.json`` (units in the
+        cause's docstring) and :meth:`n_params` counts them for the
+        complexity penalty of the score.
+    How it is fitted
+        :func:`studies.discover.fitting.fit_cause` profiles the baseline's
+        hydrodynamic coefficients out by LS for every trial ``theta``,
+        starting from :meth:`starts` (the two best of a coarse grid where
+        the fit is not convex) within :meth:`bounds`.
+    """
+
+    id: str
+    no_effect: dict
+    explanation: str
+    params: tuple = ()
+
+    def applicable(self, ctx) -> bool:
+        """Whether the cause can be fitted to the training records of ``ctx``."""
+        return True
+
+    def starts(self, ctx) -> list[np.ndarray]:
+        """Initial guesses (a coarse grid where the fit is not convex)."""
+        return [np.zeros(len(self.nl_params))]
+
+    def bounds(self, ctx):
+        """Lower and upper bounds of :attr:`nl_params` (arrays; unbounded by default)."""
+        return (np.full(len(self.nl_params), -np.inf), np.full(len(self.nl_params), np.inf))
+
+    def transform(self, record: pd.DataFrame, theta) -> pd.DataFrame:
+        """The training record as the hydrodynamics saw it (the record itself by default)."""
+        return record
+
+    def sim_record(self, record: pd.DataFrame, theta) -> pd.DataFrame:
+        """The record to replay (the record itself by default)."""
+        return record
+
+    def environment(self, record: pd.DataFrame, theta) -> Environment:
+        """The wind and current to replay ``record`` in (the record's own wind by default)."""
+        return record_environment(record)
+
+    def model(self, ctx, theta) -> ManoeuvringModel:
+        """The model to identify (the baseline's by default)."""
+        return ctx.model
+
+    def setup(self, ctx, theta) -> Setup:
+        """How to identify and simulate the extended model at ``theta``."""
+        theta = np.asarray(theta, float)
+        return Setup(self.model(ctx, theta), [self.transform(r, theta) for r in ctx.train],
+                     cause=self, theta=theta)
+
+    @property
+    def nl_params(self) -> tuple:
+        """Parameters fitted by the outer (nonlinear) search; the others come out of LS."""
+        return self.params
+
+    def parameters(self, theta, fitted: dict | None = None) -> dict:
+        """The cause's parameters for discovery.json (``fitted``: the LS coefficients)."""
+        return {p: float(v) for p, v in zip(self.params, np.asarray(theta, float))}
+
+    def n_params(self) -> int:
+        """Number of parameters the cause adds (for the complexity penalty)."""
+        return len(self.params)

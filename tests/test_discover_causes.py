@@ -1,0 +1,116 @@
+"""The cause protocol of ``studies discover``: every cause of the catalogue
+declares its contract id, its no-effect parameters and an explanation, and at
+its no-effect parameters it leaves the baseline as it is (the records the
+regression is built on, the record replayed, the environment, the model, the
+external forces).
+
+Fast and in process: two short simulated zig-zags of the Mariner, one calm
+(no wind columns) and one in wind (the record carries the wind), so that
+every cause is checked on records it applies to.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from studies.discover.causes import (CATALOGUE, Combined, Current, MissingTerm, RudderOffset,
+                                     WindSpeedBias, compact_parameters)
+from studies.discover.fitting import Context
+from studies.environment.conditions import Environment
+from studies.identify.regression import build_problems
+from studies.simulate import simulate, zigzag
+from studies.simulate.simulator import record_environment
+
+#: the causes of DESIGN.md's catalogue, in the order they are tried
+CONTRACT_IDS = ["none", "rudder_offset", "current", "wind_unmodelled", "wind_speed_bias",
+                "environmental_bias", "missing_term"]
+
+
+@pytest.fixture(scope="module")
+def contexts(vessel, model):
+    """A calm and a windy context, each with one 60 s zig-zag 20/20 to train on."""
+    plan = zigzag(20, 20, duration=60.0)
+    calm = simulate(model, vessel.coefficients, vessel, plan)
+    windy = simulate(model, vessel.coefficients, vessel, plan, Environment(12.0, np.deg2rad(45.0)))
+    return {"calm": Context(vessel, model, [calm], []), "windy": Context(vessel, model, [windy], [])}
+
+
+def no_effect_theta(cause) -> np.ndarray:
+    """The cause's nonlinear parameters at its no-effect values."""
+    if isinstance(cause, Combined):
+        return np.concatenate([no_effect_theta(cause.first), no_effect_theta(cause.second)])
+    return np.array([cause.no_effect[p] for p in cause.nl_params], float)
+
+
+def checked_contexts(cause, contexts) -> dict:
+    """The contexts a cause applies to; all of them for a cause that applies to none
+    at its no-effect values (a missing term without terms)."""
+    return {k: c for k, c in contexts.items() if cause.applicable(c)} or contexts
+
+
+def assert_no_effect(cause, ctx):
+    """At its no-effect parameters the cause leaves the baseline of ``ctx`` as it is."""
+    theta = no_effect_theta(cause)
+    record = ctx.train[0]
+    seen = cause.transform(record, theta)
+    pd.testing.assert_frame_equal(seen[record.columns], record, check_exact=True)
+    base, extended = build_problems(ctx.model, ctx.vessel, [record]), build_problems(ctx.model, ctx.vessel, [seen])
+    for dof, p in base.items():
+        np.testing.assert_array_equal(extended[dof].y, p.y, err_msg=f"{cause.id} {dof}: y")
+        np.testing.assert_array_equal(extended[dof].theta, p.theta, err_msg=f"{cause.id} {dof}: theta")
+    pd.testing.assert_frame_equal(cause.sim_record(record, theta), record, check_exact=True)
+    assert cause.environment(record, theta) == record_environment(record), cause.id
+    setup = cause.setup(ctx, theta)
+    assert setup.environment(record) == record_environment(record), cause.id
+    pd.testing.assert_frame_equal(setup.sim_record(record), record, check_exact=True)
+    assert setup.model.terms == ctx.model.terms, cause.id
+    assert setup.fixed == {}, cause.id
+    external = setup.external()
+    assert external is None or not np.any(external), (cause.id, external)
+
+
+def test_the_catalogue_holds_the_contract_ids_in_order():
+    assert list(CATALOGUE) == CONTRACT_IDS
+    assert all(cls.id == key for key, cls in CATALOGUE.items())
+
+
+@pytest.mark.parametrize("cause_id", CONTRACT_IDS)
+def test_every_cause_declares_the_protocol(cause_id):
+    """Declared by the class itself (not inherited): id, no-effect values, explanation;
+    the no-effect values name the cause's parameters as ``discovery.json`` writes them."""
+    cls = CATALOGUE[cause_id]
+    own = vars(cls)
+    assert {"id", "no_effect", "explanation"} <= set(own), sorted(own)
+    assert isinstance(cls.explanation, str) and len(cls.explanation) > 40
+    cause = cls()
+    assert cause.parameters(no_effect_theta(cause)) == cls.no_effect
+    assert set(cause.nl_params) <= set(cls.no_effect)
+    compact_parameters(cls.no_effect)
+
+
+@pytest.mark.parametrize("cause_id", CONTRACT_IDS)
+def test_at_its_no_effect_values_a_cause_leaves_the_record_unchanged(cause_id, contexts):
+    cause = CATALOGUE[cause_id]()
+    for ctx in checked_contexts(cause, contexts).values():
+        assert_no_effect(cause, ctx)
+
+
+def test_two_causes_at_their_no_effect_values_leave_the_record_unchanged(contexts):
+    for cause in (Combined(RudderOffset(), Current()), Combined(Current(), MissingTerm()),
+                  Combined(RudderOffset(), WindSpeedBias())):
+        assert cause.parameters(no_effect_theta(cause)) == cause.no_effect
+        for ctx in checked_contexts(cause.second, contexts).values():
+            assert_no_effect(cause, ctx)
+
+
+def test_a_cause_away_from_its_no_effect_values_changes_the_baseline(contexts):
+    """The check above can fail: a current of 0.5 m/s changes the velocities
+    through the water and the replay's environment."""
+    cause, ctx = Current(), contexts["calm"]
+    record = ctx.train[0]
+    assert not cause.transform(record, [0.5, 0.0])["u"].equals(record["u"])
+    cause.no_effect = {"speed": 0.5, "direction": 0.0}
+    with pytest.raises(AssertionError):
+        assert_no_effect(cause, ctx)
