@@ -13,6 +13,7 @@ from studies.environment.noise import add_measurement_noise
 from studies.identify import LeastSquares, build_problems
 from studies.models import abkowitz
 from studies.models.simplified import load_definition, select_terms, union_sway_yaw
+from studies.runtime import tracking
 from studies.simulate import simulate
 from studies.workflows.settings import named_manoeuvre
 from studies.workflows.simplify import ensure_definition
@@ -46,7 +47,10 @@ def derived(tmp_path_factory):
     root = tmp_path_factory.mktemp("simplify")
     with initialize_config_module("studies.conf", version_base="1.3"):
         cfg = compose_settings("config", overrides=["simplify.realisations=30", "simplify.pawn_samples=400"])
-    path = ensure_definition(cfg, root, run_dir=root / "analysis")
+    def record(experiment, name, params, tags):       # as the command line records it
+        return tracking.start_run(experiment, name, None, root, params, tags)
+
+    path = ensure_definition(cfg, root, record, root / "analysis")
     return root, path
 
 
