@@ -52,6 +52,10 @@ Options are Hydra overrides, e.g.
   studies run data.path=my_zigzag.csv vessel=mariner
   studies run -m wind.speed=4,8,12,16
   studies run -m wind.speed=4,8,12,16 resume=true   # after an interruption: run the rest
+
+studies --version prints the version; studies ui --help the UI's options; every
+option of run/discover/report is declared with its unit in studies/config.py and
+listed by `studies run --cfg job`.
 """
 
 
@@ -194,6 +198,7 @@ def _study(cfg, root: Path, out_dir: Path, on_create) -> dict:
     settings = _settings(cfg)
     params = _params(cfg)
     check_output_paths(settings, root, out_dir)
+    tracking.check_reachable(settings.tracking.uri, root)
     digest, done = _resumable(settings, params, root)
     if done:
         return {"status": "skipped", "run_id": done, "config_hash": digest}
@@ -240,6 +245,7 @@ def _discover(cfg, root: Path, out_dir: Path, on_create) -> dict:
 
     settings = _settings(cfg)
     check_output_paths(settings, root, out_dir)
+    tracking.check_reachable(settings.tracking.uri, root)
     study = prepare_discover(settings, root, _recorder(settings, root))
     params = _params(cfg)
     stems = ", ".join(Path(p).stem for p in as_path_list(settings.data.path))
@@ -273,6 +279,7 @@ def _report_task(cfg) -> None:
     try:
         settings = _settings(cfg)
         report_dir = output_path(settings.report.dir, "report.dir", root)
+        tracking.check_reachable(settings.tracking.uri, root)
         name, runs = tracking.read_experiment(settings.tracking.uri, root, settings.report.experiment or None)
         path = build_report(name, runs, report_dir)
     except (LookupError, StudiesError) as error:
@@ -355,6 +362,10 @@ def _hydra(task, config_name: str, command: str, args: list[str]) -> int:
     root = Path.cwd()
     try:
         checked = check_arguments(config_name, args, root, command)
+        if checked is not None:
+            from .runtime import tracking
+
+            tracking.check_reachable(checked.tracking_uri, root)
     except StudiesError as error:
         _fail(error, verbose)
     verbose = verbose or bool(checked and checked.verbose)
@@ -389,10 +400,33 @@ def _hydra(task, config_name: str, command: str, args: list[str]) -> int:
         state.remove()
 
 
+UI_USAGE = """usage: studies ui [tracking.uri=URI] [host=127.0.0.1] [port=5000]
+
+Start the MLflow UI on the project's store and print its address.
+
+  tracking.uri  the store (default: $MLFLOW_TRACKING_URI when set, else mlruns/mlflow.db here)
+  host          address to listen on (default 127.0.0.1, this machine only)
+  port          port to listen on (default 5000)
+"""
+
+
+def _version() -> str:
+    """The installed package's version."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("studies")
+    except PackageNotFoundError:
+        return "unknown"
+
+
 def _ui(args: list[str]) -> int:
     """``studies ui [tracking.uri=URI] [host=127.0.0.1] [port=5000]``."""
     from .runtime.ui import serve
 
+    if any(a in ("-h", "--help", "help") for a in args):
+        print(UI_USAGE)
+        return 0
     options = {"tracking.uri": None, "host": "127.0.0.1", "port": "5000"}
     for arg in args:
         key, sep, value = arg.partition("=")
@@ -421,6 +455,9 @@ def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0] in ("-h", "--help", "help"):
         print(USAGE)
+        return 0
+    if argv[0] in ("-V", "--version"):
+        print(f"studies {_version()}")
         return 0
     command, rest = argv[0], argv[1:]
     apps = {"run": (_run_task, "config"), "simplify": (_simplify_task, "config"),

@@ -38,6 +38,8 @@ class Checked:
     multirun: bool
     verbose: bool
     jobs: int | None
+    #: ``tracking.uri`` of the first job (None: the environment's or the default store)
+    tracking_uri: str | None = None
 
 
 def verbose_requested(args: list[str]) -> bool:
@@ -331,6 +333,7 @@ def check_arguments(config_name: str, args: list[str], root: Path, command: str 
             first = composer.compose([axis[0] for axis in axes])
             multirun = multirun or OmegaConf.select(first, "hydra.mode", default=None) == RunMode.MULTIRUN
             verbose = OmegaConf.select(first, "verbose", default=False) is True
+            tracking_uri = OmegaConf.select(first, "tracking.uri", default=None)
             done = set()
             for n, variant in enumerate(_variants(axes)):
                 cfg = first if n == 0 else composer.compose(variant)
@@ -349,4 +352,5 @@ def check_arguments(config_name: str, args: list[str], root: Path, command: str 
                         check(job_cfg, root)
     finally:
         GlobalHydra.instance().clear()
-    return Checked(multirun=multirun, verbose=verbose, jobs=jobs if multirun else 1)
+    return Checked(multirun=multirun, verbose=verbose, jobs=jobs if multirun else 1,
+                   tracking_uri=tracking_uri)

@@ -2,8 +2,11 @@
 
 Default store (DESIGN.md): ``mlruns/mlflow.db`` (sqlite) with artifacts under
 ``mlruns/artifacts/`` at the project root (the directory `studies` is run
-from). ``tracking.uri=`` selects any other MLflow URI; artifacts then go where
-that server or store puts them.
+from). ``tracking.uri=`` selects any other MLflow URI, and without it the
+``MLFLOW_TRACKING_URI`` environment variable does (:func:`resolve_uri`);
+artifacts then go where that server or store puts them. A server that does
+not answer is refused in one line within seconds (:func:`check_reachable`),
+before any work.
 
 Parallel sweep jobs share one sqlite file. MLflow creates a new store's
 tables and runs its schema migrations in whichever process opens it first,
@@ -26,11 +29,14 @@ import contextlib
 import fcntl
 import math
 import os
+import urllib.error
+import urllib.request
 from pathlib import Path
 
 from .. import interrupt
+from ..errors import ConfigError
 
-__all__ = ["default_uri", "configure", "start_run", "RunLogger", "store_lock", "flatten",
+__all__ = ["default_uri", "resolve_uri", "check_reachable", "configure", "start_run", "RunLogger", "store_lock", "flatten",
            "StoredRun", "read_experiment", "find_finished_run", "close_if_running"]
 
 os.environ.setdefault("MLFLOW_DISABLE_TELEMETRY", "true")
@@ -71,11 +77,42 @@ def store_lock(uri: str):
             fcntl.flock(handle, fcntl.LOCK_UN)
 
 
+def resolve_uri(uri: str | None, root: str | os.PathLike) -> str:
+    """The store a command uses: ``tracking.uri`` when given, else the
+    ``MLFLOW_TRACKING_URI`` environment variable when set, else the default
+    store under ``root`` (:func:`default_uri`)."""
+    return uri or os.environ.get("MLFLOW_TRACKING_URI") or default_uri(root)
+
+
+#: seconds a tracking server has to answer before the command gives up
+SERVER_TIMEOUT_S = 5.0
+
+
+def check_reachable(uri: str | None, root: str | os.PathLike) -> None:
+    """Refuse (:class:`~studies.errors.ConfigError`, one line) a tracking
+    server that does not answer its health check within
+    :data:`SERVER_TIMEOUT_S`; other stores are not checked."""
+    uri = resolve_uri(uri, root)
+    if not uri.startswith(("http://", "https://")):
+        return
+    try:
+        with urllib.request.urlopen(uri.rstrip("/") + "/health", timeout=SERVER_TIMEOUT_S) as answer:
+            if answer.status < 400:
+                return
+            reason = f"HTTP {answer.status}"
+    except urllib.error.HTTPError as error:
+        reason = f"HTTP {error.code}"
+    except (urllib.error.URLError, OSError, ValueError) as error:
+        reason = str(getattr(error, "reason", error))
+    raise ConfigError(f"tracking.uri: no MLflow server answers at {uri} ({reason}); start it "
+                      "(mlflow server) or give another tracking.uri")
+
+
 def configure(uri: str | None, root: str | os.PathLike) -> str:
-    """Point mlflow at ``uri`` (default store under ``root`` when None)."""
+    """Point mlflow at the store :func:`resolve_uri` chooses; that URI."""
     import mlflow
 
-    uri = uri or default_uri(root)
+    uri = resolve_uri(uri, root)
     if uri.startswith("sqlite:///"):
         Path(uri[len("sqlite:///"):]).parent.mkdir(parents=True, exist_ok=True)
     mlflow.set_tracking_uri(uri)
@@ -185,7 +222,8 @@ class RunLogger:
 
     def log_outputs(self, metrics: dict, directory: str | os.PathLike) -> None:
         """Log finite metrics (non-finite ones stay in metrics.json only) and
-        every file of ``directory`` (plus its ``.hydra/`` config) as artifacts."""
+        every file of ``directory`` (plus its ``.hydra/`` config) as artifacts;
+        an empty log file (Hydra's job log when nothing was logged) is left out."""
         import mlflow
 
         finite = [mlflow.entities.Metric(k, float(v), 0, 0) for k, v in metrics.items()
@@ -195,7 +233,7 @@ class RunLogger:
             for i in range(0, len(finite), 200):
                 self.client.log_batch(self.run_id, metrics=finite[i:i + 200])
             for path in sorted(directory.iterdir()):
-                if path.is_file():
+                if path.is_file() and not (path.suffix == ".log" and path.stat().st_size == 0):
                     self.client.log_artifact(self.run_id, str(path))
                 elif path.is_dir() and path.name == ".hydra":
                     self.client.log_artifacts(self.run_id, str(path), artifact_path="hydra")

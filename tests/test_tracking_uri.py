@@ -1,0 +1,60 @@
+"""Where the runs go, as a user of MLflow expects: the environment's store,
+an unreachable server refused at once, no empty log files, help and version."""
+
+from __future__ import annotations
+
+import sqlite3
+import time
+
+import pytest
+
+from conftest import mlflow_runs, run_studies
+
+SHORT_RUN = ["manoeuvre.duration=200", "validate.manoeuvres=[zigzag_10_10]", "validate.duration=100"]
+
+
+def test_an_unreachable_server_is_one_line_and_exit_2_within_seconds(tmp_path):
+    started = time.perf_counter()
+    proc = run_studies(["run", "tracking.uri=http://127.0.0.1:1", *SHORT_RUN], tmp_path, timeout=60)
+    elapsed = time.perf_counter() - started
+    assert proc.returncode == 2, proc.stderr
+    lines = [line for line in proc.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and "no MLflow server answers at http://127.0.0.1:1" in lines[0]
+    assert elapsed < 10
+    assert not (tmp_path / "mlruns").exists() and not (tmp_path / "outputs").exists()
+
+
+def test_an_unreachable_server_refuses_a_sweep_before_any_job(tmp_path):
+    proc = run_studies(["run", "-m", "seed=0,1", "tracking.uri=http://127.0.0.1:1", *SHORT_RUN],
+                       tmp_path, timeout=60)
+    assert proc.returncode == 2 and "no MLflow server answers" in proc.stderr
+    assert not (tmp_path / "multirun").exists()
+
+
+@pytest.mark.slow
+def test_the_environment_variable_chooses_the_store_and_no_empty_log_is_logged(tmp_path):
+    db = tmp_path / "elsewhere" / "store.db"
+    db.parent.mkdir()
+    proc = run_studies(["run", *SHORT_RUN], tmp_path,
+                       env_extra={"MLFLOW_TRACKING_URI": f"sqlite:///{db}"})
+    assert proc.returncode == 0, proc.stderr
+    assert not mlflow_runs(tmp_path), "the default store was used despite MLFLOW_TRACKING_URI"
+    with sqlite3.connect(db) as con:
+        runs = con.execute("select run_uuid, status from runs").fetchall()
+    assert len(runs) == 1 and runs[0][1] == "FINISHED"
+    logged = [p.name for p in (db.parent / "artifacts").rglob("*") if p.is_file()]
+    assert "coefficients.csv" in logged and "metrics.json" in logged
+    assert not [name for name in logged if name.endswith(".log")], logged
+
+
+def test_report_writes_no_log_file_in_the_working_directory(tmp_path):
+    proc = run_studies(["report"], tmp_path, timeout=120)
+    assert proc.returncode == 2          # no runs yet: one line, nothing written
+    assert not list(tmp_path.glob("*.log"))
+
+
+def test_version_and_ui_help(tmp_path):
+    version = run_studies(["--version"], tmp_path, timeout=60)
+    assert version.returncode == 0 and version.stdout.startswith("studies ")
+    helped = run_studies(["ui", "--help"], tmp_path, timeout=60)
+    assert helped.returncode == 0 and "tracking.uri" in helped.stdout and "port" in helped.stdout
