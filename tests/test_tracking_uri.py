@@ -24,6 +24,18 @@ def test_an_unreachable_server_is_one_line_and_exit_2_within_seconds(tmp_path):
     assert not (tmp_path / "mlruns").exists() and not (tmp_path / "outputs").exists()
 
 
+def test_a_postgresql_store_without_driver_or_database_is_one_line(tmp_path):
+    """Without the driver (``pip install 'studies[postgres]'``) or with a
+    database that does not answer: one line naming what to do, exit 2."""
+    proc = run_studies(["run", "tracking.uri=postgresql://nobody@127.0.0.1:1/none", *SHORT_RUN],
+                       tmp_path, timeout=60)
+    assert proc.returncode == 2, proc.stderr
+    lines = [line for line in proc.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1, lines
+    assert "studies[postgres]" in lines[0] or "PostgreSQL database does not answer" in lines[0]
+    assert not (tmp_path / "outputs").exists()
+
+
 def test_an_unreachable_server_refuses_a_sweep_before_any_job(tmp_path):
     proc = run_studies(["run", "-m", "seed=0,1", "tracking.uri=http://127.0.0.1:1", *SHORT_RUN],
                        tmp_path, timeout=60)

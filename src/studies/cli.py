@@ -198,7 +198,7 @@ def _study(cfg, root: Path, out_dir: Path, on_create) -> dict:
     settings = _settings(cfg)
     params = _params(cfg)
     check_output_paths(settings, root, out_dir)
-    tracking.check_reachable(settings.tracking.uri, root)
+    tracking.check_store(settings.tracking.uri, root)
     digest, done = _resumable(settings, params, root)
     if done:
         return {"status": "skipped", "run_id": done, "config_hash": digest}
@@ -245,7 +245,7 @@ def _discover(cfg, root: Path, out_dir: Path, on_create) -> dict:
 
     settings = _settings(cfg)
     check_output_paths(settings, root, out_dir)
-    tracking.check_reachable(settings.tracking.uri, root)
+    tracking.check_store(settings.tracking.uri, root)
     study = prepare_discover(settings, root, _recorder(settings, root))
     params = _params(cfg)
     stems = ", ".join(Path(p).stem for p in as_path_list(settings.data.path))
@@ -279,7 +279,7 @@ def _report_task(cfg) -> None:
     try:
         settings = _settings(cfg)
         report_dir = output_path(settings.report.dir, "report.dir", root)
-        tracking.check_reachable(settings.tracking.uri, root)
+        tracking.check_store(settings.tracking.uri, root)
         name, runs = tracking.read_experiment(settings.tracking.uri, root, settings.report.experiment or None)
         path = build_report(name, runs, report_dir)
     except (LookupError, StudiesError) as error:
@@ -365,7 +365,7 @@ def _hydra(task, config_name: str, command: str, args: list[str]) -> int:
         if checked is not None:
             from .runtime import tracking
 
-            tracking.check_reachable(checked.tracking_uri, root)
+            tracking.check_store(checked.tracking_uri, root)
     except StudiesError as error:
         _fail(error, verbose)
     verbose = verbose or bool(checked and checked.verbose)

@@ -5,7 +5,7 @@ Default store (DESIGN.md): ``mlruns/mlflow.db`` (sqlite) with artifacts under
 from). ``tracking.uri=`` selects any other MLflow URI, and without it the
 ``MLFLOW_TRACKING_URI`` environment variable does (:func:`resolve_uri`);
 artifacts then go where that server or store puts them. A server that does
-not answer is refused in one line within seconds (:func:`check_reachable`),
+not answer is refused in one line within seconds (:func:`check_store`),
 before any work.
 
 Parallel sweep jobs share one sqlite file. MLflow creates a new store's
@@ -36,7 +36,7 @@ from pathlib import Path
 from .. import interrupt
 from ..errors import ConfigError
 
-__all__ = ["default_uri", "resolve_uri", "check_reachable", "configure", "start_run", "RunLogger", "store_lock", "flatten",
+__all__ = ["default_uri", "resolve_uri", "check_store", "configure", "start_run", "RunLogger", "store_lock", "flatten",
            "StoredRun", "read_experiment", "find_finished_run", "close_if_running"]
 
 os.environ.setdefault("MLFLOW_DISABLE_TELEMETRY", "true")
@@ -88,13 +88,20 @@ def resolve_uri(uri: str | None, root: str | os.PathLike) -> str:
 SERVER_TIMEOUT_S = 5.0
 
 
-def check_reachable(uri: str | None, root: str | os.PathLike) -> None:
-    """Refuse (:class:`~studies.errors.ConfigError`, one line) a tracking
-    server that does not answer its health check within
-    :data:`SERVER_TIMEOUT_S`; other stores are not checked."""
+def check_store(uri: str | None, root: str | os.PathLike) -> None:
+    """Refuse, in one line (:class:`~studies.errors.ConfigError`), a store the
+    command could not write to: a tracking server that does not answer its
+    health check within :data:`SERVER_TIMEOUT_S`, a PostgreSQL URI whose
+    driver is not installed or whose database does not answer. sqlite
+    files are created on first use and not checked."""
     uri = resolve_uri(uri, root)
-    if not uri.startswith(("http://", "https://")):
-        return
+    if uri.startswith(("http://", "https://")):
+        _check_server(uri)
+    elif uri.startswith("postgresql"):
+        _check_postgres(uri)
+
+
+def _check_server(uri: str) -> None:
     try:
         with urllib.request.urlopen(uri.rstrip("/") + "/health", timeout=SERVER_TIMEOUT_S) as answer:
             if answer.status < 400:
@@ -106,6 +113,26 @@ def check_reachable(uri: str | None, root: str | os.PathLike) -> None:
         reason = str(getattr(error, "reason", error))
     raise ConfigError(f"tracking.uri: no MLflow server answers at {uri} ({reason}); start it "
                       "(mlflow server) or give another tracking.uri")
+
+
+def _check_postgres(uri: str) -> None:
+    import sqlalchemy
+
+    try:
+        engine = sqlalchemy.create_engine(uri, connect_args={"connect_timeout": int(SERVER_TIMEOUT_S)})
+    except ModuleNotFoundError as error:     # the driver the URI's scheme names
+        raise ConfigError(f"tracking.uri: a PostgreSQL store needs the {error.name} driver, which is not "
+                          "installed: pip install 'studies[postgres]'") from None
+    except (sqlalchemy.exc.ArgumentError, ValueError) as error:
+        raise ConfigError(f"tracking.uri: not a database URI: {error}") from None
+    try:
+        with engine.connect():
+            pass
+    except sqlalchemy.exc.SQLAlchemyError as error:
+        reason = str(getattr(error, "orig", error)).strip().splitlines()[0]
+        raise ConfigError(f"tracking.uri: the PostgreSQL database does not answer ({reason})") from None
+    finally:
+        engine.dispose()
 
 
 def configure(uri: str | None, root: str | os.PathLike) -> str:
