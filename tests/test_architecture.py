@@ -30,7 +30,7 @@ LAYERS = [
     ("discover", {"discover"}),
     ("studies", {"workflows"}),
     ("runtime", {"runtime"}),
-    ("command line", {"cli", "config_check", "progress", "bench", "__main__", "<root>"}),
+    ("command line", {"cli", "cli_help", "config_check", "progress", "bench", "__main__", "<root>"}),
 ]
 
 def _rank(package: str) -> int:

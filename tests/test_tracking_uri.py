@@ -65,6 +65,16 @@ def test_report_writes_no_log_file_in_the_working_directory(tmp_path):
     assert not list(tmp_path.glob("*.log"))
 
 
+def test_command_help_lists_the_settings_with_units(tmp_path):
+    proc = run_studies(["run", "--help"], tmp_path, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    assert "powered by Hydra" not in proc.stdout
+    assert "wind.speed [0.0]" in proc.stdout and "[m/s]" in proc.stdout
+    assert "method=" in proc.stdout and "svm_ga" in proc.stdout
+    discover = run_studies(["discover", "--help"], tmp_path, timeout=60)
+    assert "discover.horizon" in discover.stdout and "simulation.path" in discover.stdout
+
+
 def test_version_and_ui_help(tmp_path):
     version = run_studies(["--version"], tmp_path, timeout=60)
     assert version.returncode == 0 and version.stdout.startswith("studies ")

@@ -462,6 +462,11 @@ def main(argv: list[str] | None = None) -> int:
     command, rest = argv[0], argv[1:]
     apps = {"run": (_run_task, "config"), "simplify": (_simplify_task, "config"),
             "discover": (_discover_task, "discover"), "report": (_report_task, "report")}
+    if command in apps and any(a in ("-h", "--help") for a in rest):
+        from .cli_help import command_help
+
+        print(command_help(command))
+        return 0
     if command in apps:
         try:
             return _hydra(*apps[command], command, rest)
