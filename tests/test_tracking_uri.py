@@ -80,3 +80,27 @@ def test_version_and_ui_help(tmp_path):
     assert version.returncode == 0 and version.stdout.startswith("studies ")
     helped = run_studies(["ui", "--help"], tmp_path, timeout=60)
     assert helped.returncode == 0 and "tracking.uri" in helped.stdout and "port" in helped.stdout
+
+
+@pytest.mark.slow
+def test_a_run_on_measured_files_logs_them_as_dataset_inputs_with_its_source(tmp_path):
+    from conftest import marin_file
+    from studies.runtime.tracking import file_digest
+
+    train, held = marin_file("zz_10"), marin_file("zz_20")
+    db = tmp_path / "store.db"
+    proc = run_studies(["run", "vessel=kvlcc2", "model=symmetric", f"data.path=[{train}]",
+                        f"validate.path=[{held}]", f"tracking.uri=sqlite:///{db}",
+                        "validate.compare_derivatives=false"], tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    import mlflow
+
+    client = mlflow.MlflowClient(f"sqlite:///{db}")
+    run = client.search_runs([client.get_experiment_by_name("studies").experiment_id])[0]
+    inputs = {d.dataset.name: d for d in run.inputs.dataset_inputs}
+    assert set(inputs) == {train.name, held.name}
+    assert inputs[train.name].dataset.digest == file_digest(train)
+    assert [t.value for t in inputs[train.name].tags] == ["training"]
+    assert [t.value for t in inputs[held.name].tags] == ["validation"]
+    assert '"num_rows"' in inputs[held.name].dataset.profile
+    assert run.data.tags["mlflow.source.name"] == "studies run"

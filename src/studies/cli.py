@@ -205,8 +205,10 @@ def _study(cfg, root: Path, out_dir: Path, on_create) -> dict:
     prepared = study_for(settings).prepare(settings, root, _recorder(settings, root))
     name, tags = prepared.name, dict(prepared.tags)
     tags["config_hash"] = digest
+    tags.update(tracking.source_tags(root, "studies run"))
     with tracking.start_run(settings.tracking.experiment, name, settings.tracking.uri, root, params,
                             tags, on_create=on_create) as run:
+        run.log_records(prepared.inputs)
         metrics = prepared.execute(out_dir)
         run.log_outputs(metrics, out_dir)
     summary = {k: v for k, v in metrics.items()
@@ -251,9 +253,10 @@ def _discover(cfg, root: Path, out_dir: Path, on_create) -> dict:
     stems = ", ".join(Path(p).stem for p in as_path_list(settings.data.path))
     name = settings.run_name or f"discover {settings.model.name} {stems}"
     tags = {"kind": "discovery", "model": settings.model.name, "vessel": settings.vessel.name,
-            "data": "measured"}
+            "data": "measured", **tracking.source_tags(root, "studies discover")}
     with tracking.start_run(settings.tracking.experiment, name, settings.tracking.uri, root, params,
                             tags, on_create=on_create) as run:
+        run.log_records(study.inputs)
         discovery, metrics = execute_discover(study, out_dir)
         run.log_outputs(metrics, out_dir)
         run.set_tags({"cause": discovery["cause"]})

@@ -27,8 +27,10 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import hashlib
 import math
 import os
+import subprocess
 import urllib.error
 import urllib.request
 from pathlib import Path
@@ -36,7 +38,7 @@ from pathlib import Path
 from .. import interrupt
 from ..errors import ConfigError
 
-__all__ = ["default_uri", "resolve_uri", "check_store", "configure", "start_run", "RunLogger", "store_lock", "flatten",
+__all__ = ["file_digest", "source_tags", "default_uri", "resolve_uri", "check_store", "configure", "start_run", "RunLogger", "store_lock", "flatten",
            "StoredRun", "read_experiment", "find_finished_run", "close_if_running"]
 
 os.environ.setdefault("MLFLOW_DISABLE_TELEMETRY", "true")
@@ -75,6 +77,32 @@ def store_lock(uri: str):
             yield
         finally:
             fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+def file_digest(path) -> str:
+    """First 16 hex digits of the SHA-256 of a file's content."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()[:16]
+
+
+def source_tags(root, command: str) -> dict:
+    """MLflow's source tags of a run started from ``root`` by ``command``
+    (``studies run``): the command and, when ``root`` or the installed
+    package lies in a git work tree, its commit."""
+    tags = {"mlflow.source.type": "LOCAL", "mlflow.source.name": command}
+    for place in (Path(root), Path(__file__).resolve().parent):
+        try:
+            commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=place, capture_output=True,
+                                    text=True, timeout=5)
+        except (OSError, subprocess.SubprocessError):
+            continue
+        if commit.returncode == 0 and commit.stdout.strip():
+            tags["mlflow.source.git.commit"] = commit.stdout.strip()
+            break
+    return tags
 
 
 def resolve_uri(uri: str | None, root: str | os.PathLike) -> str:
@@ -264,6 +292,29 @@ class RunLogger:
                     self.client.log_artifact(self.run_id, str(path))
                 elif path.is_dir() and path.name == ".hydra":
                     self.client.log_artifacts(self.run_id, str(path), artifact_path="hydra")
+
+    def log_records(self, inputs) -> None:
+        """Log the records a run used as MLflow dataset inputs.
+
+        ``inputs`` holds ``(path, frame, context)`` per record: the file
+        (its content digest and location are the dataset's source), the
+        loaded table (its columns and row count are the dataset's schema and
+        profile) and how it was used (``training``, ``validation`` or
+        ``simulation``, the ``mlflow.data.context`` tag).
+        """
+        import mlflow
+        from mlflow.entities import DatasetInput, InputTag
+
+        datasets = []
+        for path, frame, context in inputs:
+            path = Path(path).expanduser().resolve()
+            dataset = mlflow.data.from_pandas(frame.reset_index(drop=True), source=path.as_uri(),
+                                              name=path.name, digest=file_digest(path))
+            datasets.append(DatasetInput(dataset._to_mlflow_entity(),
+                                         tags=[InputTag("mlflow.data.context", context)]))
+        if datasets:
+            with store_lock(self.uri):
+                self.client.log_inputs(self.run_id, datasets=datasets)
 
     def set_tags(self, tags: dict) -> None:
         """Add tags to the run (e.g. the cause a discovery named)."""

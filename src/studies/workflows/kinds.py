@@ -23,6 +23,8 @@ from . import discover as _discover
 from . import manoeuvring as _manoeuvring
 from . import roll_discover as _roll_discover
 from . import roll_run as _roll_run
+from ..roll.records import load_roll_decay
+from .settings import as_path_list
 from .study import DiscoverStudy, PreparedRun, Recorder, Study
 
 __all__ = ["ManoeuvringStudy", "RollDecayStudy", "STUDIES", "study_for", "prepare_discover",
@@ -39,7 +41,13 @@ class ManoeuvringStudy:
 
     def prepare_discovery(self, cfg: DiscoverConfig, root: Path,
                           record: Recorder | None = None) -> DiscoverStudy:
-        return _discover.prepare_discovery(cfg, root, self, record)
+        study = _discover.prepare_discovery(cfg, root, self, record)
+        paths = as_path_list(cfg.data.path) + as_path_list(cfg.validate.path)
+        contexts = ["training"] * len(as_path_list(cfg.data.path)) + ["validation"] * len(paths)
+        study.inputs = [(p, r, c) for p, r, c in zip(paths, study.records, contexts)]
+        if study.simulation is not None:
+            study.inputs.append((cfg.simulation.path, study.simulation, "simulation"))
+        return study
 
     def discover(self, study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
         return _discover.execute_discovery(study, out_dir)
@@ -55,7 +63,12 @@ class RollDecayStudy:
 
     def prepare_discovery(self, cfg: DiscoverConfig, root: Path,
                           record: Recorder | None = None) -> DiscoverStudy:
-        return _roll_discover.prepare_roll_discovery(cfg, root, self, record)
+        study = _roll_discover.prepare_roll_discovery(cfg, root, self, record)
+        given = ([(p, "training") for p in as_path_list(cfg.data.path)]
+                 + [(p, "validation") for p in as_path_list(cfg.validate.path)]
+                 + ([(cfg.simulation.path, "simulation")] if cfg.simulation.path else []))
+        study.inputs = [(p, load_roll_decay(p), c) for p, c in given]
+        return study
 
     def discover(self, study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
         return _roll_discover.execute_roll_discovery(study, out_dir)

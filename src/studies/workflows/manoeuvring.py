@@ -89,6 +89,14 @@ class Study:
         """The tracked run's tags (:func:`run_tags`)."""
         return run_tags(self.cfg, self.settings)
 
+    @property
+    def inputs(self) -> list:
+        """``(path, record, context)`` of every record file the run reads."""
+        training = list(zip(self.settings.data_paths, self.records)) if self.settings.data_paths else []
+        return ([(p, r, "training") for p, r in training]
+                + [(p, r, "validation") for p, r in zip(self.settings.validate_paths,
+                                                        self.validation_records)])
+
     def execute(self, out_dir: Path) -> dict:
         """Identify, validate, write the files (:func:`execute`); the metrics."""
         return execute(self, out_dir)

@@ -59,6 +59,13 @@ class RollStudy:
                 "data": "measured" if self.data_paths else "simulated",
                 "preset": self.cfg.preset or "none"}
 
+    @property
+    def inputs(self) -> list:
+        """``(path, record, context)`` of every decay file the run reads."""
+        given = ([(p, "training") for p in self.data_paths] + [(p, "validation") for p in self.validate_paths]
+                 + ([(self.simulation_path, "simulation")] if self.simulation_path else []))
+        return [(p, load_roll_decay(p), context) for p, context in given]
+
     def execute(self, out_dir: Path) -> dict:
         """Identify and validate (:func:`execute_roll`); the metrics."""
         return execute_roll(self, out_dir)

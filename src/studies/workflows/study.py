@@ -53,6 +53,9 @@ class PreparedRun(Protocol):
 
     name: str
     tags: dict
+    #: ``(path, record, context)`` of every record file read ("training",
+    #: "validation" or "simulation"), logged as the run's dataset inputs
+    inputs: list
 
     def execute(self, out_dir: Path) -> dict:
         """Fit, validate, write the outputs into ``out_dir``; the flat metrics."""
@@ -79,6 +82,9 @@ class DiscoverStudy:
     records : list of DataFrame
         Every whole record given (``data.path`` then ``validate.path``), for
         ``discover.splits``.
+    inputs : list
+        ``(path, record, context)`` of every record file read, logged as
+        the run's dataset inputs.
     """
 
     cfg: DiscoverConfig
@@ -90,6 +96,7 @@ class DiscoverStudy:
     simulation: object = None
     notes: list = field(default_factory=list)
     records: list = field(default_factory=list)
+    inputs: list = field(default_factory=list)
 
 
 class Study(Protocol):
