@@ -215,8 +215,28 @@ def _study(cfg, root: Path, out_dir: Path, on_create) -> dict:
                if k.startswith(("deviation/", "runtime/", "validation/", "simulation/"))
                or k.endswith(("/fitness", "/rmse_deg", "cpu_s"))}
     print(f"run '{name}' ({run.run_id}) -> {out_dir}")
-    print(json.dumps(summary, indent=1, sort_keys=True))
+    print(_console(summary))
     return {"status": "finished", "run_id": run.run_id, "config_hash": digest}
+
+
+def _rounded(value):
+    """A number to 4 significant digits for people (nested lists and dicts too)."""
+    if isinstance(value, bool) or value is None or isinstance(value, str):
+        return value
+    if isinstance(value, (int, float)):
+        return float(f"{value:.4g}")
+    if isinstance(value, dict):
+        return {k: _rounded(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_rounded(v) for v in value]
+    return value
+
+
+def _console(values: dict) -> str:
+    """``key  value`` lines, numbers to 4 significant digits (the files keep them all)."""
+    width = max((len(k) for k in values), default=0)
+    return "\n".join(f"  {k:<{width}}  {_rounded(v)}" for k, v in sorted(values.items())
+                     if v is not None)
 
 
 def _run_task(cfg):
@@ -261,8 +281,10 @@ def _discover(cfg, root: Path, out_dir: Path, on_create) -> dict:
         run.log_outputs(metrics, out_dir)
         run.set_tags({"cause": discovery["cause"]})
     print(f"discovery '{name}' ({run.run_id}) -> {out_dir}")
-    print(json.dumps({k: discovery[k] for k in ("cause", "parameters", "uncertainty", "gain_pct",
-                                                "second_cause")}, indent=1, default=str))
+    print(_console({"cause": discovery["cause"], "gain_pct": discovery["gain_pct"],
+                    **{f"parameters/{k}": v for k, v in (discovery.get("parameters") or {}).items()},
+                    **{f"uncertainty/{k}": v for k, v in (discovery.get("uncertainty") or {}).items()},
+                    "second_cause": (discovery.get("second_cause") or {}).get("cause")}))
     return {"status": "finished", "run_id": run.run_id}
 
 
