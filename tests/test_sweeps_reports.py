@@ -107,6 +107,8 @@ def test_ui_serves_the_store_on_loopback(swept_store):
             f"http://127.0.0.1:{port}/api/2.0/mlflow/experiments/get-by-name?experiment_name=small")
         with urllib.request.urlopen(req, timeout=10) as r:
             exp = json.loads(r.read())["experiment"]
+        # the UI opens the experiment in its model-training view, not the GenAI one
+        assert {"key": "mlflow.experimentKind", "value": "custom_model_development"} in exp["tags"]
         body = json.dumps({"experiment_ids": [exp["experiment_id"]], "max_results": 100}).encode()
         req = urllib.request.Request(f"http://127.0.0.1:{port}/api/2.0/mlflow/runs/search", data=body,
                                      headers={"Content-Type": "application/json"})

@@ -174,17 +174,24 @@ def configure(uri: str | None, root: str | os.PathLike) -> str:
     return uri
 
 
+#: the MLflow UI opens an experiment of this kind in its model-training view
+EXPERIMENT_KIND = {"mlflow.experimentKind": "custom_model_development"}
+
+
 def _experiment_id(name: str, uri: str, root) -> str:
+    """The experiment ``name`` (created when new, tagged as model training)."""
     import mlflow
 
     exp = mlflow.get_experiment_by_name(name)
     if exp is not None:
+        if "mlflow.experimentKind" not in exp.tags:
+            mlflow.MlflowClient().set_experiment_tag(exp.experiment_id, *next(iter(EXPERIMENT_KIND.items())))
         return exp.experiment_id
     location = _artifact_root(root, uri)
     if location:
         location = f"{location}/{name}"
     try:
-        return mlflow.create_experiment(name, artifact_location=location)
+        return mlflow.create_experiment(name, artifact_location=location, tags=EXPERIMENT_KIND)
     except Exception:
         # another job created it in the meantime
         exp = mlflow.get_experiment_by_name(name)

@@ -27,7 +27,9 @@ def ui_command(uri: str | None, root, host: str = "127.0.0.1", port: int = 5000)
 def serve(uri: str | None, root, host: str = "127.0.0.1", port: int = 5000) -> int:
     """Run the UI in the foreground until interrupted; prints the address."""
     cmd = ui_command(uri, root, host, port)
-    env = dict(os.environ, MLFLOW_DISABLE_TELEMETRY="true")
+    # no job executor: it serves GenAI evaluation jobs that `studies` never submits,
+    # and its worker processes cost several times the memory of the UI itself
+    env = dict(os.environ, MLFLOW_DISABLE_TELEMETRY="true", MLFLOW_SERVER_ENABLE_JOB_EXECUTION="false")
     print(f"MLflow UI for {cmd[cmd.index('--backend-store-uri') + 1]} at http://{host}:{port}", flush=True)
     if host not in ("127.0.0.1", "localhost", "::1"):
         print(f"warning: listening on {host}, reachable from other machines", file=sys.stderr)
