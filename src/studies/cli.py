@@ -28,6 +28,7 @@ from pathlib import Path
 # one BLAS thread per process, and `studies --help` or `studies ui` should not
 # pay for the scientific stack; the workflows, MLflow and Hydra are imported
 # by the sub-command that needs them.
+from . import config  # noqa: F401  (registers the schemas and the user's conf/ folder with Hydra)
 from . import interrupt
 from .config_check import check_arguments, verbose_requested
 from .errors import StudiesError

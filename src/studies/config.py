@@ -22,11 +22,15 @@ seconds; fractions are plain numbers (0.05 = 5 %).
 """
 
 import math
+import os
 from dataclasses import dataclass, field, fields, is_dataclass
 from pathlib import Path
 from typing import Any, List, Optional, Union, get_args, get_origin, get_type_hints
 
+from hydra.core.config_search_path import ConfigSearchPath
 from hydra.core.config_store import ConfigStore
+from hydra.core.plugins import Plugins
+from hydra.plugins.search_path_plugin import SearchPathPlugin
 from omegaconf import II, MISSING, OmegaConf, flag_override
 from omegaconf.errors import OmegaConfBaseException
 
@@ -125,9 +129,19 @@ def _names(value) -> list:
     return [str(v) for v in value]
 
 
+def _manoeuvre_files() -> dict:
+    """``{name: YAML file}`` of the named manoeuvres: the packaged ones, and
+    the user's (:func:`user_conf_dir`), which replace a packaged namesake."""
+    folders = [CONF_DIR / "manoeuvre"]
+    user = user_conf_dir()
+    if user is not None:
+        folders.append(user / "manoeuvre")
+    return {p.stem: p for folder in folders for p in sorted(folder.glob("*.yaml"))}
+
+
 def known_manoeuvres() -> list:
-    """Names of the packaged manoeuvres (``conf/manoeuvre/*.yaml``), sorted."""
-    return sorted(p.stem for p in (CONF_DIR / "manoeuvre").glob("*.yaml"))
+    """Names of the named manoeuvres (packaged and the user's), sorted."""
+    return sorted(_manoeuvre_files())
 
 
 def _check_manoeuvre_names(key: str, names) -> None:
@@ -299,11 +313,32 @@ class Kalman:
     iterations : int
         EKF/RTS passes with the identified ship model after the kinematic
         one, >= 0.
-    channels, noise_window, noise_span, measurement_std, process_scale,
-    scale_grid, discrepancy, bias, bias_fraction, bias_time
-        The smoother's settings (units and meaning in
-        :class:`studies.identify.kalman.KalmanSettings`); null keeps its
-        default. Set with ``kalman.<name>=value``.
+    channels : list of str or None
+        Measured channels used, a subset of x0 y0 psi u v r (null: all).
+    noise_window : float or None
+        Window [s] of the smooth fit whose residual gives the measurement noise (null: 10).
+    noise_span : float or None
+        Window [s] of the rolling variance of that residual (null: 30).
+    measurement_std : mapping or None
+        Fixed measurement standard deviations per channel, SI units
+        (``{u: 0.05}``), overriding the data-driven ones.
+    process_scale : float or None
+        Multiplier of the default process-noise densities (null: chosen by
+        maximum innovation likelihood over ``scale_grid``).
+    scale_grid : list of float or None
+        Candidate multipliers for that search (null: 10^-3 .. 10^3, half decades).
+    discrepancy : float or None
+        With the ship model as process model, the spectral density of the
+        model discrepancy relative to the kinematic one (null: 0.1).
+    bias : bool, list of str or None
+        Estimate slowly varying biases of the velocity channels (true, false
+        or a subset of u v r).
+    bias_fraction : float or None
+        Prior standard deviation of a bias, fraction of the channel's scale.
+    bias_time : float or None
+        Time [s] over which a bias may wander by its prior size.
+
+    Null keeps the default of :class:`studies.identify.kalman.KalmanSettings`.
     """
 
     iterations: int = 2
@@ -463,8 +498,9 @@ class Tracking:
     Attributes
     ----------
     uri : str or None
-        Tracking URI; None: sqlite store ``mlruns/mlflow.db`` in the working
-        directory.
+        Tracking URI (sqlite file, PostgreSQL database or MLflow server);
+        None: the ``MLFLOW_TRACKING_URI`` environment variable when set,
+        else the sqlite store ``mlruns/mlflow.db`` in the working directory.
     experiment : str
         MLflow experiment name (presets set their own).
     """
@@ -876,13 +912,13 @@ class ManoeuvreConfig:
 
 
 def manoeuvre_config(name: str) -> ManoeuvreConfig:
-    """The packaged manoeuvre ``conf/manoeuvre/<name>.yaml``, checked.
+    """The named manoeuvre ``manoeuvre/<name>.yaml`` (the user's, else the packaged one), checked.
 
-    Raises :class:`ConfigError` for a name that is not packaged (listing
-    the known ones) or a file whose values are impossible.
+    Raises :class:`ConfigError` for an unknown name (listing the known ones)
+    or a file whose values are impossible.
     """
-    path = CONF_DIR / "manoeuvre" / f"{name}.yaml"
-    if not path.is_file():
+    path = _manoeuvre_files().get(name)
+    if path is None:
         raise ConfigError(f"unknown manoeuvre '{name}'; known: {', '.join(known_manoeuvres())}")
     node = OmegaConf.load(path)
     with flag_override(node, "struct", False):
@@ -1080,11 +1116,35 @@ SCHEMAS = (
 )
 
 
+#: environment variable naming a folder of the user's own configs (default ``./conf``)
+USER_CONF_ENV = "STUDIES_CONF"
+
+
+def user_conf_dir() -> Optional[Path]:
+    """The user's config folder: ``$STUDIES_CONF`` when set, else ``conf/`` in
+    the working directory; None when it does not exist."""
+    folder = Path(os.environ.get(USER_CONF_ENV) or Path.cwd() / "conf").expanduser()
+    return folder.resolve() if folder.is_dir() else None
+
+
+class UserConfigSearchPath(SearchPathPlugin):
+    """Hydra searches the user's config folder (:func:`user_conf_dir`) before
+    the packaged ``studies/conf``: a preset, vessel or manoeuvre there is
+    found by name, and one with a packaged name replaces it."""
+
+    def manipulate_search_path(self, search_path: ConfigSearchPath) -> None:
+        folder = user_conf_dir()
+        if folder is not None:
+            search_path.prepend(provider="studies-user", path=folder.as_uri())
+
+
 def register() -> None:
-    """Store every schema of :data:`SCHEMAS` in Hydra's ConfigStore (idempotent)."""
+    """Store every schema of :data:`SCHEMAS` in Hydra's ConfigStore and the
+    user's config folder in its search path (idempotent)."""
     store = ConfigStore.instance()
     for group, name, node in SCHEMAS:
         store.store(group=group, name=name, node=node if is_dataclass(node) else node())
+    Plugins.instance().register(UserConfigSearchPath)
 
 
 _KINDS = {float: "a number", int: "an integer", bool: "true or false", str: "a string"}
