@@ -159,7 +159,24 @@ def refused_in_process():
 
 
 def mlflow_runs(root: Path) -> list[tuple]:
-    """(run_uuid, status, name) of every run in the default store under ``root``."""
+    """(run_uuid, status, name) of every job's run in the default store under
+    ``root`` (a sweep's parent run, tagged ``kind=sweep``, is left out: see
+    :func:`sweep_parents`)."""
+    return [r for r in _all_runs(root) if r[0] not in {p[0] for p in sweep_parents(root)}]
+
+
+def sweep_parents(root: Path) -> list[tuple]:
+    """(run_uuid, status, name) of the sweeps' parent runs in the default store."""
+    db = Path(root) / "mlruns" / "mlflow.db"
+    if not db.exists():
+        return []
+    with sqlite3.connect(db) as con:
+        parents = {r for (r,) in con.execute("select run_uuid from tags where key = 'kind' "
+                                             "and value = 'sweep'").fetchall()}
+    return [r for r in _all_runs(root) if r[0] in parents]
+
+
+def _all_runs(root: Path) -> list[tuple]:
     db = Path(root) / "mlruns" / "mlflow.db"
     if not db.exists():
         return []

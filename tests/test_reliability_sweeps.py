@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from conftest import mlflow_runs, run_studies
+from conftest import mlflow_runs, run_studies, sweep_parents
 
 SMALL = ["manoeuvre.duration=300", "validate.manoeuvres=[zigzag_10_10]", "validate.duration=200"]
 ARTIFACTS = {"coefficients.csv", "metrics.json", "validation_zigzag_10_10.csv",
@@ -24,10 +24,12 @@ ARTIFACTS = {"coefficients.csv", "metrics.json", "validation_zigzag_10_10.csv",
 
 
 def _runs_with_hash(root: Path) -> list[tuple]:
-    """(run_uuid, status, config_hash, error) of every run of the default store."""
+    """(run_uuid, status, config_hash, error) of every job's run of the default
+    store (the sweep's parent run left out)."""
     db = root / "mlruns" / "mlflow.db"
+    parents = {p[0] for p in sweep_parents(root)}
     with sqlite3.connect(db, timeout=30) as con:
-        rows = con.execute("select run_uuid, status from runs").fetchall()
+        rows = [r for r in con.execute("select run_uuid, status from runs").fetchall() if r[0] not in parents]
         tags = con.execute("select run_uuid, key, value from tags "
                            "where key in ('config_hash', 'error')").fetchall()
     by_run = {}
@@ -113,7 +115,10 @@ def test_eight_jobs_on_two_workers_into_one_store(tmp_path, repeat):
         assert ARTIFACTS <= _artifacts(tmp_path, run_id)
     with sqlite3.connect(tmp_path / "mlruns" / "mlflow.db") as con:
         per_run = dict(con.execute("select run_uuid, count(*) from latest_metrics group by run_uuid"))
-    assert len(per_run) == 8 and len(set(per_run.values())) == 1
+    parents = [p[0] for p in sweep_parents(tmp_path)]
+    jobs = {run: n for run, n in per_run.items() if run not in parents}
+    assert len(jobs) == 8 and len(set(jobs.values())) == 1
+    assert len(parents) == 1 and per_run[parents[0]] == 4       # jobs/finished, skipped, failed, killed
 
 
 # ------------------------------------------------------------------ 4. interruption and resume
@@ -196,6 +201,7 @@ def test_killed_sweep_keeps_finished_runs_and_resume_runs_the_rest(tmp_path):
     statuses = Counter(s for _, s, _, _ in before)
     assert set(statuses) <= {"FINISHED", "KILLED"}, statuses     # nothing left RUNNING
     assert statuses["FINISHED"] >= 1 and statuses["KILLED"] >= 1, statuses
+    assert [s for _, s, _ in sweep_parents(tmp_path)] == ["KILLED"]    # the sweep's parent run too
     finished_before = {r: h for r, s, h, _ in before if s == "FINISHED"}
     for run_id in finished_before:
         assert ARTIFACTS <= _artifacts(tmp_path, run_id)

@@ -114,7 +114,8 @@ def test_ui_serves_the_store_on_loopback(swept_store):
                                      headers={"Content-Type": "application/json"})
         with urllib.request.urlopen(req, timeout=10) as r:
             runs = json.loads(r.read())["runs"]
-        assert len(runs) == 4
+        kinds = [{t["key"]: t["value"] for t in run["data"]["tags"]}.get("kind") for run in runs]
+        assert len(runs) == 5 and kinds.count("sweep") == 1      # 4 jobs and the sweep's parent run
         # bound to loopback only: the UI's socket is not on a wildcard address
         listening = subprocess.run(["ss", "-ltn"], capture_output=True, text=True).stdout
         assert f"127.0.0.1:{port}" in listening and f"0.0.0.0:{port}" not in listening

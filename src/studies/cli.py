@@ -144,7 +144,7 @@ def _run_job(cfg, body) -> dict:
 
             traceback.print_exc()
         result = {"status": "failed", "error": line, "run_id": run_id}
-    result = {**result, "overrides": overrides}
+    result = {**result, "overrides": overrides, "out_dir": str(out_dir)}
     if state is not None:
         state.write_result(num, result)
     if result["status"] == "skipped" and not multirun:
@@ -207,6 +207,7 @@ def _study(cfg, root: Path, out_dir: Path, on_create) -> dict:
     name, tags = prepared.name, dict(prepared.tags)
     tags["config_hash"] = digest
     tags.update(tracking.source_tags(root, "studies run"))
+    tags.update(tracking.sweep_tags())
     with tracking.start_run(settings.tracking.experiment, name, settings.tracking.uri, root, params,
                             tags, on_create=on_create) as run:
         run.log_records(prepared.inputs)
@@ -273,14 +274,17 @@ def _discover(cfg, root: Path, out_dir: Path, on_create) -> dict:
     params = _params(cfg)
     stems = ", ".join(Path(p).stem for p in as_path_list(settings.data.path))
     name = settings.run_name or f"discover {settings.model.name} {stems}"
-    tags = {"kind": "discovery", "model": settings.model.name, "vessel": settings.vessel.name,
-            "data": "measured", **tracking.source_tags(root, "studies discover")}
+    vessel = settings.vessel.name if study.vessel is not None else "unknown"
+    tags = {"kind": "discovery", "model": settings.model.name, "vessel": vessel,
+            "data": "measured", **tracking.source_tags(root, "studies discover"), **tracking.sweep_tags()}
     with tracking.start_run(settings.tracking.experiment, name, settings.tracking.uri, root, params,
                             tags, on_create=on_create) as run:
         run.log_records(study.inputs)
         discovery, metrics = execute_discover(study, out_dir)
         run.log_outputs(metrics, out_dir)
-        run.set_tags({"cause": discovery["cause"]})
+        named = discovery.get("vessel")            # a roll discovery names the ship from its records
+        run.set_tags({"cause": discovery["cause"],
+                      **({"vessel": named.get("name") or "unknown"} if isinstance(named, dict) else {})})
     print(f"discovery '{name}' ({run.run_id}) -> {out_dir}")
     print(_console({"cause": discovery["cause"], "gain_pct": discovery["gain_pct"],
                     **{f"parameters/{k}": v for k, v in (discovery.get("parameters") or {}).items()},
@@ -307,7 +311,7 @@ def _report_task(cfg) -> None:
         report_dir = output_path(settings.report.dir, "report.dir", root)
         tracking.check_store(settings.tracking.uri, root)
         name, runs = tracking.read_experiment(settings.tracking.uri, root, settings.report.experiment or None)
-        path = build_report(name, runs, report_dir)
+        path = build_report(name, tracking.select_sweep(runs, settings.report.sweep), report_dir)
     except (LookupError, StudiesError) as error:
         _fail(error, verbose)
     print(f"report written: {path} and {path.with_suffix('.html')}")
@@ -380,6 +384,44 @@ def _interrupted(state, error: KeyboardInterrupt, root: Path, command: str = "ru
     return 128 + signum
 
 
+def _start_sweep(checked, command: str, args: list[str], root: Path) -> dict | None:
+    """The parent run of a sweep of `studies run` or `discover` (None otherwise)."""
+    if checked is None or not checked.multirun or command not in ("run", "discover"):
+        return None
+    from .runtime import tracking
+
+    label = checked.preset or " ".join(a for a in args if not a.startswith("-")) or "defaults"
+    experiment = checked.experiment or ("discover" if command == "discover" else "studies")
+    return tracking.start_sweep(experiment, checked.tracking_uri, root, f"sweep {label}"[:250],
+                                {"command": f"studies {command}", "overrides": " ".join(args)[:5000],
+                                 "preset": checked.preset or "none",
+                                 **tracking.source_tags(root, f"studies {command}")})
+
+
+def _end_sweep(sweep: dict | None, state, status: str, error: str | None = None) -> None:
+    """Close the parent run with the jobs' outcome; print how to look at the sweep."""
+    if sweep is None:
+        return
+    from .runtime import tracking
+
+    results = [r for r in state.results() if r.get("num") is not None]
+    counts = {s: sum(r["status"] == s for r in results) for s in ("finished", "skipped", "failed", "killed")}
+    dirs = {str(Path(r["out_dir"]).parent) for r in results if r.get("out_dir")}
+    tags = {"multirun_dir": dirs.pop()} if len(dirs) == 1 else {}
+    if error:
+        tags["error"] = error
+    try:
+        tracking.end_sweep(sweep, status, {f"jobs/{k}": v for k, v in counts.items()}, tags)
+    except Exception as failure:  # noqa: BLE001 - the jobs' runs are recorded; say what is left open
+        print(f"studies: warning: the sweep's parent run {sweep['run_id']} could not be closed: "
+              f"{_one_line(failure)}", file=sys.stderr)
+        return
+    experiment = tracking.experiment_of(sweep)
+    print(f"[studies] sweep {sweep['sweep_id']} in experiment '{experiment}': "
+          f"studies report report.experiment={experiment} report.sweep={sweep['sweep_id']}; "
+          f"studies ui to browse it", file=sys.stderr)
+
+
 def _hydra(task, config_name: str, command: str, args: list[str]) -> int:
     """Check the command line, run the Hydra app, report the outcome in one line."""
     import hydra
@@ -401,12 +443,18 @@ def _hydra(task, config_name: str, command: str, args: list[str]) -> int:
     os.environ["HYDRA_FULL_ERROR"] = "1"      # Hydra's errors reach us (one line below)
     sys.argv = [f"studies {command}"] + args
     app = hydra.main(version_base="1.3", config_path="conf", config_name=config_name)(task)
+    sweep = _start_sweep(checked, command, args, root)
     try:
         app()
-        return _sweep_summary(state, checked)
+        status = _sweep_summary(state, checked)
+        _end_sweep(sweep, state, "FAILED" if status else "FINISHED")
+        return status
     except KeyboardInterrupt as error:
-        return _interrupted(state, error, root, command)
+        code = _interrupted(state, error, root, command)
+        _end_sweep(sweep, state, "KILLED")
+        return code
     except Exception as error:  # noqa: BLE001 - Hydra or launcher errors
+        _end_sweep(sweep, state, "FAILED", _one_line(error))
         if verbose or full_error == "1":
             raise
         from omegaconf.errors import OmegaConfBaseException

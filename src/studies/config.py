@@ -483,12 +483,17 @@ class ReportOptions:
         The config key whose values are the columns within a group.
     experiment : str or None
         MLflow experiment to report; None: the one with the latest run.
+    sweep : str or None
+        Sweep id (tag ``sweep_id``) whose runs are reported; None: the
+        experiment's latest sweep (all its runs when it has no sweep),
+        ``all``: every run of the experiment.
     """
 
     dir: str = "reports"
     condition: Optional[str] = None
     series: str = "method.name"
     experiment: Optional[str] = None
+    sweep: Optional[str] = None
 
 
 @dataclass
@@ -1004,7 +1009,8 @@ class DiscoverOptions:
     ----------
     holdout : float
         Share of a single training record held out when ``validate.path``
-        is empty, in [0.05, 0.8].
+        is empty (manoeuvres: its last samples; roll decays: its last
+        half-cycles, time-blocked), in [0.05, 0.8].
     horizon : float or None
         Prediction windows of the validation error [s]; None: whole records.
     terms_threshold : float

@@ -40,6 +40,10 @@ class Checked:
     jobs: int | None
     #: ``tracking.uri`` of the first job (None: the environment's or the default store)
     tracking_uri: str | None = None
+    #: ``tracking.experiment`` of the first job
+    experiment: str | None = None
+    #: ``preset`` of the first job (an experiment preset's name)
+    preset: str | None = None
 
 
 def verbose_requested(args: list[str]) -> bool:
@@ -334,6 +338,8 @@ def check_arguments(config_name: str, args: list[str], root: Path, command: str 
             multirun = multirun or OmegaConf.select(first, "hydra.mode", default=None) == RunMode.MULTIRUN
             verbose = OmegaConf.select(first, "verbose", default=False) is True
             tracking_uri = OmegaConf.select(first, "tracking.uri", default=None)
+            experiment = OmegaConf.select(first, "tracking.experiment", default=None)
+            preset = OmegaConf.select(first, "preset", default=None)
             done = set()
             for n, variant in enumerate(_variants(axes)):
                 cfg = first if n == 0 else composer.compose(variant)
@@ -353,4 +359,4 @@ def check_arguments(config_name: str, args: list[str], root: Path, command: str 
     finally:
         GlobalHydra.instance().clear()
     return Checked(multirun=multirun, verbose=verbose, jobs=jobs if multirun else 1,
-                   tracking_uri=tracking_uri)
+                   tracking_uri=tracking_uri, experiment=experiment, preset=preset)

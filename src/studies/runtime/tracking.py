@@ -31,6 +31,7 @@ import hashlib
 import math
 import os
 import subprocess
+import uuid
 import urllib.error
 import urllib.request
 from pathlib import Path
@@ -38,7 +39,7 @@ from pathlib import Path
 from .. import interrupt
 from ..errors import ConfigError
 
-__all__ = ["file_digest", "source_tags", "default_uri", "resolve_uri", "check_store", "configure", "start_run", "RunLogger", "store_lock", "flatten",
+__all__ = ["start_sweep", "end_sweep", "experiment_of", "sweep_tags", "select_sweep", "file_digest", "source_tags", "default_uri", "resolve_uri", "check_store", "configure", "start_run", "RunLogger", "store_lock", "flatten",
            "StoredRun", "read_experiment", "find_finished_run", "close_if_running"]
 
 os.environ.setdefault("MLFLOW_DISABLE_TELEMETRY", "true")
@@ -367,6 +368,85 @@ class StoredRun:
             return [f.path for f in self._client.list_artifacts(self.run_id)]
         except Exception:
             return []
+
+
+#: environment variables that tell a sweep's jobs (in worker processes) their sweep
+SWEEP_ID_ENV, PARENT_RUN_ENV = "STUDIES_SWEEP_ID", "STUDIES_PARENT_RUN_ID"
+
+
+def start_sweep(experiment: str, uri: str | None, root, name: str, tags: dict | None = None) -> dict:
+    """Open the parent run of a sweep; the environment tells its jobs.
+
+    Returns ``{"sweep_id": ..., "run_id": ..., "uri": ...}``. Every run
+    started afterwards in this process or its workers (:func:`sweep_tags`)
+    becomes a child run tagged with the sweep id.
+    """
+    from mlflow.tracking import MlflowClient
+
+    uri = configure(uri, root)
+    sweep_id = uuid.uuid4().hex[:12]
+    with store_lock(uri):
+        exp_id = _experiment_id(experiment, uri, root)
+        client = MlflowClient(tracking_uri=uri)
+        run = client.create_run(exp_id, run_name=name,
+                                tags={"kind": "sweep", "sweep_id": sweep_id,
+                                      **{k: str(v) for k, v in (tags or {}).items()}})
+    os.environ[SWEEP_ID_ENV] = sweep_id
+    os.environ[PARENT_RUN_ENV] = run.info.run_id
+    return {"sweep_id": sweep_id, "run_id": run.info.run_id, "uri": uri}
+
+
+def end_sweep(sweep: dict, status: str, metrics: dict | None = None, tags: dict | None = None) -> None:
+    """Close a sweep's parent run (``FINISHED``, ``FAILED`` or ``KILLED``) with
+    its summary ``metrics`` (jobs finished, failed, ...) and ``tags``."""
+    import mlflow
+    from mlflow.tracking import MlflowClient
+
+    os.environ.pop(SWEEP_ID_ENV, None)
+    os.environ.pop(PARENT_RUN_ENV, None)
+    with store_lock(sweep["uri"]):
+        client = MlflowClient(tracking_uri=sweep["uri"])
+        batch = [mlflow.entities.Metric(k, float(v), 0, 0) for k, v in (metrics or {}).items()]
+        if batch:
+            client.log_batch(sweep["run_id"], metrics=batch)
+        for key, value in (tags or {}).items():
+            client.set_tag(sweep["run_id"], key, str(value))
+        client.set_terminated(sweep["run_id"], status)
+
+
+def experiment_of(sweep: dict) -> str:
+    """The experiment name of a sweep's parent run."""
+    from mlflow.tracking import MlflowClient
+
+    client = MlflowClient(tracking_uri=sweep["uri"])
+    with store_lock(sweep["uri"]):
+        run = client.get_run(sweep["run_id"])
+        return client.get_experiment(run.info.experiment_id).name
+
+
+def sweep_tags() -> dict:
+    """Tags that make a run a child of the sweep it belongs to ({} outside a sweep)."""
+    sweep_id, parent = os.environ.get(SWEEP_ID_ENV), os.environ.get(PARENT_RUN_ENV)
+    return {"sweep_id": sweep_id, "mlflow.parentRunId": parent} if sweep_id and parent else {}
+
+
+def select_sweep(runs: list, sweep: str | None) -> list:
+    """The runs a report is about: those of sweep ``sweep`` (``None``: the
+    latest sweep, or every run when there is none; ``"all"``: every run),
+    never the sweeps' parent runs. Raises ``LookupError`` for an unknown id."""
+    jobs = [r for r in runs if r.tags.get("kind") != "sweep"]
+    if sweep == "all":
+        return jobs
+    swept = [r for r in jobs if r.tags.get("sweep_id")]
+    if sweep is None:
+        if not swept:
+            return jobs
+        sweep = max(swept, key=lambda r: r.start_time).tags["sweep_id"]
+    chosen = [r for r in jobs if r.tags.get("sweep_id") == sweep]
+    if not chosen:
+        known = sorted({r.tags["sweep_id"] for r in swept})
+        raise LookupError(f"report.sweep: no runs of sweep '{sweep}' (known: {', '.join(known) or 'none'})")
+    return chosen
 
 
 def read_experiment(uri: str | None, root, name: str | None = None):
