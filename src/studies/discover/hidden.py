@@ -19,7 +19,8 @@ from ..models.terms import candidate_terms
 from ..roll.simulate import simulate_decay_record
 from ..simulate import simulate, turning, zigzag
 
-__all__ = ["HIDDEN_CAUSES", "HIDDEN_ROLL_CAUSES", "hidden_records", "hidden_roll_decays", "write_records",
+__all__ = ["HIDDEN_CAUSES", "HIDDEN_ROLL_CAUSES", "HIDDEN_ROLL_SPEED_CAUSES", "hidden_records",
+           "hidden_roll_decays", "hidden_roll_decays_at_speed", "hidden_roll_speed_series", "write_records",
            "parameters_match"]
 
 HIDDEN_CAUSES = ("none", "current", "rudder_offset", "wind_speed_bias", "environmental_bias",
@@ -28,6 +29,15 @@ HIDDEN_CAUSES = ("none", "current", "rudder_offset", "wind_speed_bias", "environ
 
 #: roll-decay causes: the damping term hidden and the centre of its drawn magnitude
 HIDDEN_ROLL_CAUSES = {"roll_quadratic_damping": ("b2", 0.4), "roll_cubic_damping": ("b3", 0.8)}
+
+#: roll-decay causes at forward speed that a potential-flow run misses: the centre of each
+#: hidden parameter's drawn magnitude (b1_added [1/s] added to the run's b1, b2 [-])
+HIDDEN_ROLL_SPEED_CAUSES = {"roll_linear_damping": {"b1_added": 0.04},
+                            "roll_linear_damping+roll_quadratic_damping": {"b1_added": 0.04, "b2": 0.12}}
+
+#: the potential-flow-like run of the hidden forward-speed decays: natural frequency [rad/s]
+#: and the radiation damping [1/s] it does model
+_SPEED_BASELINE = {"omega0": 2.5, "b1": 0.01}
 
 
 def _draw(cause: str, rng) -> dict:
@@ -107,6 +117,57 @@ def hidden_roll_decays(cause: str, folder, seed: int = 0, noise: float = 0.01) -
     return paths, {term: value}
 
 
+def _decay_csv(params, terms, path, duration, phi0_deg, noise, seed, speed) -> str:
+    """One simulated decay (0.01 s) with a ``speed`` column [m/s], written to ``path``."""
+    rec = simulate_decay_record(params, terms, duration, 0.01, np.deg2rad(phi0_deg), noise, seed)
+    rec["speed"] = float(speed)
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    rec.to_csv(path, index=False, float_format="%.10g")
+    return str(path)
+
+
+def hidden_roll_decays_at_speed(cause: str, folder, seed: int = 0, noise: float = 0.01, speed: float = 1.0,
+                                records: int = 1, duration: float = 60.0) -> tuple[list, str, dict]:
+    """Decays at forward speed with damping hidden that a potential-flow run misses.
+
+    The run (``simulation.path``) is the linear model with omega0 2.5 rad/s and
+    the radiation damping b1 0.01 1/s, released from 10 deg without noise;
+    the measured decays (released from 10, 8, 12 deg, ``duration`` s at
+    0.01 s, ``noise`` a fraction of the release angle, seeded) add the
+    parameters of ``cause`` (:data:`HIDDEN_ROLL_SPEED_CAUSES`), each drawn
+    within +-20 % of its centre. Every file has a ``speed`` column
+    (``speed`` [m/s]). Returns ``(paths, simulation_path, truth)``.
+    """
+    rng = np.random.default_rng(seed)
+    truth = {name: centre * rng.uniform(0.8, 1.2) for name, centre in HIDDEN_ROLL_SPEED_CAUSES[cause].items()}
+    sim = _decay_csv(_SPEED_BASELINE, ["b1"], Path(folder) / "potential_flow.csv", duration, 10.0, 0.0, 0, speed)
+    params = {"omega0": _SPEED_BASELINE["omega0"], "b1": _SPEED_BASELINE["b1"] + truth["b1_added"],
+              "b2": truth.get("b2", 0.0)}
+    paths = [_decay_csv(params, ["b1", "b2"], Path(folder) / f"decay_{i}.csv", duration, phi0, noise,
+                        seed * 10 + i, speed)
+             for i, phi0 in enumerate((10.0, 8.0, 12.0)[:records])]
+    return paths, sim, truth
+
+
+def hidden_roll_speed_series(folder, seed: int = 0, noise: float = 0.01, speeds=(0.0, 0.5, 1.0),
+                             duration: float = 60.0) -> tuple[list, dict]:
+    """One decay per speed [m/s] with ``b1 = b1_0 + b1_U U`` and a common ``b2``.
+
+    ``b1_0`` (centre 0.02 1/s), ``b1_U`` (centre 0.04 1/m) and ``b2`` (centre
+    0.1) are drawn within +-20 %; omega0 2.5 rad/s, released from 10 deg,
+    ``duration`` s at 0.01 s with a ``speed`` column. Returns ``(paths, truth)``.
+    """
+    rng = np.random.default_rng(seed)
+    truth = {"b1_0": 0.02 * rng.uniform(0.8, 1.2), "b1_U": 0.04 * rng.uniform(0.8, 1.2),
+             "b2": 0.1 * rng.uniform(0.8, 1.2), "omega0": 2.5}
+    paths = []
+    for i, u in enumerate(speeds):
+        params = {"omega0": 2.5, "b1": truth["b1_0"] + truth["b1_U"] * u, "b2": truth["b2"]}
+        paths.append(_decay_csv(params, ["b1", "b2"], Path(folder) / f"decay_{u:g}ms.csv", duration, 10.0,
+                                noise, seed * 10 + i, u))
+    return paths, truth
+
+
 def write_records(records, folder) -> list[str]:
     """Write records as CSV files named after them (what a user would hand over)."""
     paths = []
@@ -142,4 +203,6 @@ def parameters_match(cause: str, parameters: dict, truth: dict, rel: float = 0.2
     if cause in HIDDEN_ROLL_CAUSES:
         term = HIDDEN_ROLL_CAUSES[cause][0]
         return p.get(term) is not None and close(p[term], truth[term])
+    if cause in HIDDEN_ROLL_SPEED_CAUSES:
+        return all(p.get(name) is not None and close(p[name], truth[name]) for name in truth)
     return True

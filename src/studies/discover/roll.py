@@ -4,13 +4,20 @@ Baseline: the linear model ``phi'' + b1 phi' + omega0^2 phi = 0``, either
 identified from the training decay or, when a record of another simulator is
 given (``simulation.path``, e.g. a potential-flow decay), identified from
 that simulation: the simulation is then what is judged against the
-measurements. Each cause adds one term to the baseline (``b2 |phi'| phi'``,
-``b3 phi'^3`` or ``c3 phi^3``), fitted to the measured training decay by
-simulation least squares (with the baseline's own parameters refitted too
-when the baseline came from the data, held when it came from the simulation).
-Scored like the manoeuvring causes (BIC with the effective number of
-independent samples), and validated by predicting the other decays from
-their initial state.
+measurements. Each cause adds one or two terms to the baseline: linear
+damping ``b1_added phi'`` (added to the baseline's ``b1``; at forward speed
+the lift and skin-friction damping potential flow misses), ``b2 |phi'| phi'``,
+``b3 phi'^3`` or ``c3 phi^3``, or linear and quadratic damping together
+(``roll_linear_damping+roll_quadratic_damping``, fitted jointly: the usual
+form of the damping that viscous effects and the hull's lift add).
+The terms are fitted to the measured training decays by simulation least
+squares (with the baseline's own parameters refitted too when the baseline
+came from the data, held when it came from the simulation; the linear causes
+exist only in the latter case, since a baseline fitted to the data already
+has its own ``b1``). Scored like the manoeuvring causes (BIC with the
+effective number of independent samples), and validated by predicting the
+held-out decays from their initial state. A pair is named only with strong
+evidence (score lower by 10) over each of its members.
 """
 
 from __future__ import annotations
@@ -23,18 +30,53 @@ from ..roll.decay import find_extrema
 from ..roll.simulate import predict_record
 from .fitting import sample_intervals
 
-__all__ = ["ROLL_CAUSES", "roll_search", "peak_decay", "PEAK_CYCLES"]
+__all__ = ["ROLL_CAUSES", "PARAMETER_UNITS", "roll_search", "roll_interval", "peak_decay", "PEAK_CYCLES",
+           "cause_terms", "model_params"]
 
+_LINEAR = ("Damping linear in the roll rate that the baseline lacks: at forward speed mostly the lift "
+           "of the hull (Ikeda's lift component, growing with the speed) and skin friction; the "
+           "baseline's radiation damping alone decays too slowly at every amplitude.")
+_QUADRATIC = ("Viscous roll damping grows with the square of the roll rate (eddy making, bilge keels, "
+              "hull skin friction): an inviscid or linear model decays too slowly at large angles.")
+_CUBIC = ("Damping that grows with the cube of the roll rate (strongly non-linear viscous damping at "
+          "large amplitudes).")
+
+#: cause id -> (its parameters, explanation); a pair ``a+b`` adds both members' parameters
 ROLL_CAUSES = {
-    "none": (None, "The linear roll model already explains the decay."),
-    "roll_quadratic_damping": ("b2", "Viscous roll damping grows with the square of the roll rate "
-                                     "(eddy making, bilge keels, hull skin friction): an inviscid or "
-                                     "linear model decays too slowly at large angles."),
-    "roll_cubic_damping": ("b3", "Damping that grows with the cube of the roll rate (strongly "
-                                 "non-linear viscous damping at large amplitudes)."),
-    "roll_nonlinear_restoring": ("c3", "The righting arm is not linear in the heel angle (GZ curve "
-                                       "curvature): the roll period changes with the amplitude."),
+    "none": ((), "The linear roll model already explains the decay."),
+    "roll_linear_damping": (("b1_added",), _LINEAR),
+    "roll_quadratic_damping": (("b2",), _QUADRATIC),
+    "roll_cubic_damping": (("b3",), _CUBIC),
+    "roll_nonlinear_restoring": (("c3",), "The righting arm is not linear in the heel angle (GZ curve "
+                                          "curvature): the roll period changes with the amplitude."),
+    "roll_linear_damping+roll_quadratic_damping": (
+        ("b1_added", "b2"), "Both a linear and a quadratic part of the damping are missing: damping "
+        "linear in the roll rate (at forward speed mostly the lift of the hull, Ikeda's lift component, "
+        "and skin friction) and viscous damping growing with the square of the roll rate (eddy making, "
+        "bilge keels)."),
 }
+
+#: units of the causes' parameters (roll angle in radians)
+PARAMETER_UNITS = {"omega0": "rad/s", "b1": "1/s", "b1_added": "1/s", "b2": "-", "b3": "s",
+                   "c3": "1/s^2"}
+
+
+def cause_terms(cause: str) -> list[str]:
+    """Model terms (:class:`studies.roll.model.RollModel`) of the baseline extended by ``cause``."""
+    extra = [p if p != "b1_added" else "b1" for p in ROLL_CAUSES[cause][0]]
+    return ["b1"] + [t for t in extra if t != "b1"]
+
+
+def model_params(base: dict, added: dict) -> dict:
+    """Parameters of the extended model: ``base`` (``omega0``, ``b1``) with the
+    cause's ``added`` parameters (``b1_added`` adds to ``b1``)."""
+    out = dict(base)
+    for name, value in added.items():
+        if name == "b1_added":
+            out["b1"] = float(base["b1"]) + float(value)
+        else:
+            out[name] = float(value)
+    return out
 
 
 #: full cycles after the release at which the peak amplitude is reported
@@ -73,9 +115,13 @@ def peak_decay(record, predictions: dict) -> pd.DataFrame:
     return table
 
 
-def _fit(terms, free, fixed, records, start):
+def _fit(free, fixed, records, start):
+    """Simulation least squares of the ``free`` parameters (``fixed`` held) on ``records``;
+    ``(params, residual [rad])``."""
+    terms = ["b1"] + [t for t in ("b2", "b3", "c3") if t in free or t in fixed]
+
     def resid(x):
-        params = {**fixed, **dict(zip(free, x))}
+        params = model_params(fixed, dict(zip(free, x)))
         out = []
         for rec in records:
             phi = predict_record(params, terms, rec)
@@ -83,7 +129,7 @@ def _fit(terms, free, fixed, records, start):
         return np.concatenate(out)
 
     res = least_squares(resid, start, x_scale="jac", max_nfev=200)
-    params = {**fixed, **dict(zip(free, res.x))}
+    params = model_params(fixed, dict(zip(free, res.x)))
     return params, resid(res.x)
 
 
@@ -94,38 +140,53 @@ def _tau(x):
     return float(max(1.0, emcee.autocorr.integrated_time(np.asarray(x), c=5, tol=0, quiet=True)[0]))
 
 
+def _rmse_deg(params, terms, records) -> float:
+    """Mean over ``records`` of the RMSE [deg] of their prediction from the initial state."""
+    val = [float(np.sqrt(np.nanmean((predict_record(params, terms, rec) - rec["phi"].to_numpy(float)) ** 2)))
+           for rec in records]
+    return float(np.rad2deg(np.mean(val))) if val else np.nan
+
+
+def _members(cause: str) -> list[str]:
+    return cause.split("+") if "+" in cause else []
+
+
 def roll_search(train, validation, simulation=None) -> dict:
-    """Fit the baseline and every roll cause; rank; validate (RMSE in degrees)."""
-    base_terms = ["b1"]
+    """Fit the baseline and every roll cause; rank; validate (RMSE in degrees).
+
+    Returns a dict with ``fits`` (one per cause: ``cause``, ``terms``,
+    ``params`` of the extended model, ``added`` (the cause's own parameters),
+    ``resid`` [rad], ``k``, ``explanation``, ``validation_rmse_deg``,
+    ``score``), ``best``, ``baseline``, ``n_eff``, ``tau`` and
+    ``simulation_params`` (the baseline fitted to ``simulation``, or None).
+    """
     if simulation is not None:
-        sim_params, _ = _fit(base_terms, ["omega0", "b1"], {}, [simulation],
+        sim_params, _ = _fit(["omega0", "b1"], {}, [simulation],
                              [2 * np.pi / simulation.attrs.get("period", 2 * np.pi), 0.01])
         base_fixed = dict(sim_params)
     else:
         base_fixed = None
     fits = []
-    for cause, (term, explanation) in ROLL_CAUSES.items():
-        terms = base_terms + ([term] if term else [])
+    for cause, (names, explanation) in ROLL_CAUSES.items():
+        if base_fixed is None and "b1_added" in names:
+            continue                     # the data baseline's own b1 already holds it
+        terms = cause_terms(cause)
         if base_fixed is not None:
-            free = [term] if term else []
-            fixed = dict(base_fixed)
-            start = [0.0] if term else []
-            if free:
-                params, resid = _fit(terms, free, fixed, train, start)
+            if names:
+                params, resid = _fit(list(names), dict(base_fixed), train, [0.0] * len(names))
             else:
-                params = dict(fixed)
-                resid = np.concatenate([predict_record(params, terms, r) - r["phi"].to_numpy(float) for r in train])
+                params = dict(base_fixed)
+                resid = np.concatenate([predict_record(params, terms, r) - r["phi"].to_numpy(float)
+                                        for r in train])
+            added = {n: (params["b1"] - base_fixed["b1"] if n == "b1_added" else params[n]) for n in names}
         else:
             period = train[0].attrs.get("period") or 2 * np.pi
-            free = ["omega0", "b1"] + ([term] if term else [])
-            params, resid = _fit(terms, free, {}, train, [2 * np.pi / period, 0.02] + ([0.0] if term else []))
-        val = []
-        for rec in validation:
-            phi = predict_record(params, terms, rec)
-            val.append(float(np.sqrt(np.nanmean((phi - rec["phi"].to_numpy(float)) ** 2))))
-        fits.append({"cause": cause, "terms": terms, "params": params, "resid": resid,
-                     "k": 1 if term else 0, "explanation": explanation,
-                     "validation_rmse_deg": float(np.rad2deg(np.mean(val))) if val else np.nan})
+            free = ["omega0", "b1"] + list(names)
+            params, resid = _fit(free, {}, train, [2 * np.pi / period, 0.02] + [0.0] * len(names))
+            added = {n: params[n] for n in names}
+        fits.append({"cause": cause, "terms": terms, "params": params, "added": added, "resid": resid,
+                     "k": len(names), "explanation": explanation,
+                     "validation_rmse_deg": _rmse_deg(params, terms, validation)})
     n = len(fits[0]["resid"])
     tau = _tau(fits[0]["resid"])
     n_eff = max(10.0, n / tau)
@@ -133,34 +194,45 @@ def roll_search(train, validation, simulation=None) -> dict:
         rss = float(np.sum(f["resid"] ** 2))
         f["score"] = n_eff * np.log(rss / n) + f["k"] * np.log(n_eff)
     baseline = fits[0]
-    eligible = [f for f in fits if f is baseline or (
-        f["score"] < baseline["score"] - 10.0
-        and (np.isnan(f["validation_rmse_deg"]) or f["validation_rmse_deg"] < baseline["validation_rmse_deg"]))]
-    best = min(eligible, key=lambda f: f["score"])
+    scores = {f["cause"]: f["score"] for f in fits}
+
+    def eligible(f):
+        if f is baseline:
+            return True
+        strong = f["score"] < baseline["score"] - 10.0 and all(
+            f["score"] < scores[m] - 10.0 for m in _members(f["cause"]) if m in scores)
+        return strong and (np.isnan(f["validation_rmse_deg"])
+                           or f["validation_rmse_deg"] < baseline["validation_rmse_deg"])
+
+    best = min((f for f in fits if eligible(f)), key=lambda f: f["score"])
     return {"fits": fits, "best": best, "baseline": baseline, "n_eff": n_eff, "tau": tau,
             "simulation_params": base_fixed}
 
 
-def roll_interval(best, train, simulation_fixed, steps: int = 80, seed: int = 0) -> dict:
-    """90 % interval of the winning term by emcee on the profile likelihood."""
-    term = ROLL_CAUSES[best["cause"]][0]
-    if term is None:
+def roll_interval(best, train, simulation_fixed=None, steps: int = 80, seed: int = 0) -> dict:
+    """90 % intervals of the winning cause's parameters by emcee on the profile
+    likelihood (the baseline's parameters at their fitted values)."""
+    names = list(best["added"])
+    if not names:
         return {}
     terms = best["terms"]
     rss0 = float(np.sum(best["resid"] ** 2))
-    n = len(best["resid"])
-    n_eff = max(10.0, n / _tau(best["resid"]))
+    n_eff = max(10.0, len(best["resid"]) / _tau(best["resid"]))
+    base = {k: v for k, v in best["params"].items()}
+    if "b1_added" in names:
+        base["b1"] = best["params"]["b1"] - best["added"]["b1_added"]
 
     def log_prob(x):
-        params = dict(best["params"])
-        params[term] = x[0]
+        params = model_params(base, dict(zip(names, x)))
         r = np.concatenate([predict_record(params, terms, rec) - rec["phi"].to_numpy(float) for rec in train])
         if not np.all(np.isfinite(r)):
             return -np.inf
         return -0.5 * n_eff * np.log(np.sum(r ** 2) / rss0)
 
-    value = best["params"][term]
+    value = np.array([best["added"][n] for n in names])
     rng = np.random.default_rng(seed)
-    start = value * (1 + 0.01 * rng.standard_normal((6, 1)))
-    chain = sample_intervals(log_prob, start, steps // 3, steps - steps // 3, seed)["samples"][:, 0]
-    return {term: [float(np.percentile(chain, 5)), float(np.percentile(chain, 95))]}
+    walkers = 6 if len(names) == 1 else 4 * len(names)
+    start = value * (1 + 0.01 * rng.standard_normal((walkers, len(names))))
+    chain = sample_intervals(log_prob, start, steps // 3, steps - steps // 3, seed)["samples"]
+    return {n: [float(np.percentile(chain[:, j], 5)), float(np.percentile(chain[:, j], 95))]
+            for j, n in enumerate(names)}

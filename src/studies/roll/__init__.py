@@ -26,18 +26,24 @@ lssvm
 records
     Roll-decay records: reading the supported CSV formats, release detection,
     offset removal, resampling, refusal of non-decays, the initial state, Froude
-    scaling of a record's time, ship particulars.
+    scaling of a record's time, ship particulars, a record's forward speed and
+    vessel, the split into first and later cycles.
 simulate
     Simulated decays: a record predicted from its initial state
     (``predict_record``) and synthetic decay records (``simulate_decay_record``).
 decay
     Decay analysis: extrema, period, noise level, decay curve (decrement per
     half-cycle) and its least-squares fit.
+speed
+    Damping against forward speed, ``b1(U) = b1_0 + b1_U U`` with ``b2`` per
+    speed, fitted to decays at two or more speeds; a decay simulated at an
+    untested speed.
 comparison
     Prediction errors (MAE, RMSE) and the damping of a simulated decay
     against measured ones.
 figures
-    PNG figures: predictions and errors, decay curves, simulation vs tests.
+    PNG figures: predictions and errors, decay curves, simulation vs tests,
+    peak envelopes.
 
 References
 ----------

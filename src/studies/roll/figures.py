@@ -6,7 +6,9 @@
   (:func:`studies.roll.decay.decay_curve`), with the curves of identified models;
 - :func:`plot_simulation_vs_tests`: time series and decay curves of a
   simulated decay against measured ones
-  (:func:`studies.roll.comparison.compare_simulation_with_tests`).
+  (:func:`studies.roll.comparison.compare_simulation_with_tests`);
+- :func:`plot_peak_envelope`: the peak amplitude of every half-cycle against
+  time, measured (points) and predicted (lines), one panel per record.
 
 Angles are drawn in degrees; every function writes one file and returns its path.
 """
@@ -20,9 +22,10 @@ import numpy as np
 import pandas as pd
 
 from studies.plotting import pyplot
+from studies.roll.decay import find_extrema
 from studies.roll.model import damping_ratio
 
-__all__ = ["plot_prediction", "plot_decay_curves", "plot_simulation_vs_tests"]
+__all__ = ["plot_prediction", "plot_decay_curves", "plot_simulation_vs_tests", "plot_peak_envelope"]
 
 
 def _figure(nrows: int, ncols: int = 1, figsize=(8.0, 6.0)):
@@ -171,4 +174,54 @@ def plot_simulation_vs_tests(simulation, tests: Sequence, details: dict, path: s
     a1.set_title(f"(b) decay curves ({scale_note})")
     a1.grid(alpha=0.3)
     a1.legend(fontsize=8)
+    return _save(fig, path)
+
+
+def plot_peak_envelope(panels: Sequence[tuple[str, pd.DataFrame, Mapping[str, tuple]]], path: str,
+                       title: str | None = None) -> str:
+    """Peak envelopes: the amplitude of every half-cycle against time, log scale.
+
+    Parameters
+    ----------
+    panels : sequence of (title, record, predictions)
+        One panel each (at most six are drawn): the measured record (``t``
+        [s], ``phi`` [rad]; ``attrs["t_from_release"]`` [s] shifts a record
+        that starts after the release) as points, and ``predictions``
+        mapping a label to ``(t, phi)`` on the same time base as lines.
+    path : str
+        PNG file to write.
+    title : str, optional
+        Figure title.
+
+    Returns
+    -------
+    str
+        ``path``.
+    """
+    panels = list(panels)[:6]
+    ncols = 1 if len(panels) == 1 else 2
+    nrows = max(1, math.ceil(len(panels) / ncols))
+    fig, axes = _figure(nrows, ncols, (7.5 if ncols == 1 else 11.0, 3.2 * nrows))
+    for ax, (name, rec, preds) in zip(axes.ravel(), panels):
+        shift = float(rec.attrs.get("t_from_release", 0.0))
+        ex = find_extrema(rec["t"].to_numpy(float), rec["phi"].to_numpy(float), 0.0)
+        ax.semilogy(ex.t + shift, np.degrees(ex.amplitude), "ko", ms=3, label="measured")
+        tmax = float(rec["t"].iloc[-1])
+        for label, (t, phi) in preds.items():
+            t = np.asarray(t, float)
+            keep = t <= tmax + 1e-9
+            pe = find_extrema(t[keep], np.asarray(phi, float)[keep], 0.0)
+            style = ":" if label == "other simulator" else "-"
+            ax.semilogy(pe.t + shift, np.degrees(pe.amplitude), style, lw=1.3, label=label)
+        ax.yaxis.set_major_formatter(lambda v, _: f"{v:g}")
+        ax.yaxis.set_minor_formatter(lambda v, _: f"{v:g}" if f"{v:g}"[0] in "1235" else "")
+        ax.set_title(name, fontsize=9)
+        ax.set_xlabel("time after the release [s]")
+        ax.set_ylabel("peak roll [deg]")
+        ax.grid(alpha=0.3, which="both")
+        ax.legend(fontsize=7)
+    for ax in axes.ravel()[len(panels):]:
+        ax.set_visible(False)
+    if title:
+        fig.suptitle(title)
     return _save(fig, path)

@@ -12,11 +12,12 @@ Formats read (CSV, one row per sample):
 ``t`` [s] starting at 0 at the release instant and ``phi`` [rad] about the
 equilibrium, on a uniform time step. Metadata are in ``DataFrame.attrs``
 (``file``, ``name``, ``t_release``, ``offset``, ``dt``, ``period``,
-``n_extrema``). Every refused input raises :class:`studies.errors.DataError`
+``n_extrema``, and ``speed`` [m/s] when the record says it). Every refused input raises :class:`studies.errors.DataError`
 naming the file and the reason. :func:`initial_state` estimates the state a
 record starts from; :func:`froude_scale_record` brings a record's time to
 another geometric scale; :func:`find_particulars` reads the ship particulars
-filed beside a record.
+filed beside a record; :func:`split_cycles` cuts a decay into its first and
+its later cycles (a single record's time-blocked hold-out).
 
 References
 ----------
@@ -52,6 +53,9 @@ __all__ = [
     "find_particulars",
     "initial_state",
     "froude_scale_record",
+    "record_speed",
+    "record_vessel",
+    "split_cycles",
 ]
 
 _TIME_COLUMNS = ("t", "time", "Time")
@@ -102,6 +106,7 @@ def read_roll_decay_csv(path) -> pd.DataFrame:
             raise DataError(file, "NaN, missing or non-numeric value", column=src, row=int(bad[0]))
         out[dst] = vals
     t, phi = out["t"], out["phi"]
+    speed = _speed_column(raw) if "speed" in cols else None
     if t.size < MIN_SAMPLES:
         raise DataError(file, f"too few samples ({t.size}, need at least {MIN_SAMPLES})")
     dt = np.diff(t)
@@ -112,7 +117,17 @@ def read_roll_decay_csv(path) -> pd.DataFrame:
     if big.size:
         raise DataError(file, f"roll angle {phi[big[0]]:g} exceeds 90 deg in radians: "
                               "looks like degrees, radians expected", column="phi", row=int(big[0]))
-    return pd.DataFrame({"t": t, "phi": phi})
+    df = pd.DataFrame({"t": t, "phi": phi})
+    if speed is not None:
+        df.attrs["speed"] = speed
+    return df
+
+
+def _speed_column(raw: pd.DataFrame) -> float | None:
+    """Median of a ``speed`` column [m/s] (forward speed of the decay), None when not numeric."""
+    vals = pd.to_numeric(raw["speed"], errors="coerce").to_numpy(dtype=float)
+    vals = vals[np.isfinite(vals)]
+    return float(np.median(vals)) if vals.size else None
 
 
 # ---------------------------------------------------------- preprocessing
@@ -353,8 +368,9 @@ def load_roll_decay(path, dt: float | None = None, offset: str | float = "centre
         Prepared record: ``t`` [s] from the release, ``phi`` [rad] about
         equilibrium, uniform step; ``attrs`` with ``file``, ``name``,
         ``t_release`` [s], ``offset`` [rad], ``dt`` [s], ``period`` [s],
-        ``n_extrema``, ``phi_release`` [rad], and ``particulars`` when
-        :func:`find_particulars` finds them.
+        ``n_extrema``, ``phi_release`` [rad], ``particulars`` when
+        :func:`find_particulars` finds them, and ``speed`` [m/s at the
+        record's scale] when known (see :func:`record_speed`).
 
     Raises
     ------
@@ -368,7 +384,42 @@ def load_roll_decay(path, dt: float | None = None, offset: str | float = "centre
     part = find_particulars(path)
     if part is not None:
         df.attrs["particulars"] = part
+    speed = record_speed(raw.attrs.get("speed"), part)
+    if speed is not None:
+        df.attrs["speed"] = speed
     return df
+
+
+#: [m/s] per knot
+KNOT = 1852.0 / 3600.0
+
+
+def record_speed(column: float | None, particulars: dict | None) -> float | None:
+    """Forward speed of a decay [m/s at the record's scale].
+
+    From the record's ``speed`` column [m/s] when it has one, else from the
+    test's ``ship_speed`` [kn, full scale] in the particulars, Froude-scaled
+    to the record's scale (``U_model = U_full / sqrt(scale)``); None when
+    neither says.
+    """
+    if column is not None:
+        return float(column)
+    if particulars and particulars.get("speed_kn") is not None:
+        return float(particulars["speed_kn"]) * KNOT / math.sqrt(float(particulars.get("scale", 1.0)))
+    return None
+
+
+def record_vessel(particulars: dict | None) -> tuple[str | None, str]:
+    """The ship a decay is of and where that came from: ``(name or None, source)``.
+
+    The particulars (:func:`find_particulars`) carry ``vessel`` when a
+    parameter file names the ship (``fnpf_parameters.csv``'s ``title`` for the
+    test it was run for, and for every test of ``model_test_parameters.csv``
+    with the same length, beam and displacement).
+    """
+    if particulars and particulars.get("vessel"):
+        return str(particulars["vessel"]), str(particulars.get("vessel_source", ""))
+    return None, "no parameter file beside the records names the ship"
 
 
 def initial_state(record: pd.DataFrame, period: float | None = None) -> tuple[float, float]:
@@ -412,6 +463,48 @@ def initial_state(record: pd.DataFrame, period: float | None = None) -> tuple[fl
     n = min(8, t.size)
     c = np.polyfit(tt[:n], phi[:n], min(3, n - 1))
     return float(np.polyval(c, 0.0)), float(np.polyval(np.polyder(c), 0.0))
+
+
+def split_cycles(record: pd.DataFrame, share: float) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Cut a prepared decay at an extremum into its first cycles and its last ``share`` of them.
+
+    Parameters
+    ----------
+    record : DataFrame
+        Prepared decay (``t`` [s] from the release, ``phi`` [rad]).
+    share : float
+        Share of the half-cycles (extrema after the release) held out, in (0, 1).
+
+    Returns
+    -------
+    first, last : DataFrame
+        The record up to and including the extremum at the cut, and the
+        record from it on with ``t`` restarting at 0. Both keep the
+        record's ``attrs`` with ``name`` suffixed ``_first``/``_last``;
+        ``last.attrs["t_from_release"]`` is the time [s] of the cut after the
+        release, ``phi_release`` its angle [rad], and ``n_extrema`` counts
+        each part's own extrema.
+
+    Raises
+    ------
+    ValueError
+        Fewer than four extrema on either side of the cut.
+    """
+    t = record["t"].to_numpy(float)
+    ex = find_extrema(t, record["phi"].to_numpy(float), 0.0)
+    n = len(ex)
+    k = int(round(n * (1.0 - float(share))))
+    if k < 4 or n - k < 4:
+        raise ValueError(f"{n} extrema: too few to hold out {100 * share:.0f} % of them with four on each side")
+    i = int(ex.index[k])
+    first = record.iloc[:i + 1].reset_index(drop=True)
+    last = record.iloc[i:].reset_index(drop=True)
+    last["t"] = last["t"] - t[i]
+    name = str(record.attrs.get("name", "decay"))
+    first.attrs = {**record.attrs, "name": f"{name}_first", "n_extrema": k}
+    last.attrs = {**record.attrs, "name": f"{name}_last", "n_extrema": n - k, "t_from_release": float(t[i]),
+                  "phi_release": float(last["phi"].iloc[0])}
+    return first, last
 
 
 def froude_scale_record(record: pd.DataFrame, from_scale: float, to_scale: float) -> pd.DataFrame:
@@ -492,8 +585,11 @@ def find_particulars(path) -> dict | None:
         ``scale`` (geometric scale factor of the record: 1 = full scale, 68 =
         model 1:68), ``full`` (dict with ``displacement`` [m^3], ``gm`` [m],
         ``kxx`` [m], ``rho`` [kg/m^3], ``g`` [m/s^2], ``lpp`` [m] at full scale),
-        ``model_scale_factor`` (the scale of the physical model tests), and
-        ``source`` (text). ``None`` when nothing is found.
+        ``model_scale_factor`` (the scale of the physical model tests),
+        ``source`` (text), ``speed_kn`` (the test's ship speed [kn, full
+        scale], when the file has ``ship_speed``) and ``vessel``,
+        ``vessel_source`` (the ship's name and where it came from, when a
+        parameter file names it). ``None`` when nothing is found.
     """
     p = Path(path)
     params = p.parent / "model_test_parameters.csv"
@@ -537,5 +633,32 @@ def find_particulars(path) -> dict | None:
         "g": float(r["g"]),
         "lpp": float(r["lpp"]),
     }
-    return {"scale": float(scale), "model_scale_factor": lam_tests, "full": full, "source": source,
-            "run_id": run_id}
+    out = {"scale": float(scale), "model_scale_factor": lam_tests, "full": full, "source": source,
+           "run_id": run_id}
+    if "ship_speed" in r and np.isfinite(pd.to_numeric(r["ship_speed"], errors="coerce")):
+        out["speed_kn"] = float(r["ship_speed"])
+    out.update(_vessel_name(p.parent, table, r))
+    return out
+
+
+def _vessel_name(folder: Path, table: pd.DataFrame, row) -> dict:
+    """``vessel`` and ``vessel_source`` of a test: the ``title`` of ``fnpf_parameters.csv``
+    when the test it names has the same length, beam and displacement as ``row``."""
+    fp = folder / "fnpf_parameters.csv"
+    try:
+        f = pd.read_csv(fp).iloc[0].to_dict() if fp.is_file() else {}
+    except Exception:
+        return {}
+    title = str(f.get("title") or "").strip()
+    if not title or "id" not in f:
+        return {}
+    named = table[table["id"].astype(str) == str(int(float(f["id"])))]
+    if named.empty:
+        return {}
+    keys = ("lpp", "beam", "Volume")
+    same = all(k in row and k in named and np.isclose(float(named.iloc[0][k]), float(row[k]), rtol=1e-3)
+               for k in keys)
+    if not same:
+        return {}
+    return {"vessel": title, "vessel_source": f"title of {fp.name} (test {int(float(f['id']))}, same length, "
+                                              "beam and displacement)"}
