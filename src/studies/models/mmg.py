@@ -1,0 +1,306 @@
+"""The MMG standard method (Yasukawa & Yoshimura 2015): hull terms, propeller and rudder.
+
+A modular manoeuvring model: the hull forces are named terms (a
+:class:`~studies.models.abkowitz.ManoeuvringModel` that the regression,
+SINDy, the GA and the tables read), the propeller and the rudder are force
+modules with a few physical parameters (:class:`MMGParameters`).
+
+Axes and signs
+--------------
+Body axes at midship (x forward, y to starboard), ``u`` surge and ``v`` sway
+velocity at midship [m/s], ``r`` yaw rate [rad/s], ``U = sqrt(u^2 + v^2)``,
+drift angle ``beta = atan2(-v, u)`` [rad]. The MMG's own rudder angle
+``delta_M`` turns the ship to starboard (positive heading) when positive; the
+data contract of `studies` (and the MARIN files) uses the opposite sign, so
+``delta_M = -delta``: every function here takes the contract's ``delta``.
+
+Equations of motion (Yasukawa & Yoshimura 2015, eq. 4)::
+
+    (m + m_x) u_dot - (m + m_y) v r - x_G m r^2            = X_H + X_R + X_P
+    (m + m_y) v_dot + (m + m_x) u r + x_G m r_dot          = Y_H + Y_R
+    (I_zG + x_G^2 m + J_z) r_dot + x_G m (v_dot + u r)     = N_H + N_R
+
+with ``m`` [kg] the mass, ``I_zG`` [kg m^2] the yaw inertia about the centre
+of gravity, ``x_G`` [m] its position forward of midship, and the added masses
+``m_x = m'_x (0.5 rho L^2 d)``, ``m_y = m'_y (0.5 rho L^2 d)``,
+``J_z = J'_z (0.5 rho L^4 d)`` (``L`` = Lpp, ``d`` draught).
+
+Hull (eq. 8-10), prime states ``v' = v / U``, ``r' = r L / U``::
+
+    X_H = 0.5 rho L d U^2 (-R'_0 + X'_vv v'^2 + X'_vr v' r' + X'_rr r'^2 + X'_vvvv v'^4)
+    Y_H = 0.5 rho L d U^2 (Y'_v v' + Y'_r r' + Y'_vvv v'^3 + Y'_vvr v'^2 r'
+                           + Y'_vrr v' r'^2 + Y'_rrr r'^3)
+    N_H = 0.5 rho L^2 d U^2 (N'_v v' + ... + N'_rrr r'^3)        (same monomials)
+
+Note the ``L d`` (not ``L^2``) scaling of the forces: the Abkowitz models of
+`studies` use ``0.5 rho L^2 U^2``.
+
+Propeller (eq. 11-17)::
+
+    X_P = (1 - t_P) T,   T = rho n^2 D^4 K_T(J_P),   K_T = k0 + k1 J + k2 J^2
+    J_P = u (1 - w_P) / (n D)
+    1 - w_P = (1 - w_P0) (1 + (1 - exp(-C_1 |beta_P|)) (C_2 - 1)),   beta_P = beta - x'_P r'
+    C_2 = C_2+ for beta_P > 0, C_2- otherwise
+
+(``n`` [rps] the propeller rate; a stopped propeller, ``n = 0``, gives no
+thrust).
+
+Rudder (eq. 18-32)::
+
+    F_N = 0.5 rho A_R U_R^2 f_alpha sin(alpha_R),   alpha_R = delta_M - atan(v_R / u_R)
+    X_R = -(1 - t_R) F_N sin(delta_M)
+    Y_R = -(1 + a_H) F_N cos(delta_M)
+    N_R = -(x_R + a_H x_H) F_N cos(delta_M)
+    u_R = epsilon u (1 - w_P) sqrt(eta {1 + kappa (sqrt(1 + 8 K_T / (pi J_P^2)) - 1)}^2 + 1 - eta)
+    v_R = U gamma_R beta_R,   beta_R = beta - l'_R r',   eta = D / H_R
+    gamma_R = gamma_R- for beta_R < 0, gamma_R+ otherwise
+
+with ``x_R`` the rudder position and ``x_H = x'_H L``. :func:`module_forces`
+evaluates ``u_R`` in the equivalent form ``epsilon sqrt(eta (u_P + kappa
+(sqrt(u_P^2 + 8 T / (pi rho D^2)) - u_P))^2 + (1 - eta) u_P^2)`` with
+``u_P = u (1 - w_P)`` (no division by ``J_P``), and ``sin(alpha_R) U_R =
+u_R sin(delta_M) - v_R cos(delta_M)`` (no arctangent).
+
+The functions :func:`hull_forces` and :func:`module_forces` are written with
+NumPy ufuncs only, so they take scalars or arrays: the regression evaluates
+them on a record's arrays, and :mod:`studies.simulate.mmg` compiles the same
+functions into its RK4 right-hand side (one definition of the physics).
+
+References
+----------
+Yasukawa, H., Yoshimura, Y. (2015). Introduction of MMG standard method for
+ship maneuvering predictions. J. Mar. Sci. Technol. 20, 37-52.
+doi:10.1007/s00773-014-0293-y (KVLCC2 L7 model: Table 2-4).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from .abkowitz import ManoeuvringModel
+from .terms import Term
+
+__all__ = ["MMGTerm", "MMGParameters", "HULL_TERMS", "KVLCC2_HULL", "KVLCC2_ADDED_MASS",
+           "KVLCC2_KT_PUBLISHED", "mmg", "fit_kt", "hull_forces", "module_forces",
+           "rudder_propeller", "module_constants", "MODULE_CONSTANTS"]
+
+
+@dataclass(frozen=True)
+class MMGTerm(Term):
+    """A hull term of the MMG model: ``sign`` x monomial of ``(u', v', r', delta)``.
+
+    ``sign`` is -1 for the resistance ``R0`` (``X'_H = -R'_0 + ...``, the
+    published coefficient is positive) and +1 for every other term.
+    """
+
+    sign: float = 1.0
+
+    def feature(self, primes: np.ndarray) -> np.ndarray:
+        return self.sign * super().feature(primes)
+
+
+#: (name, dof, exponents of (u', v', r', delta), sign), in the order of eq. 8-10
+HULL_TERMS = (
+    ("R0", "X", (0, 0, 0, 0), -1.0), ("Xvv", "X", (0, 2, 0, 0), 1.0),
+    ("Xvr", "X", (0, 1, 1, 0), 1.0), ("Xrr", "X", (0, 0, 2, 0), 1.0),
+    ("Xvvvv", "X", (0, 4, 0, 0), 1.0),
+    ("Yv", "Y", (0, 1, 0, 0), 1.0), ("Yr", "Y", (0, 0, 1, 0), 1.0),
+    ("Yvvv", "Y", (0, 3, 0, 0), 1.0), ("Yvvr", "Y", (0, 2, 1, 0), 1.0),
+    ("Yvrr", "Y", (0, 1, 2, 0), 1.0), ("Yrrr", "Y", (0, 0, 3, 0), 1.0),
+    ("Nv", "N", (0, 1, 0, 0), 1.0), ("Nr", "N", (0, 0, 1, 0), 1.0),
+    ("Nvvv", "N", (0, 3, 0, 0), 1.0), ("Nvvr", "N", (0, 2, 1, 0), 1.0),
+    ("Nvrr", "N", (0, 1, 2, 0), 1.0), ("Nrrr", "N", (0, 0, 3, 0), 1.0),
+)
+
+#: published hull coefficients of the KVLCC2 L7 model (Yasukawa & Yoshimura
+#: 2015, Table 4; forces over 0.5 rho L d U^2, moment over 0.5 rho L^2 d U^2)
+KVLCC2_HULL = {
+    "R0": 0.022, "Xvv": -0.040, "Xvr": 0.002, "Xrr": 0.011, "Xvvvv": 0.771,
+    "Yv": -0.315, "Yr": 0.083, "Yvvv": -1.607, "Yvvr": 0.379, "Yvrr": -0.391, "Yrrr": 0.008,
+    "Nv": -0.137, "Nr": -0.049, "Nvvv": -0.030, "Nvvr": -0.294, "Nvrr": 0.055, "Nrrr": -0.013,
+}
+
+#: MMG added masses m'_x, m'_y (over 0.5 rho L^2 d) and J'_z (over 0.5 rho L^4 d)
+KVLCC2_ADDED_MASS = {"mx": 0.022, "my": 0.223, "jz": 0.011}
+
+#: published open-water polynomial (k0, k1, k2); the vessel uses a fit of the
+#: measured open-water table instead (k2 is quoted differently in the literature)
+KVLCC2_KT_PUBLISHED = (0.2931, -0.2753, -0.1385)
+
+
+@dataclass(frozen=True)
+class MMGParameters:
+    """Propeller and rudder parameters of the MMG standard method.
+
+    Defaults are the published values of the KVLCC2 L7 model (Yasukawa &
+    Yoshimura 2015, Table 3/4). Lengths are fractions of ``L``.
+
+    Attributes
+    ----------
+    tP : float
+        Thrust deduction factor t_P [-].
+    wP0 : float
+        Effective wake fraction at the propeller in straight motion [-].
+    C1 : float
+        Wake-change coefficient C_1 [-] (drift at the propeller).
+    C2_plus, C2_minus : float
+        Wake-change coefficient C_2 for ``beta_P > 0`` and ``beta_P <= 0`` [-].
+    tR : float
+        Steering resistance deduction factor t_R [-].
+    aH : float
+        Rudder force increase factor a_H [-].
+    xH : float
+        Position of the additional lateral force x'_H [-] (fraction of L).
+    gammaR_minus, gammaR_plus : float
+        Flow-straightening coefficient gamma_R for ``beta_R < 0`` and
+        ``beta_R >= 0`` [-].
+    lR : float
+        Effective longitudinal rudder position l'_R [-] (fraction of L).
+    epsilon : float
+        Wake ratio at rudder and propeller epsilon [-].
+    kappa : float
+        Propeller slipstream correction kappa [-].
+    f_alpha : float
+        Rudder lift gradient coefficient f_alpha [1/rad].
+    """
+
+    tP: float = 0.220
+    wP0: float = 0.40
+    C1: float = 2.0
+    C2_plus: float = 1.6
+    C2_minus: float = 1.1
+    tR: float = 0.387
+    aH: float = 0.312
+    xH: float = -0.464
+    gammaR_minus: float = 0.395
+    gammaR_plus: float = 0.640
+    lR: float = -0.710
+    epsilon: float = 1.09
+    kappa: float = 0.50
+    f_alpha: float = 2.747
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+def mmg(name: str = "mmg") -> ManoeuvringModel:
+    """The 17 hull terms of the MMG standard method (:data:`HULL_TERMS`).
+
+    Forces of this term set are over ``0.5 rho L d U^2`` (moment over
+    ``0.5 rho L^2 d U^2``); the propeller and rudder are not terms but
+    modules (:func:`module_forces`). No term is linear in ``delta``, so
+    :meth:`ManoeuvringModel.rudder_yaw_sign` gives the contract's -1.
+    """
+    return ManoeuvringModel(name, tuple(MMGTerm(n, dof, p, s) for n, dof, p, s in HULL_TERMS))
+
+
+def fit_kt(j, kt) -> tuple[float, float, float]:
+    """Least-squares quadratic ``K_T = k0 + k1 J + k2 J^2`` of an open-water table.
+
+    Parameters
+    ----------
+    j, kt : array_like
+        Advance ratio J [-] and thrust coefficient K_T [-].
+
+    Returns
+    -------
+    tuple
+        ``(k0, k1, k2)``.
+    """
+    k2, k1, k0 = np.polyfit(np.asarray(j, float), np.asarray(kt, float), 2)
+    return float(k0), float(k1), float(k2)
+
+
+#: names of :func:`module_constants`, in order
+MODULE_CONSTANTS = ("L", "rho", "D", "k0", "k1", "k2", "xP", "xR", "q_rudder", "eta", "tP",
+                    "wP0", "C1", "C2_plus", "C2_minus", "tR", "aH", "xH", "gammaR_minus",
+                    "gammaR_plus", "lR", "epsilon", "kappa")
+
+
+def module_constants(vessel, params: MMGParameters) -> tuple:
+    """Constants of :func:`module_forces` as a tuple of floats (:data:`MODULE_CONSTANTS`).
+
+    ``vessel`` has the MMG particulars (``length``, ``rho``,
+    ``propeller_diameter``, ``kt``, ``xp``, ``xr`` [m], ``rudder_area``,
+    ``rudder_height``; see :class:`studies.vessels.kvlcc2_mmg.MMGVessel`).
+    ``xR`` and ``xH`` come out in metres, ``xP`` and ``lR`` as fractions of
+    ``L``, ``q_rudder = 0.5 rho A_R f_alpha``.
+    """
+    L = float(vessel.length)
+    k0, k1, k2 = (float(x) for x in vessel.kt)
+    p = params
+    values = (L, vessel.rho, vessel.propeller_diameter, k0, k1, k2, vessel.xp / L, vessel.xr,
+              0.5 * vessel.rho * vessel.rudder_area * p.f_alpha,
+              vessel.propeller_diameter / vessel.rudder_height, p.tP, p.wP0, p.C1, p.C2_plus,
+              p.C2_minus, p.tR, p.aH, p.xH * L, p.gammaR_minus, p.gammaR_plus, p.lR, p.epsilon,
+              p.kappa)
+    return tuple(float(x) for x in values)
+
+
+def hull_forces(vp, rp, c):
+    """Prime hull forces ``(X'_H, Y'_H, N'_H)`` at ``v' = v/U``, ``r' = r L/U``.
+
+    ``c`` holds the 17 coefficients in the order of :data:`HULL_TERMS`
+    (``R0`` as published, positive). Scalars or arrays.
+    """
+    vv = vp * vp
+    rr = rp * rp
+    vr = vp * rp
+    x = (-c[0] + c[1] * vv) + (c[2] * vr + c[3] * rr) + c[4] * vv * vv
+    y = (c[5] * vp + c[6] * rp) + (c[7] * vv * vp + c[8] * vv * rp) + (c[9] * vp * rr + c[10] * rr * rp)
+    n = (c[11] * vp + c[12] * rp) + (c[13] * vv * vp + c[14] * vv * rp) + (c[15] * vp * rr + c[16] * rr * rp)
+    return x, y, n
+
+
+def module_forces(u, v, r, delta, n, k):
+    """Propeller and rudder forces ``(X_P + X_R, Y_R, N_R)`` [N, N, N m].
+
+    Parameters
+    ----------
+    u, v : float or ndarray
+        Surge and sway velocity at midship through the water [m/s].
+    r : float or ndarray
+        Yaw rate [rad/s].
+    delta : float or ndarray
+        Rudder angle [rad], contract sign (positive turns to negative heading).
+    n : float or ndarray
+        Propeller rate [rps], >= 0.
+    k : tuple
+        :func:`module_constants`.
+    """
+    return rudder_propeller(u, v, r, np.sin(delta), np.cos(delta), n, k)
+
+
+def rudder_propeller(u, v, r, sin_delta, cos_delta, n, k):
+    """:func:`module_forces` with the rudder angle given by its sine and cosine
+    (contract sign), for a caller that rotates them instead of recomputing."""
+    (L, rho, D, k0, k1, k2, xP, xR, q_rudder, eta, tP, wP0, C1, C2p, C2m, tR, aH, xH,
+     gRm, gRp, lR, eps, kappa) = k
+    speed = np.sqrt(u * u + v * v)
+    rp = r * L * (1.0 / speed)
+    beta = np.arctan2(-v, u)
+    # propeller: wake changes with the drift at the propeller
+    beta_p = beta - xP * rp
+    c2 = C2m + (C2p - C2m) * (beta_p > 0.0)
+    u_p = u * (1.0 - wP0) * (1.0 + (1.0 - np.exp(-C1 * abs(beta_p))) * (c2 - 1.0))
+    nd = n * D
+    # T = rho n^2 D^4 K_T(J) = rho D^2 (k0 (nD)^2 + k1 u_P nD + k2 u_P^2); zero when stopped
+    thrust = rho * D * D * (k0 * nd * nd + k1 * u_p * nd + k2 * u_p * u_p) * (n > 0.0)
+    # rudder inflow: propeller slipstream and flow straightening
+    jet = u_p * u_p + thrust * (8.0 / (np.pi * rho * D * D))
+    slip = np.sqrt(jet * (jet > 0.0))
+    inflow = u_p + kappa * (slip - u_p)
+    u_r2 = eps * eps * (eta * inflow * inflow + (1.0 - eta) * u_p * u_p)
+    beta_r = beta - lR * rp
+    v_r = speed * (gRm + (gRp - gRm) * (beta_r >= 0.0)) * beta_r
+    # MMG rudder sign is opposite to the contract's
+    sd = -sin_delta
+    cd = cos_delta
+    # F_N = 0.5 rho A_R f_alpha U_R^2 sin(alpha_R), U_R sin(alpha_R) = u_R sin(dM) - v_R cos(dM)
+    f_n = q_rudder * np.sqrt(u_r2 + v_r * v_r) * (np.sqrt(u_r2) * sd - v_r * cd)
+    x = (1.0 - tP) * thrust - (1.0 - tR) * f_n * sd
+    y = -(1.0 + aH) * f_n * cd
+    moment = -(xR + aH * xH) * f_n * cd
+    return x, y, moment

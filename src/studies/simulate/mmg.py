@@ -1,0 +1,343 @@
+"""Compiled RK4 simulator of the MMG model: hull terms, propeller and rudder.
+
+The equations and the forces are those of :mod:`studies.models.mmg`; its
+functions :func:`~studies.models.mmg.hull_forces` and
+:func:`~studies.models.mmg.rudder_propeller` (the body of
+:func:`~studies.models.mmg.module_forces`, with the rudder angle as its sine
+and cosine) are compiled here as they are (one definition of the physics for
+the simulator and the regression).
+The loop is scalar and allocation-free like
+:mod:`studies.simulate.integrator`, and shares its rudder logic
+(:func:`~studies.simulate.integrator._command`: zig-zag switching on heading,
+turning circle with pull-out, autopilot, prescribed rudder) and the rudder
+servo (saturation, rate limit, first-order lag of the vessel).
+
+State vector (7): ``u`` [m/s] total surge and ``v`` [m/s] sway at midship
+through the water, ``r`` [rad/s], ``x0``, ``y0`` [m] earth-fixed position
+(x0 north), ``psi`` [rad], ``delta`` [rad] actual rudder angle in the data
+contract's sign (positive turns to negative heading; the MMG's own rudder
+angle is ``-delta``). The propeller rate ``n`` [rps] is an input per
+integration step (constant for the standard manoeuvres, a measured record's
+``n`` when replaying), linear within a step.
+
+Records have the columns ``t, x0, y0, psi, u, v, r, delta, n`` (data
+contract, SI units and radians). Calm water: no wind, current or external
+forces yet.
+
+The heading's and the rudder's sine and cosine are computed once per step and
+rotated through the stages by their increments (exact to 1e-12 for
+increments below 0.1 rad: a rudder rate below 1 rad/s at a 0.1 s step).
+
+Numba caches the compiled loop by this file's time stamp: after editing the
+force functions of :mod:`studies.models.mmg` (compiled inline here), touch
+this file or clear its ``__pycache__`` so the cache is rebuilt.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+from numba import njit
+from scipy.optimize import brentq
+
+from ..data.resample import resample
+from ..models.abkowitz import ManoeuvringModel
+from ..models.mmg import (HULL_TERMS, MMGParameters, hull_forces, module_constants, module_forces,
+                          rudder_propeller)
+from ..vessels.kvlcc2_mmg import MMGVessel
+from .integrator import DIVERGED_SPEED_FACTOR, N_STATES, _command, _small_rotation
+from .manoeuvres import Manoeuvre
+
+__all__ = ["simulate_mmg", "replay_mmg", "rk4_mmg", "hull_vector", "mmg_inputs", "mmg_forces",
+           "self_propulsion_rps"]
+
+# the same contraction-only fast-math as the Abkowitz integrator
+_FAST = {"contract", "arcp", "nsz"}
+
+_hull = njit(cache=True, inline="always", fastmath=_FAST)(hull_forces)
+_rudder_propeller = njit(cache=True, inline="always", fastmath=_FAST)(rudder_propeller)
+
+#: yaw sign of the contract: a positive rudder turns the ship to negative heading
+YAW_SIGN = -1.0
+
+
+@njit(cache=True, inline="always", fastmath=_FAST)
+def _derivatives(u, v, r, cpsi, spsi, delta, sdelta, cdelta, delta_c, prescribed_rate, prescribed,
+                 n, c, k, a):
+    """State derivative at one RK4 stage; ``sdelta``, ``cdelta`` the sine and
+    cosine of the rudder angle ``delta``, ``c`` hull coefficients, ``k`` the
+    module constants, ``a`` the rigid-body constants of :func:`_body_constants`."""
+    speed = math.sqrt(u * u + v * v)
+    inv = 1.0 / speed
+    xh, yh, nh = _hull(v * inv, r * a[0] * inv, c)
+    xm, ym, nm = _rudder_propeller(u, v, r, sdelta, cdelta, n, k)
+    q = a[1] * speed * speed
+    fx = q * xh + xm + a[3] * v * r + a[4] * r * r
+    fy = q * yh + ym - a[2] * u * r
+    fn = q * a[0] * nh + nm - a[4] * u * r
+    u_dot = fx * a[5]
+    v_dot = a[6] * fy + a[7] * fn
+    r_dot = a[8] * fy + a[9] * fn
+    x_dot = cpsi * u - spsi * v
+    y_dot = spsi * u + cpsi * v
+    if prescribed:
+        delta_dot = prescribed_rate
+    else:
+        dc = min(max(delta_c, -a[10]), a[10])
+        delta_dot = min(max((dc - delta) * a[12], -a[11]), a[11])
+    return u_dot, v_dot, r_dot, x_dot, y_dot, r, delta_dot
+
+
+def _body_constants(vessel: MMGVessel) -> tuple:
+    """``(L, 0.5 rho L d, m + m_x, m + m_y, x_G m, 1/(m + m_x), inverse of the
+    sway-yaw mass block (4), rudder limit, rate limit, 1/time constant)``."""
+    mx, my, jz = vessel.added_masses()
+    m = vessel.mass
+    a1, a2 = m + mx, m + my
+    a3 = vessel.iz + vessel.xg ** 2 * m + jz
+    xgm = vessel.xg * m
+    det = a2 * a3 - xgm * xgm
+    values = (vessel.length, 0.5 * vessel.rho * vessel.length * vessel.draught, a1, a2, xgm,
+              1.0 / a1, a3 / det, -xgm / det, -xgm / det, a2 / det, vessel.rudder_max,
+              vessel.rudder_rate, 1.0 / vessel.rudder_time_constant)
+    return tuple(float(x) for x in values)
+
+
+@njit(cache=True, error_model="numpy", fastmath=_FAST)
+def _integrate(c, k, a, x0, dt, cmd, mode, params, rps, limit, out):
+    """RK4 over ``out.shape[0] - 1`` steps. Returns -1, or the first step that
+    left the physical range (rows from there on are NaN)."""
+    n = out.shape[0]
+    s0, s1, s2, s3, s4, s5, s6 = x0[0], x0[1], x0[2], x0[3], x0[4], x0[5], x0[6]
+    for j in range(N_STATES):
+        out[0, j] = x0[j]
+    psi0 = s5
+    p0, p1, p2 = params[0], params[1], params[2]
+    memory = params[3] if mode == 1 else 1.0
+    prescribed = mode == 3
+    h = 0.5 * dt
+    sixth = dt / 6.0
+    for i in range(n - 1):
+        dc, memory = _command(mode, cmd[i], s5, s2, psi0, p0, p1, p2, memory)
+        rate = 0.0
+        if prescribed:
+            s6 = cmd[i]
+            rate = (cmd[i + 1] - cmd[i]) / dt
+        n_a = rps[i]
+        n_b = rps[i + 1]
+        n_m = 0.5 * (n_a + n_b)
+        # one cosine/sine of the heading and of the rudder per step: the stages
+        # rotate them by their small increments (the rudder moves < 0.1 rad per step)
+        cp = math.cos(s5)
+        sp = math.sin(s5)
+        cr = math.cos(s6)
+        sr = math.sin(s6)
+        k1 = _derivatives(s0, s1, s2, cp, sp, s6, sr, cr, dc, rate, prescribed, n_a, c, k, a)
+        ca, sa = _small_rotation(h * k1[5])
+        cb, sb = _small_rotation(h * k1[6])
+        k2 = _derivatives(s0 + h * k1[0], s1 + h * k1[1], s2 + h * k1[2], cp * ca - sp * sa,
+                          sp * ca + cp * sa, s6 + h * k1[6], sr * cb + cr * sb, cr * cb - sr * sb,
+                          dc, rate, prescribed, n_m, c, k, a)
+        ca, sa = _small_rotation(h * k2[5])
+        cb, sb = _small_rotation(h * k2[6])
+        k3 = _derivatives(s0 + h * k2[0], s1 + h * k2[1], s2 + h * k2[2], cp * ca - sp * sa,
+                          sp * ca + cp * sa, s6 + h * k2[6], sr * cb + cr * sb, cr * cb - sr * sb,
+                          dc, rate, prescribed, n_m, c, k, a)
+        ca, sa = _small_rotation(dt * k3[5])
+        cb, sb = _small_rotation(dt * k3[6])
+        k4 = _derivatives(s0 + dt * k3[0], s1 + dt * k3[1], s2 + dt * k3[2], cp * ca - sp * sa,
+                          sp * ca + cp * sa, s6 + dt * k3[6], sr * cb + cr * sb, cr * cb - sr * sb,
+                          dc, rate, prescribed, n_b, c, k, a)
+        s0 += sixth * (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0])
+        s1 += sixth * (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1])
+        s2 += sixth * (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2])
+        s3 += sixth * (k1[3] + 2.0 * (k2[3] + k3[3]) + k4[3])
+        s4 += sixth * (k1[4] + 2.0 * (k2[4] + k3[4]) + k4[4])
+        s5 += sixth * (k1[5] + 2.0 * (k2[5] + k3[5]) + k4[5])
+        s6 += sixth * (k1[6] + 2.0 * (k2[6] + k3[6]) + k4[6])
+        if prescribed:
+            s6 = cmd[i + 1]
+        if not (s0 > 0.0 and s0 < limit and abs(s1) < limit and abs(s2) < 1.0
+                and math.isfinite(s3) and math.isfinite(s4)):
+            for m in range(i + 1, n):
+                for j in range(N_STATES):
+                    out[m, j] = np.nan
+            return i + 1
+        out[i + 1, 0] = s0
+        out[i + 1, 1] = s1
+        out[i + 1, 2] = s2
+        out[i + 1, 3] = s3
+        out[i + 1, 4] = s4
+        out[i + 1, 5] = s5
+        out[i + 1, 6] = s6
+    return -1
+
+
+def hull_vector(model: ManoeuvringModel, values: dict) -> tuple:
+    """The 17 hull coefficients in the order of :data:`HULL_TERMS`; terms the
+    model does not have are zero. A term outside the MMG hull is refused."""
+    order = [name for name, *_ in HULL_TERMS]
+    extra = [t.name for t in model.terms if t.name not in order]
+    if extra:
+        raise ValueError(f"model '{model.name}' has terms the MMG simulator does not know: {extra}")
+    have = set(model.names)
+    missing = [name for name in order if name in have and name not in values]
+    if missing:
+        raise KeyError(f"no value for coefficient(s) {missing} of model '{model.name}'")
+    return tuple(float(values[name]) if name in have else 0.0 for name in order)
+
+
+def mmg_inputs(vessel: MMGVessel, modules: MMGParameters | None = None) -> tuple:
+    """``(module constants, rigid-body constants)`` of the compiled right-hand side."""
+    return module_constants(vessel, modules or vessel.modules), _body_constants(vessel)
+
+
+def rk4_mmg(hull: tuple, k: tuple, a: tuple, x0, dt: float, cmd, mode: int, params, rps,
+            speed0: float) -> tuple[np.ndarray, int]:
+    """Integrate one run; returns ``(states (n, 7), diverged_at)``.
+
+    ``cmd`` and ``rps`` have one value per integration step (``n`` rows);
+    ``diverged_at`` is -1 when the run stayed bounded (``0 < u < 5 U0``,
+    ``|v| < 5 U0``, ``|r| < 1 rad/s``), else the first step outside.
+    """
+    # writable contiguous copies: a read-only view (pandas, broadcast_to) would be
+    # another compiled specialisation
+    cmd = np.array(cmd, dtype=float)
+    rps = np.array(np.broadcast_to(np.asarray(rps, float), cmd.shape), dtype=float)
+    out = np.empty((cmd.shape[0], N_STATES))
+    diverged = _integrate(tuple(float(x) for x in hull), k, a, np.asarray(x0, float), float(dt),
+                          cmd, int(mode), np.asarray(params, float), rps,
+                          DIVERGED_SPEED_FACTOR * float(speed0), out)
+    return out, int(diverged)
+
+
+def _to_record(states: np.ndarray, rps: np.ndarray, step: float, substeps: int) -> pd.DataFrame:
+    states = states[::substeps]
+    t = np.arange(states.shape[0]) * step * substeps
+    block = np.column_stack([t, states[:, 3], states[:, 4], states[:, 5], states[:, 0],
+                             states[:, 1], states[:, 2], states[:, 6], rps[::substeps]])
+    return pd.DataFrame(block, columns=["t", "x0", "y0", "psi", "u", "v", "r", "delta", "n"],
+                        copy=False)
+
+
+def _initial(vessel: MMGVessel, initial: dict | None) -> np.ndarray:
+    x0 = np.zeros(N_STATES)
+    x0[0] = vessel.speed
+    for key, idx in (("u", 0), ("v", 1), ("r", 2), ("x0", 3), ("y0", 4), ("psi", 5), ("delta", 6)):
+        if initial and key in initial:
+            x0[idx] = initial[key]
+    return x0
+
+
+def simulate_mmg(model: ManoeuvringModel, values: dict, vessel: MMGVessel, manoeuvre: Manoeuvre,
+                 modules: MMGParameters | None = None, rps: float | None = None,
+                 initial: dict | None = None) -> pd.DataFrame:
+    """Simulate ``manoeuvre`` with the MMG model at a constant propeller rate.
+
+    Parameters
+    ----------
+    model : ManoeuvringModel
+        The hull term set (:func:`studies.models.mmg.mmg` or a subset of it).
+    values : dict
+        Hull coefficients ``{name: value}`` (MMG prime, ``R0`` positive).
+    vessel : MMGVessel
+        Particulars at the scale of the simulation.
+    manoeuvre : Manoeuvre
+        Rudder programme (zig-zag, turning circle, ...); positive rudder turns
+        to negative heading.
+    modules : MMGParameters, optional
+        Propeller and rudder parameters; default ``vessel.modules``.
+    rps : float, optional
+        Propeller rate [rps]; default ``vessel.rps``.
+    initial : dict, optional
+        Initial ``u`` (default ``vessel.speed``), ``v``, ``r``, ``x0``, ``y0``,
+        ``psi``, ``delta``.
+
+    Returns
+    -------
+    DataFrame
+        Columns ``t, x0, y0, psi, u, v, r, delta, n``; ``attrs["diverged_at"]``
+        [s] when the run left the physical range.
+    """
+    k, a = mmg_inputs(vessel, modules)
+    mode, cmd, params = manoeuvre.rudder_programme(YAW_SIGN)
+    rate = np.full(cmd.shape[0], float(vessel.rps if rps is None else rps))
+    states, diverged = rk4_mmg(hull_vector(model, values), k, a, _initial(vessel, initial),
+                               manoeuvre.step, cmd, mode, params, rate, vessel.speed)
+    record = _to_record(states, rate, manoeuvre.step, manoeuvre.substeps)
+    record.attrs["name"] = manoeuvre.name
+    if diverged >= 0:
+        record.attrs["diverged_at"] = diverged * manoeuvre.step
+    return record
+
+
+def replay_mmg(model: ManoeuvringModel, values: dict, vessel: MMGVessel, record: pd.DataFrame,
+               modules: MMGParameters | None = None, rps: float | None = None) -> pd.DataFrame:
+    """Simulate a record's own rudder and propeller rate from its first state.
+
+    The measured rudder is prescribed (no servo) and the measured ``n`` drives
+    the propeller, both linear between samples (``rps`` replaces a record
+    without ``n``, or overrides it); the integration step is the record's
+    median sampling interval split so it is at most 0.1 s. The record and the
+    vessel must be at the same scale.
+    """
+    t = record["t"].to_numpy(float)
+    dt = float(np.median(np.diff(t)))
+    man = Manoeuvre(str(record.attrs.get("name", "record")), "rudder", dt * (len(t) - 1), dt)
+    grid = man.step_times()
+    columns = ["delta"] + (["n"] if rps is None and "n" in record else [])
+    inputs = resample(pd.DataFrame({"t": t - t[0], **{c: record[c].to_numpy(float) for c in columns}}),
+                      grid, columns)
+    delta = inputs["delta"].to_numpy()
+    if rps is None and "n" not in record:
+        raise ValueError("the record has no propeller rate 'n'; pass rps=")
+    rate = inputs["n"].to_numpy() if rps is None else np.full(grid.shape[0], float(rps))
+    first = record.iloc[0]
+    x0 = _initial(vessel, {key: float(first[key]) for key in ("u", "v", "r", "x0", "y0", "psi")})
+    x0[6] = delta[0]
+    k, a = mmg_inputs(vessel, modules)
+    states, diverged = rk4_mmg(hull_vector(model, values), k, a, x0, man.step, delta, 3,
+                               np.zeros(4), rate, max(vessel.speed, float(first["u"])))
+    out = _to_record(states, rate, man.step, man.substeps)
+    out["t"] = out["t"] + t[0]
+    out.attrs["name"] = record.attrs.get("name", "record")
+    if diverged >= 0:
+        out.attrs["diverged_at"] = diverged * man.step
+    return out
+
+
+def mmg_forces(model: ManoeuvringModel, values: dict, vessel: MMGVessel, u, v, r, delta, n,
+               modules: MMGParameters | None = None) -> np.ndarray:
+    """Total forces ``(X, Y, N)`` [N, N, N m] (n, 3) at states given as arrays:
+    hull terms plus propeller and rudder (no inertial terms)."""
+    u, v, r, delta, n = (np.asarray(x, float) for x in (u, v, r, delta, n))
+    k = module_constants(vessel, modules or vessel.modules)
+    speed = np.sqrt(u * u + v * v)
+    xh, yh, nh = hull_forces(v / speed, r * vessel.length / speed, hull_vector(model, values))
+    xm, ym, nm = module_forces(u, v, r, delta, n, k)
+    scale = vessel.force_scale(speed)
+    return np.column_stack([scale[..., 0] * xh + xm, scale[..., 1] * yh + ym,
+                            scale[..., 2] * nh + nm])
+
+
+def self_propulsion_rps(model: ManoeuvringModel, values: dict, vessel: MMGVessel,
+                        speed: float | None = None, modules: MMGParameters | None = None) -> float:
+    """Propeller rate [rps] at which the surge forces balance in straight motion.
+
+    The root of ``X_H + X_P + X_R = 0`` at ``u = speed`` (default
+    ``vessel.speed``), ``v = r = delta = 0``: the resistance ``R'_0 0.5 rho
+    L d U^2`` equals the effective thrust ``(1 - t_P) T``. Searched between
+    0.01 and 20 times the vessel's approach rate; ``ValueError`` when no
+    rate balances.
+    """
+    u = float(vessel.speed if speed is None else speed)
+
+    def surplus(n):
+        return float(mmg_forces(model, values, vessel, [u], [0.0], [0.0], [0.0], [n], modules)[0, 0])
+
+    low, high = 0.01 * vessel.rps, 20.0 * vessel.rps
+    if surplus(low) * surplus(high) > 0:
+        raise ValueError(f"no propeller rate in [{low:g}, {high:g}] rps holds {u:g} m/s")
+    return float(brentq(surplus, low, high, xtol=1e-12 * vessel.rps))
