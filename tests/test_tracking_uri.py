@@ -56,6 +56,7 @@ def test_the_environment_variable_chooses_the_store_and_no_empty_log_is_logged(t
     assert len(runs) == 1 and runs[0][1] == "FINISHED"
     logged = [p.name for p in (db.parent / "artifacts").rglob("*") if p.is_file()]
     assert "coefficients.csv" in logged and "metrics.json" in logged
+    assert "coefficients_table.json" in logged          # the same table as an MLflow table
     assert not [name for name in logged if name.endswith(".log")], logged
 
 

@@ -286,7 +286,9 @@ class RunLogger:
     def log_outputs(self, metrics: dict, directory: str | os.PathLike) -> None:
         """Log finite metrics (non-finite ones stay in metrics.json only) and
         every file of ``directory`` (plus its ``.hydra/`` config) as artifacts;
-        an empty log file (Hydra's job log when nothing was logged) is left out."""
+        an empty log file (Hydra's job log when nothing was logged) is left out.
+        ``coefficients.csv`` is also logged as an MLflow table
+        (``coefficients_table.json``)."""
         import mlflow
 
         finite = [mlflow.entities.Metric(k, float(v), 0, 0) for k, v in metrics.items()
@@ -300,6 +302,11 @@ class RunLogger:
                     self.client.log_artifact(self.run_id, str(path))
                 elif path.is_dir() and path.name == ".hydra":
                     self.client.log_artifacts(self.run_id, str(path), artifact_path="hydra")
+            table = directory / "coefficients.csv"
+            if table.is_file():                 # also as a table the UI can show and compare
+                import pandas as pd
+
+                self.client.log_table(self.run_id, pd.read_csv(table), "coefficients_table.json")
 
     def log_records(self, inputs) -> None:
         """Log the records a run used as MLflow dataset inputs.
