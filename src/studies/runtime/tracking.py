@@ -320,10 +320,15 @@ class RunLogger:
         import mlflow
         from mlflow.entities import DatasetInput, InputTag
 
+        from mlflow.data.dataset_source_registry import get_registered_sources
+
+        # MLflow registers the local-file source twice, and resolving a file URI
+        # then warns that it is ambiguous: take the class itself
+        local = next(s for s in get_registered_sources() if s.__name__ == "LocalArtifactDatasetSource")
         datasets = []
         for path, frame, context in inputs:
             path = Path(path).expanduser().resolve()
-            dataset = mlflow.data.from_pandas(frame.reset_index(drop=True), source=path.as_uri(),
+            dataset = mlflow.data.from_pandas(frame.reset_index(drop=True), source=local(path.as_uri()),
                                               name=path.name, digest=file_digest(path))
             datasets.append(DatasetInput(dataset._to_mlflow_entity(),
                                          tags=[InputTag("mlflow.data.context", context)]))
