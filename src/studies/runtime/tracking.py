@@ -106,11 +106,15 @@ def source_tags(root, command: str) -> dict:
     return tags
 
 
+#: the environment variable MLflow users set to choose a store
+ENV_URI = "MLFLOW_TRACKING_URI"
+
+
 def resolve_uri(uri: str | None, root: str | os.PathLike) -> str:
     """The store a command uses: ``tracking.uri`` when given, else the
     ``MLFLOW_TRACKING_URI`` environment variable when set, else the default
     store under ``root`` (:func:`default_uri`)."""
-    return uri or os.environ.get("MLFLOW_TRACKING_URI") or default_uri(root)
+    return uri or os.environ.get(ENV_URI) or default_uri(root)
 
 
 #: seconds a tracking server has to answer before the command gives up
@@ -171,7 +175,14 @@ def configure(uri: str | None, root: str | os.PathLike) -> str:
     uri = resolve_uri(uri, root)
     if uri.startswith("sqlite:///"):
         Path(uri[len("sqlite:///"):]).parent.mkdir(parents=True, exist_ok=True)
+    before = os.environ.get(ENV_URI)
     mlflow.set_tracking_uri(uri)
+    # MLflow also writes the URI into the environment, where it would pass for the
+    # user's choice in later commands of this process and in every subprocess
+    if before is None:
+        os.environ.pop(ENV_URI, None)
+    else:
+        os.environ[ENV_URI] = before
     return uri
 
 
