@@ -27,7 +27,8 @@ METHODS = {"ls": C.MethodConfig, "nls": C.MethodConfig, "fls": C.MethodConfig,
            "nls_svm": C.MethodConfig, "svm": C.SvmMethod, "ls_ga": C.GaMethod,
            "svm_ga": C.GaMethod, "bayes": C.BayesMethod, "sindy": C.SindyMethod}
 MODELS = {"abkowitz": C.ModelConfig, "symmetric": C.ModelConfig,
-          "simplified": C.SimplifiedModelConfig, "roll": C.RollModelConfig}
+          "simplified": C.SimplifiedModelConfig, "simplified_li2023": C.ModelConfig,
+          "roll": C.RollModelConfig}
 GROUPS = {"vessel": None, "model": MODELS, "method": METHODS, "manoeuvre": None}
 
 

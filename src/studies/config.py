@@ -426,6 +426,13 @@ class Validate:
 class Simplify:
     """``studies simplify`` / model=simplified: correlation + PAWN (Li et al. 2023) (``simplify``).
 
+    The realisations and PAWN samples of ``seeds`` independent seeds are
+    pooled and the rule runs on ``draws`` random subsets of the pool, each
+    of one seed's size (stability selection); a term is kept when it is
+    selected in more than ``frequency`` of the draws, then what a
+    manoeuvring model needs is put back (see
+    :mod:`studies.workflows.simplify`).
+
     Attributes
     ----------
     output : str
@@ -437,19 +444,28 @@ class Simplify:
     dt : float
         Its sampling step [s].
     realisations : int
-        Noisy realisations identified by least squares.
+        Noisy realisations identified by least squares, per seed (>= 5).
     noise : float
         k0 of the measurement noise (fraction).
     derivative : str
         Derivative estimator of the regressions (one of :data:`DERIVATIVES`).
     threshold : float
-        ``|Spearman rho|`` above which coefficients are grouped [-].
+        ``|Spearman rho|`` above which coefficients are grouped [-], in [0, 1].
     pawn_samples : int
-        Trajectories per DOF for PAWN.
+        Trajectories per DOF for PAWN, per seed (>= 100).
     pawn_spread : float
-        Coefficients sampled within ``(1 -/+ spread)`` of the estimates [-].
+        Coefficients sampled within ``(1 -/+ spread)`` of the estimates [-], in [0, 0.99].
     seed : int
-        Seed of the noise and of the PAWN samples.
+        Seed of the noise and of the PAWN samples (the ``seeds`` sets are
+        independent streams spawned from it), >= 0.
+    seeds : int
+        Independent sets of realisations and PAWN samples (>= 1).
+    draws : int
+        Draws of the rule, each on ``realisations`` of the pooled
+        realisations and ``pawn_samples`` of the pooled PAWN samples (>= 1).
+    frequency : float
+        A term is kept when selected in more than this fraction of all
+        draws [-], in [0, 0.99].
     """
 
     output: str = "models/simplified.json"
@@ -463,9 +479,25 @@ class Simplify:
     pawn_samples: int = 1000
     pawn_spread: float = 0.2
     seed: int = 0
+    seeds: int = 6
+    draws: int = 100
+    frequency: float = 0.9
 
     def __post_init__(self):
         _check_manoeuvre_names("simplify.manoeuvre", [self.manoeuvre])
+        self.duration = _number("simplify.duration", self.duration, 1.0)
+        self.dt = _number("simplify.dt", self.dt, 1e-3, self.duration)
+        self.noise = _number("simplify.noise", self.noise, 0.0, 1.0)
+        self.derivative = _choice("simplify.derivative", self.derivative, DERIVATIVES)
+        self.threshold = _number("simplify.threshold", self.threshold, 0.0, 1.0)
+        self.pawn_spread = _number("simplify.pawn_spread", self.pawn_spread, 0.0, 0.99)
+        self.frequency = _number("simplify.frequency", self.frequency, 0.0, 0.99)
+        for key, low in (("realisations", 5), ("pawn_samples", 100), ("seeds", 1), ("draws", 1),
+                         ("seed", 0)):
+            value = _integer(f"simplify.{key}", getattr(self, key))
+            if value < low:
+                raise ConfigError(f"simplify.{key} must be an integer >= {low}, got {value}")
+            setattr(self, key, value)
 
 
 @dataclass

@@ -4,7 +4,8 @@ The full model is identified on many realisations of the same manoeuvre that
 differ only in their sensor noise; coefficients whose estimates move
 together (|Spearman rho| > 0.7) cannot be told apart by the data and form a
 group. Groups are cliques: every pair inside a group exceeds the threshold
-(complete-linkage clustering on ``1 - |rho|``).
+(complete-linkage clustering on ``1 - |rho|``). :func:`co_membership` says
+how often two coefficients share a group over bootstrap draws.
 
 References
 ----------
@@ -21,7 +22,7 @@ from scipy.cluster.hierarchy import fcluster, linkage
 from scipy.spatial.distance import squareform
 from scipy.stats import spearmanr
 
-__all__ = ["spearman_matrix", "correlated_groups"]
+__all__ = ["spearman_matrix", "correlated_groups", "co_membership"]
 
 
 def spearman_matrix(estimates: pd.DataFrame) -> pd.DataFrame:
@@ -51,3 +52,16 @@ def correlated_groups(rho: pd.DataFrame, threshold: float = 0.7) -> list[list[st
     for name, label in zip(names, labels):
         groups.setdefault(label, []).append(name)
     return sorted(groups.values(), key=lambda g: names.index(g[0]))
+
+
+def co_membership(partitions, names) -> pd.DataFrame:
+    """Fraction of ``partitions`` (lists of groups, e.g. one per bootstrap
+    draw) in which each pair of ``names`` shares a group [-]."""
+    index = {n: i for i, n in enumerate(names)}
+    together = np.zeros((len(names), len(names)))
+    for groups in partitions:
+        for group in groups:
+            idx = [index[n] for n in group]
+            together[np.ix_(idx, idx)] += 1.0
+    together /= max(1, len(partitions))
+    return pd.DataFrame(together, index=list(names), columns=list(names))

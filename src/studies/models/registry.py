@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from ..errors import ConfigError
 from .abkowitz import ManoeuvringModel, abkowitz
-from .simplified import load_definition
+from .simplified import PAPER_SIMPLIFIED, load_definition
 
 __all__ = ["get_model"]
 
@@ -17,7 +17,15 @@ def symmetric() -> ManoeuvringModel:
     return full.subset(keep, "symmetric")
 
 
-_REGISTRY = {"abkowitz": abkowitz, "symmetric": symmetric}
+def simplified_li2023() -> ManoeuvringModel:
+    """The simplified model of Li et al. (2023) eq. 23-25 as a fixed subset
+    of the Abkowitz model: ``X: Xu, Xrr``; ``Y: Yv, Yr, Yru, Yd, Yud``;
+    ``N: Nv, Nr, Nru, Nd, Nud``."""
+    names = [n for dof in ("X", "Y", "N") for n in PAPER_SIMPLIFIED[dof]]
+    return abkowitz().subset(names, "simplified_li2023")
+
+
+_REGISTRY = {"abkowitz": abkowitz, "symmetric": symmetric, "simplified_li2023": simplified_li2023}
 
 
 def get_model(name: str, definition=None) -> ManoeuvringModel:

@@ -11,7 +11,10 @@ hands them to :func:`build_report`. The page holds:
   over repeated runs (seeds) of one cell;
 - posterior intervals where a method gave them (Bayes);
 - system performance: validation fitness (thesis eq. 3.43) against the
-  condition, per validation manoeuvre and method (Figs 4.1-4.3);
+  condition, per validation manoeuvre and method (Figs 4.1-4.3), averaged
+  over the runs whose prediction stayed bounded, diverged runs counted;
+- the speed MAE over the other manoeuvres (Li et al. Fig. 10): per cell the
+  mean over bounded predictions and the number of diverged ones;
 - trajectory and velocity overlays of every method against the reference at
   the two extreme conditions (Figs 4.4-4.12), redrawn from the runs'
   ``validation_<manoeuvre>.csv`` artifacts;
@@ -31,8 +34,9 @@ from jinja2 import Environment, select_autoescape
 
 from ..analysis.metrics import DIVERGED_PENALTY
 from ..plotting import pyplot
-from .tables import (condition_label, deviation_table, fitness_table, markdown_table,
-                     method_label, winners)
+from .tables import (condition_label, condition_number_table, deviation_table, divergence_table,
+                     fitness_table, mae_display, mae_table, markdown_table, method_label, speed_mae_cells,
+                     winners)
 
 __all__ = ["build_report"]
 
@@ -81,13 +85,20 @@ def _mean_tables(tables: list[pd.DataFrame]) -> pd.DataFrame:
     return numeric.reset_index()
 
 
-def _plot_fitness(table: pd.DataFrame, key: str | None, manoeuvre: str, path: Path) -> None:
+def _plot_fitness(table: pd.DataFrame, key: str | None, manoeuvre: str, path: Path,
+                  diverged: pd.DataFrame | None = None) -> None:
+    """Fitness against the condition per method (log scale); a red cross at
+    the bottom marks a cell with diverged runs (left out of the mean)."""
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.5, 4))
     labels = [condition_label(key, c) for c in table.index]
     x = np.arange(len(labels))
     for method in table.columns:
         ax.plot(x, table[method].to_numpy(float), marker="o", label=method_label(method))
+    if diverged is not None and diverged.to_numpy().sum() > 0:
+        marked = x[(diverged.reindex(table.index).fillna(0).to_numpy() > 0).any(axis=1)]
+        ax.plot(marked, np.full(len(marked), 0.02), "rx", ms=10, transform=ax.get_xaxis_transform(),
+                label="diverged run(s), left out")
     ax.set_xticks(x, labels)
     ax.set_yscale("log")
     ax.set_xlabel(key or "condition")
@@ -97,6 +108,47 @@ def _plot_fitness(table: pd.DataFrame, key: str | None, manoeuvre: str, path: Pa
     fig.tight_layout()
     fig.savefig(path, dpi=90)
     plt.close(fig)
+
+
+def _plot_mae(table: pd.DataFrame, diverged: pd.DataFrame, key: str | None, path: Path) -> None:
+    """Li et al. Fig. 10: grouped bars of the MAE over bounded predictions per
+    condition and series; the number of diverged predictions above each bar
+    in red, a red cross where every prediction diverged."""
+    plt = pyplot()
+    labels = [condition_label(key, c) for c in table.index]
+    x = np.arange(len(labels))
+    width = 0.8 / max(1, len(table.columns))
+    fig, ax = plt.subplots(figsize=(max(6.5, 0.9 * len(labels) * max(1, len(table.columns)) / 2), 4.5))
+    for k, series in enumerate(table.columns):
+        pos = x - 0.4 + width * (k + 0.5)
+        values = table[series].to_numpy(float)
+        counts = diverged[series].to_numpy(float)
+        ax.bar(pos, np.nan_to_num(values, nan=0.0), width, label=method_label(series))
+        for p, v, n in zip(pos, values, counts):
+            if not np.isfinite(v):
+                ax.plot(p, 0.02, "rx", ms=9, transform=ax.get_xaxis_transform())
+                ax.text(p, 0.06, f"all {n:g} div.", color="red", fontsize=7, ha="center", va="bottom",
+                        rotation=90, transform=ax.get_xaxis_transform())
+            elif n > 0:
+                ax.annotate(f"{n:g} div.", (p, v), color="red", fontsize=7, ha="center", va="bottom",
+                            rotation=90)
+    ax.set_xticks(x, labels, rotation=30, ha="right", fontsize=8)
+    ax.set_ylabel("MAE of u, v over bounded predictions [m/s]")
+    ax.set_title("Validation MAE of speeds (red: diverged predictions, counted)")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def _divergence_note(counts: pd.DataFrame, key: str | None) -> str:
+    """A line under a fitness table naming the cells with diverged runs."""
+    cells = [f"{method_label(m)} at {condition_label(key, c)}: {counts.loc[c, m]:g}"
+             for c in counts.index for m in counts.columns if counts.loc[c, m] > 0]
+    if not cells:
+        return ""
+    return ("\nDiverged runs, left out of the mean (a cell shows - when all diverged): "
+            + "; ".join(cells) + ".\n")
 
 
 def _plot_overlays(curves: dict, title: str, path: Path) -> None:
@@ -222,36 +274,44 @@ def build_report(name: str, runs, report_dir) -> Path:
         figures = []
         for man in manoeuvres:
             per_cell = defaultdict(list)
+            diverged = defaultdict(int)
             for i in finished:
                 v = i["metrics"].get(f"{man}/fitness")
-                if v is not None:
+                if v is None:
+                    continue
+                if i["metrics"].get(f"{man}/diverged", 0.0):
+                    diverged[(i["condition"], i["method"])] += 1
+                else:
                     per_cell[(i["condition"], i["method"])].append(v)
-            rows = [{"condition": c, "method": m, "metrics": {f"{man}/fitness": float(np.mean(v))}}
-                    for (c, m), v in per_cell.items()]
+            cells = set(per_cell) | set(diverged)
+            rows = [{"condition": c, "method": m,
+                     "metrics": {f"{man}/fitness": float(np.mean(per_cell[(c, m)])) if per_cell[(c, m)]
+                                 else np.nan}} for c, m in cells]
             table = fitness_table(rows, man)
             tables[man] = table
             if not table.empty:
+                counts = divergence_table(table, diverged)
                 path = out / f"fitness_{man}.png"
-                _plot_fitness(table, key, man, path)
+                _plot_fitness(table, key, man, path, counts)
                 figures.append(path.name)
                 shown = table.rename(index=lambda c: condition_label(key, c), columns=method_label)
                 sections.append((f"Validation fitness, {man} (thesis eq. 3.43)",
-                                 markdown_table(shown, "condition") + f"\n![fitness {man}]({path.name})\n",
-                                 shown))
-        mae_cells = defaultdict(list)
-        for i in finished:
-            v = i["metrics"].get("validation/mae_speed")
-            if v is not None:
-                mae_cells[(i["condition"], i["method"])].append(v)
-        if mae_cells:
-            rows = [{"condition": c, "method": m, "metrics": {"mae/fitness": float(np.median(v))}}
-                    for (c, m), v in mae_cells.items()]
-            table = fitness_table(rows, "mae")
+                                 markdown_table(shown, "condition") + _divergence_note(counts, key)
+                                 + f"\n![fitness {man}]({path.name})\n", shown))
+        mae = speed_mae_cells(finished)
+        if mae:
+            table, counts, validated = mae_table(mae)
             path = out / "mae_speed.png"
-            _plot_fitness(table, key, "validation MAE of speeds [m/s]", path)
-            shown = table.rename(index=lambda c: condition_label(key, c), columns=method_label)
-            sections.append(("Validation MAE of speeds on the other manoeuvres [m/s] (median over seeds)",
+            _plot_mae(table, counts, key, path)
+            shown = mae_display(table, counts, validated).rename(index=lambda c: condition_label(key, c))
+            sections.append(("Validation MAE of speeds on the other manoeuvres [m/s] (mean over the bounded "
+                             "predictions of all seeds; diverged predictions counted, not averaged)",
                              markdown_table(shown, "condition") + "\n![mae](mae_speed.png)\n", shown))
+            conditioning = condition_number_table(finished)
+            if not conditioning.empty:
+                shown = conditioning.rename(index=lambda c: condition_label(key, c))
+                sections.append(("Condition number of the regression per DOF (median over seeds)",
+                                 markdown_table(shown, "condition"), shown))
         win = winners(tables)
         if not win.empty:
             shown = win.rename(index=lambda c: condition_label(key, c))
@@ -289,14 +349,15 @@ def build_report(name: str, runs, report_dir) -> Path:
 
 
 def _note(item) -> str:
-    """The run's error, or which predictions diverged (scored with the finite penalty)."""
+    """The run's error, or which predictions diverged (counted in the tables, left out of their means)."""
     error = item["run"].tags.get("error", "")
     if error:
         return error.replace("|", "/").replace("\n", " ")
     diverged = sorted(k.rsplit("/", 1)[0] for k, v in item["metrics"].items()
                       if k.endswith("/diverged") and k != "validation/diverged" and v)
     if diverged:
-        return f"diverged: {', '.join(diverged)} (scored with the penalty {DIVERGED_PENALTY:g})"
+        return (f"diverged: {', '.join(diverged)} (counted; its metrics hold the penalty "
+                f"{DIVERGED_PENALTY:g}, left out of the means)")
     return ""
 
 

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+from collections import defaultdict
+
 import numpy as np
 import pandas as pd
 
-__all__ = ["condition_label", "deviation_table", "fitness_table", "winners", "markdown_table"]
+__all__ = ["condition_label", "deviation_table", "fitness_table", "winners", "markdown_table",
+           "divergence_table", "speed_mae_cells", "mae_table", "mae_display", "condition_number_table"]
 
 METHOD_ORDER = ["ls", "ls_ga", "svm", "svm_ga", "bayes", "sindy"]
 METHOD_LABEL = {"ls": "LS", "ls_ga": "LS+GA", "svm": "SVM", "svm_ga": "SVM+GA",
@@ -87,6 +90,93 @@ def fitness_table(runs: list[dict], manoeuvre: str) -> pd.DataFrame:
     return table
 
 
+def divergence_table(table: pd.DataFrame, diverged: dict) -> pd.DataFrame:
+    """Counts ``{(condition, method): n}`` laid out like ``table`` (0 where none)."""
+    out = pd.DataFrame(0.0, index=table.index, columns=table.columns)
+    for (condition, method), n in diverged.items():
+        if condition in out.index and method in out.columns:
+            out.loc[condition, method] = float(n)
+    return out
+
+
+def speed_mae_cells(items: list[dict]) -> dict:
+    """``validation/mae_speed`` of the runs gathered per (condition, method).
+
+    ``items`` hold ``condition``, ``method`` and ``metrics``. Per cell:
+    ``sum`` of the MAE [m/s] over bounded validation predictions (a run's
+    mean weighted by its bounded count), ``bounded``, ``diverged`` and
+    ``validated`` prediction counts over all its runs. A run logged before
+    ``validation/validated`` existed counts as one prediction when none
+    diverged, else as its diverged ones (its mean held the penalty).
+    """
+    cells = defaultdict(lambda: {"sum": 0.0, "bounded": 0.0, "diverged": 0.0, "validated": 0.0})
+    for item in items:
+        m = item["metrics"]
+        if "validation/mae_speed" not in m and "validation/validated" not in m:
+            continue
+        diverged = float(m.get("validation/diverged", 0.0))
+        validated = m.get("validation/validated")
+        bounded = (float(validated) - diverged) if validated is not None else float(diverged == 0)
+        cell = cells[(item["condition"], item["method"])]
+        cell["diverged"] += diverged
+        cell["validated"] += float(validated) if validated is not None else max(1.0, diverged)
+        if bounded > 0 and "validation/mae_speed" in m:
+            cell["sum"] += bounded * float(m["validation/mae_speed"])
+            cell["bounded"] += bounded
+    return dict(cells)
+
+
+def mae_table(cells: dict) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+    """Rows = conditions, columns = methods: the MAE over bounded predictions
+    [m/s] (NaN where all diverged), the diverged and the validated counts."""
+    conditions = _condition_sort({c for c, _ in cells})
+    methods = _method_sort({m for _, m in cells})
+    mae = pd.DataFrame(np.nan, index=conditions, columns=methods)
+    diverged = pd.DataFrame(0.0, index=conditions, columns=methods)
+    validated = pd.DataFrame(0.0, index=conditions, columns=methods)
+    for (c, m), cell in cells.items():
+        if cell["bounded"] > 0:
+            mae.loc[c, m] = cell["sum"] / cell["bounded"]
+        diverged.loc[c, m] = cell["diverged"]
+        validated.loc[c, m] = cell["validated"]
+    return mae, diverged, validated
+
+
+def condition_number_table(items: list[dict]) -> pd.DataFrame:
+    """Rows = conditions, columns = (method, DOF): the median over runs of
+    ``regression/<dof>/condition_number`` (collinear, weakly excited
+    regressors give large numbers and drifting coefficients)."""
+    values = defaultdict(list)
+    for item in items:
+        for dof in ("X", "Y", "N"):
+            v = item["metrics"].get(f"regression/{dof}/condition_number")
+            if v is not None:
+                values[(item["condition"], item["method"], dof)].append(float(v))
+    if not values:
+        return pd.DataFrame()
+    conditions = _condition_sort({c for c, _, _ in values})
+    methods = _method_sort({m for _, m, _ in values})
+    cols = [(m, d) for m in methods for d in ("X", "Y", "N") if any((c, m, d) in values for c in conditions)]
+    table = pd.DataFrame({(method_label(m), d): [float(np.median(values[(c, m, d)])) if (c, m, d) in values
+                                                 else np.nan for c in conditions] for m, d in cols},
+                         index=conditions)
+    table.columns = pd.MultiIndex.from_tuples([(method_label(m), d) for m, d in cols])
+    return table
+
+
+def mae_display(mae: pd.DataFrame, diverged: pd.DataFrame, validated: pd.DataFrame) -> pd.DataFrame:
+    """Per method two columns: the MAE over bounded predictions [m/s] and
+    ``diverged / validated`` predictions."""
+    columns, data = [], {}
+    for m in mae.columns:
+        columns += [(method_label(m), "MAE [m/s]"), (method_label(m), "diverged")]
+        data[columns[-2]] = mae[m]
+        data[columns[-1]] = [f"{d:g} / {v:g}" for d, v in zip(diverged[m], validated[m])]
+    out = pd.DataFrame(data, index=mae.index)
+    out.columns = pd.MultiIndex.from_tuples(columns)
+    return out
+
+
 def winners(tables: dict) -> pd.DataFrame:
     """Best method (lowest fitness) per manoeuvre and condition (thesis Table 5.1 style)."""
     out = {}
@@ -95,7 +185,8 @@ def winners(tables: dict) -> pd.DataFrame:
             continue
         best = table.min(axis=1)
         tied = table.le(best * (1 + 1e-9), axis=0)
-        out[man] = tied.apply(lambda row: " = ".join(method_label(m) for m in row.index[row]), axis=1)
+        out[man] = tied.apply(lambda row: " = ".join(method_label(m) for m in row.index[row]) or "none bounded",
+                              axis=1)
     return pd.DataFrame(out)
 
 

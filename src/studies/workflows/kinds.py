@@ -3,8 +3,8 @@
 =============  =================================  ==========================================
 ``study``      models                             pipeline
 =============  =================================  ==========================================
-manoeuvring    abkowitz, symmetric, simplified    :mod:`studies.workflows.manoeuvring`,
-                                                  :mod:`studies.workflows.discover`
+manoeuvring    abkowitz, symmetric, simplified,   :mod:`studies.workflows.manoeuvring`,
+               simplified_li2023                  :mod:`studies.workflows.discover`
 roll_decay     roll                               :mod:`studies.workflows.roll_run`,
                                                   :mod:`studies.workflows.roll_discover`
 =============  =================================  ==========================================

@@ -567,17 +567,24 @@ def _training_names(study: Study) -> set:
 def speed_mae_summary(metrics: dict, training: set) -> dict:
     """Mean absolute speed error over validation manoeuvres (Li et al. Fig. 10).
 
+    Over the manoeuvres that were not the training one (all of them when
+    each was): ``validation/validated`` counts them,
+    ``validation/diverged`` counts the predictions that diverged, and
     ``validation/mae_speed`` averages ``(mae_u + mae_v) / 2`` [m/s] over the
-    manoeuvres that were not the training one (all of them when each was);
-    a diverged prediction counts with the finite penalty.
+    ones that stayed bounded (absent when none did): a diverged prediction
+    is counted, never averaged.
     """
     names = sorted({k.split("/")[0] for k in metrics if k.endswith("/mae_u")} - {"training"})
     others = [n for n in names if n not in training] or names
     if not others:
         return {}
-    values = [0.5 * (metrics[f"{n}/mae_u"] + metrics[f"{n}/mae_v"]) for n in others]
-    return {"validation/mae_speed": float(np.mean(values)),
-            "validation/diverged": float(sum(metrics.get(f"{n}/diverged", 0.0) for n in others))}
+    diverged = [n for n in others if metrics.get(f"{n}/diverged", 0.0)]
+    bounded = [n for n in others if n not in diverged]
+    out = {"validation/validated": float(len(others)), "validation/diverged": float(len(diverged))}
+    if bounded:
+        out["validation/mae_speed"] = float(np.mean([0.5 * (metrics[f"{n}/mae_u"] + metrics[f"{n}/mae_v"])
+                                                     for n in bounded]))
+    return out
 
 
 def execute(study: Study, out_dir: Path) -> dict:
