@@ -52,3 +52,25 @@ def test_a_sweep_is_a_parent_run_with_child_runs_and_its_own_report(tmp_path):
     assert report.returncode == 0, report.stderr
     page = (tmp_path / "reports" / "studies" / "index.md").read_text()
     assert "2 runs" in page and "8 m/s" not in page        # the plain run is not pooled in
+
+
+def test_conditions_sort_by_value_not_as_text():
+    from studies.report.tables import _condition_sort
+
+    assert _condition_sort(["12 m/s", "16 m/s", "4 m/s", "8 m/s"]) == ["4 m/s", "8 m/s", "12 m/s", "16 m/s"]
+    assert _condition_sort(["+5 %", "-10 %", "+10 %", "-5 %"]) == ["-10 %", "-5 %", "+5 %", "+10 %"]
+    assert _condition_sort(["circle, +10 %", "circle, +5 %"]) == ["circle, +5 %", "circle, +10 %"]
+
+
+def test_several_varying_keys_are_named_instead_of_pooled():
+    from studies.report.builder import _condition_key
+
+    def run(**params):
+        return SimpleNamespace(params={k.replace("_", "."): v for k, v in params.items()})
+
+    runs = [run(wind_speed="0", manoeuvre_duration="200"), run(wind_speed="8", manoeuvre_duration="300")]
+    with pytest.raises(LookupError, match="differ in manoeuvre.duration, wind.speed"):
+        _condition_key(runs, None)
+    assert _condition_key(runs, "wind.speed") == "wind.speed"
+    assert _condition_key(runs[:1], None) is None
+    assert _condition_key([run(wind_speed="0"), run(wind_speed="4")], None) == "wind.speed"

@@ -311,7 +311,8 @@ def _report_task(cfg) -> None:
         report_dir = output_path(settings.report.dir, "report.dir", root)
         tracking.check_store(settings.tracking.uri, root)
         name, runs = tracking.read_experiment(settings.tracking.uri, root, settings.report.experiment or None)
-        path = build_report(name, tracking.select_sweep(runs, settings.report.sweep), report_dir)
+        path = build_report(name, tracking.select_sweep(runs, settings.report.sweep), report_dir,
+                            settings.report.condition)
     except (LookupError, StudiesError) as error:
         _fail(error, verbose)
     print(f"report written: {path} and {path.with_suffix('.html')}")

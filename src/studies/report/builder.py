@@ -51,19 +51,34 @@ IGNORED_PARAMS = ("method.", "seed", "run_name", "tracking.", "report.", "verbos
                   "simplify.", "resume")
 
 
-def _varying_key(runs) -> str | None:
-    """The one config key (besides method and seed) whose value differs between runs."""
+def _varying_keys(runs) -> list[str]:
+    """The config keys (besides method, seed and bookkeeping) whose values differ between runs."""
     keys = set().union(*(r.params for r in runs)) if runs else set()
-    varying = [k for k in sorted(keys) if not k.startswith(IGNORED_PARAMS)
-               and len({r.params.get(k) for r in runs}) > 1]
-    return varying[0] if len(varying) == 1 else None
+    return [k for k in sorted(keys) if not k.startswith(IGNORED_PARAMS)
+            and len({r.params.get(k) for r in runs}) > 1]
 
 
-def _summarise_runs(runs) -> list[dict]:
+def _condition_key(runs, condition: str | None) -> str | None:
+    """The key whose values make the report's rows: ``condition`` when given,
+    else the runs' own ``report.condition`` (presets set it), else the one key
+    that varies. When several vary, the report does not guess (it would pool
+    different conditions into one row): ``LookupError`` names them."""
+    if condition:
+        return condition
+    if any(_none(r.params.get("report.condition")) for r in runs):
+        return None                     # each run says (see _summarise_runs)
+    varying = _varying_keys(runs)
+    if len(varying) > 1:
+        raise LookupError(f"report.condition: the runs differ in {', '.join(varying)}; say which "
+                          f"makes the rows, e.g. report.condition={varying[0]} (several keys with commas)")
+    return varying[0] if varying else None
+
+
+def _summarise_runs(runs, condition_key: str | None = None) -> list[dict]:
     out = []
-    inferred = _varying_key(runs)
+    inferred = _condition_key(runs, condition_key)
     for run in runs:
-        key = _none(run.params.get("report.condition")) or inferred
+        key = condition_key or _none(run.params.get("report.condition")) or inferred
         series = _none(run.params.get("report.series")) or "method.name"
         method = run.params.get(series) or run.tags.get("method", "?")
         if key and "," in key:
@@ -195,7 +210,7 @@ def _summary_sentences(win: pd.DataFrame, key: str | None) -> list[str]:
     return lines
 
 
-def build_report(name: str, runs, report_dir) -> Path:
+def build_report(name: str, runs, report_dir, condition: str | None = None) -> Path:
     """Write the comparison page of one experiment's runs.
 
     Parameters
@@ -210,6 +225,10 @@ def build_report(name: str, runs, report_dir) -> Path:
         ``tags`` and ``artifact(path, destination)``.
     report_dir : str or os.PathLike
         Directory of the reports.
+    condition : str, optional
+        The swept config key whose values make the rows (``wind.speed``, or
+        several separated by commas); default the runs' own
+        ``report.condition``, else the one key that varies between them.
 
     Returns
     -------
@@ -219,13 +238,14 @@ def build_report(name: str, runs, report_dir) -> Path:
     Raises
     ------
     LookupError
-        ``<report_dir>/<name>`` exists and is not a report.
+        ``<report_dir>/<name>`` exists and is not a report, or several keys
+        vary between the runs and ``condition`` does not say which to use.
     """
+    items = _summarise_runs(runs, condition)
     out = _report_directory(Path(report_dir), name)
     if out.exists():
         shutil.rmtree(out)
     out.mkdir(parents=True)
-    items = _summarise_runs(runs)
     finished = [i for i in items if i["status"] == "FINISHED"]
     key = next((i["condition_key"] for i in items if i["condition_key"]), None)
     sections = []

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 from collections import defaultdict
 
 import numpy as np
@@ -45,11 +47,22 @@ def _method_sort(methods) -> list[str]:
     return known + sorted(m for m in methods if m not in METHOD_ORDER)
 
 
+_LEADING_NUMBER = re.compile(r"^\s*[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
+
+
+def condition_order(value) -> tuple:
+    """Sort key of a condition or its label: by value where its parts start
+    with a number (``4 m/s`` before ``12 m/s``, ``-10 %`` before ``+5 %``),
+    by text otherwise; parts of a multi-key label (``a, b``) in turn."""
+    key = []
+    for part in str(value).split(", "):
+        number = _LEADING_NUMBER.match(part)
+        key.append((0, float(number.group(0)), part) if number else (1, 0.0, part))
+    return tuple(key)
+
+
 def _condition_sort(values) -> list[str]:
-    try:
-        return sorted(values, key=float)
-    except (TypeError, ValueError):
-        return sorted(values, key=str)
+    return sorted(values, key=condition_order)
 
 
 def deviation_table(entries: list[dict], column: str = "deviation_pct") -> pd.DataFrame:
