@@ -668,6 +668,76 @@ class RollModelConfig(ModelConfig):
                               "damping term (b1, b2, b3)")
 
 
+#: interaction factors ``model.output_error`` may list (``model=mmg``)
+MMG_REFINABLE = ("tP", "wP0", "C1", "C2_plus", "C2_minus", "tR", "aH", "xH", "gammaR_minus",
+                 "gammaR_plus", "lR", "epsilon", "kappa", "f_alpha")
+#: scales of ``model.scale`` (``model=mmg``)
+MMG_SCALES = ("auto", "model", "full")
+
+
+@dataclass
+class MMGModelConfig(ModelConfig):
+    """``model=mmg``: the MMG standard method (hull terms, propeller, rudder).
+
+    Attributes
+    ----------
+    prior_scale : float
+        Prior standard deviation of each hull coefficient as a fraction of
+        its prior (published) value [-], > 0; ``.inf`` for no prior.
+    prior_floor : float
+        Smallest prior standard deviation [-] (for coefficients near zero), > 0.
+    output_error : list of str
+        Interaction factors fitted by output error on the training
+        trajectories (names of :data:`MMG_REFINABLE`); empty: the published
+        values are kept.
+    output_error_sample_s : float
+        Sampling interval of the output-error residuals [s], > 0.
+    output_error_evaluations : int
+        Most trajectory evaluations of the output-error search, >= 1.
+    weights : str
+        Row weighting of the hull regression: ``none`` or ``speed``
+        (``(U/U0)^4``).
+    scale : str
+        Scale of the records: ``model``, ``full`` (Froude scaled by the
+        vessel's scale factor) or ``auto`` (the one whose approach speed is
+        nearest the training records' initial speed).
+    compare_abkowitz : bool
+        Also identify the Abkowitz ``symmetric`` model (least squares, same
+        records) and report it beside the MMG (``abkowitz/...`` metrics).
+    captive : bool
+        Compare the identified model with the vessel's captive tests
+        (``captive.csv``, ``captive/...`` metrics) when it has them.
+    """
+
+    prior_scale: float = 0.5
+    prior_floor: float = 0.005
+    output_error: List[str] = field(default_factory=list)
+    output_error_sample_s: float = 5.0
+    output_error_evaluations: int = 80
+    weights: str = "none"
+    scale: str = "auto"
+    compare_abkowitz: bool = True
+    captive: bool = True
+
+    def __post_init__(self):
+        super().__post_init__()
+        if not (self.prior_scale > 0 and self.prior_floor > 0):
+            raise ConfigError(f"model.prior_scale and model.prior_floor must be positive, got "
+                              f"{self.prior_scale} and {self.prior_floor}")
+        self.output_error = [str(f) for f in self.output_error]
+        unknown = sorted(set(self.output_error) - set(MMG_REFINABLE))
+        if unknown:
+            raise ConfigError(f"model.output_error: unknown interaction factors {unknown}; "
+                              f"known: {', '.join(MMG_REFINABLE)}")
+        if not (self.output_error_sample_s > 0 and self.output_error_evaluations >= 1):
+            raise ConfigError("model.output_error_sample_s must be positive and "
+                              "model.output_error_evaluations at least 1")
+        if self.weights not in ("none", "speed"):
+            raise ConfigError(f"model.weights must be none or speed, got '{self.weights}'")
+        if self.scale not in MMG_SCALES:
+            raise ConfigError(f"model.scale must be one of {', '.join(MMG_SCALES)}, got '{self.scale}'")
+
+
 @dataclass
 class MethodConfig:
     """An option of the ``method`` group without settings (``ls``, ``nls``, ``fls``, ``nls_svm``).
@@ -1145,6 +1215,7 @@ SCHEMAS = (
     ("model", "model_schema", ModelConfig),
     ("model", "simplified_schema", SimplifiedModelConfig),
     ("model", "roll_schema", RollModelConfig),
+    ("model", "mmg_schema", MMGModelConfig),
     ("method", "method_schema", MethodConfig),
     ("method", "svm_schema", SvmMethod),
     ("method", "ga_schema", GaMethod),

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from ..errors import ConfigError
 from .abkowitz import ManoeuvringModel, abkowitz
+from .mmg import mmg
 from .simplified import PAPER_SIMPLIFIED, load_definition
 
 __all__ = ["get_model"]
@@ -25,7 +26,8 @@ def simplified_li2023() -> ManoeuvringModel:
     return abkowitz().subset(names, "simplified_li2023")
 
 
-_REGISTRY = {"abkowitz": abkowitz, "symmetric": symmetric, "simplified_li2023": simplified_li2023}
+_REGISTRY = {"abkowitz": abkowitz, "symmetric": symmetric, "simplified_li2023": simplified_li2023,
+             "mmg": mmg}
 
 
 def get_model(name: str, definition=None) -> ManoeuvringModel:

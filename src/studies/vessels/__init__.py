@@ -5,9 +5,10 @@ from __future__ import annotations
 from ..errors import ConfigError
 from .base import Vessel, WindParticulars
 from .kvlcc2 import kvlcc2
+from .kvlcc2_mmg import MMGVessel, kvlcc2_mmg
 from .mariner import MARINER_COEFFICIENTS, mariner
 
-__all__ = ["Vessel", "WindParticulars", "MARINER_COEFFICIENTS", "get_vessel"]
+__all__ = ["Vessel", "WindParticulars", "MARINER_COEFFICIENTS", "MMGVessel", "get_vessel", "get_mmg_vessel"]
 
 _REGISTRY = {"mariner": mariner, "kvlcc2": kvlcc2}
 
@@ -18,3 +19,17 @@ def get_vessel(name: str) -> Vessel:
         return _REGISTRY[name]()
     except KeyError:
         raise ConfigError(f"unknown vessel '{name}'; known: {', '.join(sorted(_REGISTRY))}") from None
+
+
+_MMG_REGISTRY = {"kvlcc2": kvlcc2_mmg}
+
+
+def get_mmg_vessel(name: str, full_scale: bool = False) -> MMGVessel:
+    """The MMG particulars of vessel ``name`` at model scale, or Froude scaled
+    to full scale; ``ConfigError`` when the vessel has none."""
+    try:
+        make = _MMG_REGISTRY[name]
+    except KeyError:
+        raise ConfigError(f"vessel '{name}' has no MMG particulars (propeller, rudder, interaction "
+                          f"factors); model=mmg knows: {', '.join(sorted(_MMG_REGISTRY))}") from None
+    return make(full_scale=full_scale)

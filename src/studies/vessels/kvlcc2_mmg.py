@@ -112,6 +112,8 @@ class MMGVessel:
     scale : float
         Geometric scale relative to the tested model (1: the model).
     reference : str
+    captive : str
+        Path of the vessel's captive-test table at ``scale`` 1 (empty: none).
     """
 
     name: str
@@ -140,6 +142,7 @@ class MMGVessel:
     coefficients: dict = field(default_factory=dict)
     scale: float = 1.0
     reference: str = ""
+    captive: str = ""
 
     def added_masses(self) -> tuple[float, float, float]:
         """Dimensional ``(m_x [kg], m_y [kg], J_z [kg m^2])``."""
@@ -225,5 +228,6 @@ def kvlcc2_mmg(full_scale: bool = False, data_dir=None) -> MMGVessel:
         rudder_time_constant=1.0 / root,
         modules=modules, coefficients=dict(KVLCC2_HULL), scale=1.0,
         reference="ship_data.yml and open_water_characteristics.csv (KVLCC2 L7); "
-                  "Yasukawa & Yoshimura (2015)")
+                  "Yasukawa & Yoshimura (2015)",
+        captive=str(folder / "captive.csv") if (folder / "captive.csv").is_file() else "")
     return model.froude(scale) if full_scale else model

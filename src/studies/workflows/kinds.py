@@ -4,7 +4,8 @@
 ``study``      models                             pipeline
 =============  =================================  ==========================================
 manoeuvring    abkowitz, symmetric, simplified,   :mod:`studies.workflows.manoeuvring`,
-               simplified_li2023                  :mod:`studies.workflows.discover`
+               simplified_li2023, mmg             :mod:`studies.workflows.mmg` (``model=mmg``),
+                                                  :mod:`studies.workflows.discover`
 roll_decay     roll                               :mod:`studies.workflows.roll_run`,
                                                   :mod:`studies.workflows.roll_discover`
 =============  =================================  ==========================================
@@ -21,6 +22,7 @@ from ..config import DiscoverConfig, RunConfig
 from ..errors import ConfigError
 from . import discover as _discover
 from . import manoeuvring as _manoeuvring
+from . import mmg as _mmg
 from . import roll_discover as _roll_discover
 from . import roll_run as _roll_run
 from ..roll.records import load_roll_decay
@@ -37,6 +39,8 @@ class ManoeuvringStudy:
     kind = "manoeuvring"
 
     def prepare(self, cfg: RunConfig, root: Path, record: Recorder | None = None) -> PreparedRun:
+        if _mmg.is_mmg(cfg):
+            return _mmg.prepare_mmg(cfg, root, record)
         return _manoeuvring.prepare(cfg, root, record)
 
     def prepare_discovery(self, cfg: DiscoverConfig, root: Path,

@@ -101,6 +101,14 @@ class Study:
         """Identify, validate, write the files (:func:`execute`); the metrics."""
         return execute(self, out_dir)
 
+    def replay(self, params: dict, record: pd.DataFrame) -> pd.DataFrame:
+        """The record's own rudder replayed by the model from its first state."""
+        return replay(self.model, params, self.vessel, record)
+
+    def simulate_manoeuvre(self, params: dict, manoeuvre, initial: dict | None = None) -> pd.DataFrame:
+        """A manoeuvre simulated by the model (calm water) from ``initial``."""
+        return simulate(self.model, params, self.vessel, manoeuvre, initial=initial)
+
 
 def simulate_training(vessel: Vessel, model: ManoeuvringModel, truth: dict, manoeuvre,
                       settings: Settings, rng: np.random.Generator) -> pd.DataFrame:
@@ -327,11 +335,11 @@ def _validate_records(study: Study, params: dict, out_dir: Path, result=None) ->
     rows = []
     n_draws = int(study.cfg.validate.band_draws)
     vectors = None
-    if result is not None and result.samples and n_draws > 0:
+    if result is not None and result.samples and n_draws > 0 and getattr(study, "bands", True):
         vectors = _measured.posterior_vectors(study.model, result, n_draws, study.settings.seed)
     for rec in study.validation_records:
         name = rec.attrs.get("name", "record")
-        pred = replay(study.model, params, study.vessel, rec)
+        pred = study.replay(params, rec)
         metrics.update(error_metrics(pred, rec, name))
         kind = manoeuvre_kind(rec)
         heading = None
@@ -431,7 +439,7 @@ def _closed_loop_zigzag(study: Study, params: dict, rec: pd.DataFrame) -> dict:
                                      dt=float(np.median(np.diff(t)))), first_sign=first)
     row = rec.iloc[0]
     initial = {k: float(row[k]) for k in ("u", "v", "r", "x0", "y0", "psi")}
-    sim = simulate(study.model, params, study.vessel, man, initial=initial)
+    sim = study.simulate_manoeuvre(params, man, initial)
     out = {}
     if "diverged_at" in sim.attrs:
         return {f"{name}/closed_loop/diverged": 1.0}
@@ -462,7 +470,7 @@ def _replay_training(study: Study, params: dict, out_dir: Path) -> dict:
     metrics = {}
     for rec in study.records:
         name = rec.attrs.get("name", "record")
-        pred = replay(study.model, params, study.vessel, rec)
+        pred = study.replay(params, rec)
         metrics.update(error_metrics(pred, rec, f"training/{name}"))
         kind = manoeuvre_kind(rec)
         heading = None

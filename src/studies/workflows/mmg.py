@@ -1,0 +1,384 @@
+"""``studies run model=mmg``: the MMG model identified from records with a propeller rate.
+
+Steps of :meth:`MMGRun.execute`:
+
+1. states and accelerations of every training record (the kinematic Kalman
+   smoother for measured records, ``data.derivative`` otherwise; the
+   model-based smoother needs an Abkowitz process model and is replaced by
+   the kinematic one);
+2. the hull coefficients by the inverse-dynamics regression with the
+   propeller and rudder forces known and a Gaussian prior on the vessel's
+   published coefficients (:mod:`studies.identify.mmg_regression`), fitted by
+   the configured method (LS, bayes, SINDy, SVM; the GA refines on the
+   training trajectories with :class:`~studies.identify.mmg_output_error.MMGObjective`);
+3. with ``model.output_error``, those interaction factors fitted by output
+   error on the training trajectories, the hull re-identified for each trial
+   (:func:`~studies.identify.mmg_output_error.refine_modules`);
+4. validation as for the Abkowitz models (:mod:`studies.workflows.manoeuvring`):
+   every ``validate.path`` record replayed with its measured rudder and
+   propeller rate from its first state, characteristics, steady turn,
+   closed-loop zig-zag overshoots; simulated validation manoeuvres against
+   the published MMG coefficients when there are no measured records;
+5. ``model.compare_abkowitz``: the Abkowitz ``symmetric`` model identified
+   by least squares from the same records, validated alike
+   (``abkowitz/...`` metrics, files under ``abkowitz/``), and
+   ``comparison.csv``/``comparison.md``: each characteristic measured, by
+   the MMG and by the Abkowitz model;
+6. ``model.captive``: the identified and the published model against the
+   vessel's captive tests (``captive.csv``, ``captive_summary.csv``,
+   ``captive.png``, ``captive/...`` metrics).
+
+Scale: the particulars are those of the tested model, Froude scaled to the
+records (``model.scale``); the scale is stated in ``mmg.md`` and the
+``scale`` tag. Hull coefficients are MMG primes (forces over ``0.5 rho L d
+U^2``), the same at every scale.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..analysis.captive import captive_comparison, plot_captive
+from ..analysis.metrics import error_metrics
+from ..config import MethodConfig, MMGModelConfig, RunConfig
+from ..data.captive import read_captive
+from ..environment.noise import add_measurement_noise
+from ..errors import DataError
+from ..identify import make_identifier
+from ..identify.ls import LeastSquares
+from ..identify.mmg_output_error import MMGObjective, refine_modules
+from ..identify.mmg_regression import mmg_problems
+from ..models.abkowitz import ManoeuvringModel
+from ..models.registry import get_model
+from ..report.figures import plot_overlay
+from ..simulate.mmg import replay_mmg, simulate_mmg
+from ..vessels import get_mmg_vessel, get_vessel
+from ..vessels.kvlcc2_mmg import MMGVessel
+from . import manoeuvring as _manoeuvring
+from . import measured as _measured
+from .settings import Settings, named_manoeuvre, read_settings
+
+__all__ = ["MMGRun", "is_mmg", "prepare_mmg", "execute_mmg", "choose_scale"]
+
+
+def is_mmg(cfg: RunConfig) -> bool:
+    """Whether the configuration's model is the MMG model (``model=mmg``)."""
+    return isinstance(cfg.model, MMGModelConfig)
+
+
+@dataclass
+class MMGRun:
+    """A checked ``model=mmg`` configuration with its records (a PreparedRun)."""
+
+    cfg: RunConfig
+    settings: Settings
+    vessel: MMGVessel
+    model: ManoeuvringModel
+    method: str
+    records: list
+    truth: dict | None
+    validation_records: list = field(default_factory=list)
+    measured: bool = False
+    modules: object = None
+    bands: bool = False
+
+    @property
+    def name(self) -> str:
+        return _manoeuvring.run_name(self.cfg, self.settings)
+
+    @property
+    def tags(self) -> dict:
+        tags = _manoeuvring.run_tags(self.cfg, self.settings)
+        tags["scale"] = "model" if self.vessel.scale == 1 else f"1:{1 / self.vessel.scale:g}" \
+            if self.vessel.scale < 1 else f"{self.vessel.scale:g}x model"
+        return tags
+
+    @property
+    def inputs(self) -> list:
+        training = list(zip(self.settings.data_paths, self.records)) if self.settings.data_paths else []
+        return ([(p, r, "training") for p, r in training]
+                + [(p, r, "validation") for p, r in zip(self.settings.validate_paths,
+                                                        self.validation_records)])
+
+    def execute(self, out_dir: Path) -> dict:
+        return execute_mmg(self, out_dir)
+
+    def replay(self, params: dict, record: pd.DataFrame) -> pd.DataFrame:
+        """The record's rudder and propeller rate replayed from its first state."""
+        rps = None if "n" in record else self.vessel.rps
+        return replay_mmg(self.model, params, self.vessel, record, self.modules, rps)
+
+    def simulate_manoeuvre(self, params: dict, manoeuvre, initial: dict | None = None) -> pd.DataFrame:
+        rps = self.vessel.rps
+        if initial and "u" in initial:
+            # the approach rate of the record the manoeuvre starts from
+            rps = float(self._approach_rps)
+        return simulate_mmg(self.model, params, self.vessel, manoeuvre, self.modules, rps, initial)
+
+    @property
+    def _approach_rps(self) -> float:
+        rates = [float(r["n"].iloc[0]) for r in self.validation_records + self.records if "n" in r]
+        return float(np.median(rates)) if rates else self.vessel.rps
+
+
+def choose_scale(vessel_name: str, setting: str, records) -> MMGVessel:
+    """The vessel's MMG particulars at the records' scale (``model.scale``).
+
+    ``auto`` takes the scale (model or full) whose approach speed is nearest,
+    on a log scale, to the median initial speed of the records.
+    """
+    if setting in ("model", "full"):
+        return get_mmg_vessel(vessel_name, full_scale=setting == "full")
+    model = get_mmg_vessel(vessel_name)
+    if not records:
+        return model
+    speed = float(np.median([float(np.hypot(r["u"].iloc[0], r["v"].iloc[0])) for r in records]))
+    full = get_mmg_vessel(vessel_name, full_scale=True)
+    return min((model, full), key=lambda v: abs(math.log(max(speed, 1e-9) / v.speed)))
+
+
+def _at_approach(vessel: MMGVessel, records) -> MMGVessel:
+    """The vessel with the training records' median approach speed and rate."""
+    if not records:
+        return vessel
+    speed = float(np.median([float(np.hypot(r["u"].iloc[0], r["v"].iloc[0])) for r in records]))
+    rps = float(np.median([float(r["n"].iloc[0]) for r in records]))
+    return dataclasses.replace(vessel, speed=speed, rps=rps)
+
+
+def _require_rate(records, paths) -> None:
+    for rec, path in zip(records, paths):
+        if "n" not in rec:
+            raise DataError(str(path), "model=mmg needs the propeller rate of every record "
+                            "(column n [rps]; MARIN files carry it as rev [rpm])", "n")
+        bad = np.flatnonzero(~(rec["n"].to_numpy(float) >= 0))
+        if len(bad):
+            raise DataError(str(path), "the propeller rate must be a number >= 0 [rps]", "n", int(bad[0]))
+
+
+def prepare_mmg(cfg: RunConfig, root: Path | None = None, record=None) -> MMGRun:
+    """Check a ``model=mmg`` configuration and load or simulate its records."""
+    settings = read_settings(cfg)
+    model = get_model(str(cfg.model.name))
+    method = str(cfg.method.name)
+    make_identifier(method, _manoeuvring._method_options(cfg))
+    vessel_name = str(cfg.vessel.name)
+    get_mmg_vessel(vessel_name)                       # refuse a vessel without MMG particulars
+    truth = None
+    validation = _measured.load_measured(settings.validate_paths) if settings.validate_paths else []
+    _require_rate(validation, settings.validate_paths)
+    if settings.data_paths:
+        n_params = max(len(model.terms_of(d)) for d in ("X", "Y", "N"))
+        min_samples = _manoeuvring.MIN_SAMPLES_PER_COEFFICIENT * n_params + 5
+        records = _measured.load_measured(settings.data_paths, min_samples, cfg.data.resample)
+        _require_rate(records, settings.data_paths)
+        vessel = _at_approach(choose_scale(vessel_name, cfg.model.scale, records), records)
+        measured = True
+    else:
+        vessel = choose_scale(vessel_name, "full" if cfg.model.scale == "full" else "model", [])
+        truth = {name: vessel.coefficients[name] for name in model.names}
+        rng = np.random.default_rng(settings.seed)
+        records = []
+        for man in _manoeuvring.training_manoeuvres(cfg):
+            rec = simulate_mmg(model, truth, vessel, man)
+            if "diverged_at" in rec.attrs:
+                raise RuntimeError(f"the reference MMG simulation of {man.name} diverged")
+            rec = add_measurement_noise(rec, settings.measurement_noise, vessel.speed, rng)
+            rec.attrs["name"] = man.name
+            records.append(rec)
+        measured = False
+    return MMGRun(cfg, settings, vessel, model, method, records, truth, validation, measured,
+                  vessel.modules)
+
+
+def _estimates(run: MMGRun) -> tuple[list, str]:
+    derivative = run.cfg.data.derivative
+    if run.measured:
+        derivative = _manoeuvring.measured_derivative(run.records, derivative)
+    if derivative == "ekf":
+        derivative = "ekf_kinematic"
+    kalman, _ = _measured.kalman_options(run.cfg)
+    return _measured.estimate_all(run.records, derivative, kalman), derivative
+
+
+def identify_mmg(run: MMGRun, out_dir: Path | None = None):
+    """Hull coefficients (and listed interaction factors); ``(result, modules, metrics)``."""
+    cfg = run.cfg.model
+    estimates, derivative = _estimates(run)
+    prior = dict(run.vessel.coefficients) if math.isfinite(cfg.prior_scale) else None
+
+    def problems(modules):
+        return mmg_problems(run.model, run.vessel, modules, run.records, estimates, prior,
+                            cfg.prior_scale, cfg.prior_floor, cfg.weights)
+
+    def fit_hull(modules):
+        return LeastSquares().fit(problems(modules)).params
+
+    metrics = {"mmg/prior_scale": float(cfg.prior_scale), "mmg/scale": float(run.vessel.scale)}
+    modules = run.modules
+    if cfg.output_error:
+        modules, _, info = refine_modules(run.model, run.vessel, run.records, modules,
+                                          cfg.output_error, fit_hull, cfg.output_error_sample_s,
+                                          max_evaluations=cfg.output_error_evaluations)
+        metrics.update(info)
+    identifier = make_identifier(run.method, _manoeuvring._method_options(run.cfg))
+    objective = MMGObjective(run.model, run.vessel, run.records, modules, max_samples=2000)
+    t0 = time.perf_counter()
+    result = identifier.fit(problems(modules), objective=objective)
+    metrics["runtime/identify_s"] = time.perf_counter() - t0
+    metrics.update(result.metrics)
+    return result, modules, metrics, derivative
+
+
+def _factor_table(run: MMGRun, modules) -> pd.DataFrame:
+    fitted = set(run.cfg.model.output_error)
+    rows = [{"name": k, "value": v, "prior": getattr(run.vessel.modules, k),
+             "source": "output_error" if k in fitted else "published"}
+            for k, v in modules.as_dict().items()]
+    return pd.DataFrame(rows)
+
+
+def _validate_simulated(run: MMGRun, params: dict, out_dir: Path) -> dict:
+    """Validation manoeuvres simulated with the identified and the published coefficients."""
+    metrics = {}
+    reference = {name: run.vessel.coefficients[name] for name in run.model.names}
+    duration = run.cfg.validate.duration
+    for name in run.settings.validate_manoeuvres:
+        man = named_manoeuvre(name, {"duration": float(duration)} if duration else None)
+        ref = simulate_mmg(run.model, reference, run.vessel, man)
+        pred = simulate_mmg(run.model, params, run.vessel, man, run.modules)
+        metrics.update(error_metrics(pred, ref, name))
+        heading = np.deg2rad(man.heading) if man.kind == "zigzag" else None
+        kind = man.kind if man.kind in ("zigzag", "turning") else None
+        metrics.update(_manoeuvring._characteristic_errors(pred, ref, name, kind, heading))
+        plot_overlay({"reference": ref, "identified": pred}, out_dir / f"validation_{name}.png",
+                     f"{name}: identified MMG ({run.method}) vs published MMG")
+    return metrics
+
+
+#: characteristics set side by side in comparison.csv
+COMPARED = ("rmse_position", "advance_error_pct", "tactical_diameter_error_pct",
+            "steady_speed_error_pct", "steady_yaw_rate_error_pct", "steady_diameter_error_pct",
+            "overshoot1_error_deg", "overshoot2_error_deg", "closed_loop/overshoot1_error_deg",
+            "closed_loop/overshoot2_error_deg")
+
+
+def _abkowitz_beside(run: MMGRun, out_dir: Path) -> dict:
+    """The Abkowitz ``symmetric`` model identified (LS) and validated on the same records."""
+    abk_vessel = get_vessel(str(run.cfg.vessel.name))
+    if abs(math.log(abk_vessel.speed / run.vessel.speed)) > math.log(1.5):
+        return {}                                      # not the Abkowitz particulars' scale
+    cfg = dataclasses.replace(run.cfg, method=MethodConfig(name="ls"),
+                              validate=dataclasses.replace(run.cfg.validate, compare_derivatives=False,
+                                                           band_draws=0))
+    study = _manoeuvring.Study(cfg, run.settings, abk_vessel, get_model("symmetric"), "ls",
+                               run.records, None, run.validation_records, True)
+    metrics = _manoeuvring.execute(study, out_dir / "abkowitz")
+    return {f"abkowitz/{k}": v for k, v in metrics.items()}
+
+
+def _comparison(run: MMGRun, metrics: dict, out_dir: Path) -> None:
+    rows = []
+    for rec in run.validation_records:
+        name = rec.attrs.get("name", "record")
+        for key in COMPARED:
+            mmg = metrics.get(f"{name}/{key}")
+            abk = metrics.get(f"abkowitz/{name}/{key}")
+            if mmg is None and abk is None:
+                continue
+            rows.append({"record": name, "quantity": key, "mmg": mmg, "abkowitz": abk})
+    if not rows:
+        return
+    table = pd.DataFrame(rows, columns=["record", "quantity", "mmg", "abkowitz"])
+    table.to_csv(out_dir / "comparison.csv", index=False)
+    training = ", ".join(str(r.attrs.get("name")) for r in run.records)
+    lines = [f"# MMG against Abkowitz, trained on {training}", "",
+             "Errors of the replayed validation records (prediction minus measurement; "
+             "`_pct` in %, `_deg` in deg, `rmse_position` in m).", "",
+             "| record | quantity | MMG | Abkowitz |", "|---|---|---:|---:|"]
+    fmt = (lambda x: "–" if x is None or not np.isfinite(x) else f"{x:+.1f}")
+    for row in table.itertuples():
+        lines.append(f"| {row.record} | {row.quantity} | {fmt(row.mmg)} | {fmt(row.abkowitz)} |")
+    (out_dir / "comparison.md").write_text("\n".join(lines) + "\n")
+
+
+def _captive(run: MMGRun, params: dict, modules, out_dir: Path) -> dict:
+    model_scale = get_mmg_vessel(str(run.cfg.vessel.name))
+    if not model_scale.captive:
+        return {}
+    tests = read_captive(model_scale.captive)
+    published = {n: model_scale.coefficients[n] for n in run.model.names}
+    table, summary = captive_comparison({"identified": (run.model, params, modules),
+                                         "published": (run.model, published, model_scale.modules)},
+                                        model_scale, tests)
+    table.to_csv(out_dir / "captive.csv", index=False)
+    summary.to_csv(out_dir / "captive_summary.csv", index=False)
+    plot_captive(table, ("identified", "published"), out_dir / "captive.png",
+                 "captive tests: identified and published MMG against measured forces")
+    out = {}
+    for row in summary.itertuples():
+        kind = row.test.replace(" + ", "_and_").replace(" ", "_")
+        out[f"captive/{row.model}/{kind}/{row.quantity}_rmse_pct_of_range"] = row.rmse_pct_of_range
+    return out
+
+
+def _scale_note(run: MMGRun) -> str:
+    v = run.vessel
+    if v.scale == 1:
+        scale = "model scale (the particulars of the tested model)"
+    else:
+        scale = f"Froude scaled by {v.scale:g} from the tested model (lengths x{v.scale:g}, " \
+                f"speeds and times x{math.sqrt(v.scale):.3g}, rates /{math.sqrt(v.scale):.3g})"
+    return "\n".join([f"# MMG model of {v.name}", "",
+                      f"- scale: {scale}; L = {v.length:.4g} m, approach {v.speed:.4g} m/s at "
+                      f"{v.rps:.4g} rps",
+                      f"- hull coefficients: MMG primes (X, Y over 0.5 rho L d U^2, N over "
+                      f"0.5 rho L^2 d U^2), prior sd max({run.cfg.model.prior_scale:g} |c0|, "
+                      f"{run.cfg.model.prior_floor:g}) around {v.reference}",
+                      f"- interaction factors fitted by output error: "
+                      f"{', '.join(run.cfg.model.output_error) or 'none (published values)'}", ""])
+
+
+def execute_mmg(run: MMGRun, out_dir: Path) -> dict:
+    """Identify, validate and write the run's files; the metrics (also ``metrics.json``)."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    started = time.perf_counter()
+    result, modules, metrics, derivative = identify_mmg(run, out_dir)
+    run.modules = modules
+    params = {name: result.params[name] for name in run.model.names}
+    table = _manoeuvring.coefficient_table(run.model, params, result.lower, result.upper, run.truth)
+    table.to_csv(out_dir / "coefficients.csv", index=False)
+    _factor_table(run, modules).to_csv(out_dir / "interaction_factors.csv", index=False)
+    (out_dir / "mmg.md").write_text(_scale_note(run))
+    for filename, writer in result.writers.items():
+        writer(out_dir / filename)
+    metrics["training/samples"] = float(sum(len(r) for r in run.records))
+    if run.truth:
+        dev = table["deviation_pct"].abs()
+        metrics["deviation/median_abs_pct"] = float(dev.median())
+        metrics["deviation/max_abs_pct"] = float(dev.max())
+    metrics.update(_manoeuvring._replay_training(run, params, out_dir))
+    if run.validation_records:
+        metrics.update(_manoeuvring._validate_records(run, params, out_dir, result))
+        if run.cfg.model.compare_abkowitz and run.measured:
+            metrics.update(_abkowitz_beside(run, out_dir))
+            _comparison(run, metrics, out_dir)
+    else:
+        metrics.update(_validate_simulated(run, params, out_dir))
+    if run.cfg.model.captive:
+        metrics.update(_captive(run, params, modules, out_dir))
+    own = {k: v for k, v in metrics.items() if not k.startswith(("abkowitz/", "captive/"))}
+    metrics.update(_manoeuvring.speed_mae_summary(own, {str(r.attrs.get("name")) for r in run.records}))
+    metrics["runtime/total_s"] = time.perf_counter() - started
+    metrics = {k: float(v) for k, v in metrics.items() if v is not None and np.isfinite(v)}
+    (out_dir / "metrics.json").write_text(json.dumps(metrics, indent=1, sort_keys=True))
+    return metrics
