@@ -25,7 +25,10 @@ from studies.simulate.simulator import record_environment
 
 #: the causes of DESIGN.md's catalogue, in the order they are tried
 CONTRACT_IDS = ["none", "rudder_offset", "current", "wind_unmodelled", "wind_speed_bias",
-                "environmental_bias", "missing_term"]
+                "environmental_bias", "missing_term", "propulsion"]
+#: causes whose extension is another model (no parameter value is the baseline)
+REPLACING = [c for c in CONTRACT_IDS if CATALOGUE[c].replaces_dynamics]
+EXTENDING = [c for c in CONTRACT_IDS if c not in REPLACING]
 
 
 @pytest.fixture(scope="module")
@@ -85,12 +88,23 @@ def test_every_cause_declares_the_protocol(cause_id):
     assert {"id", "no_effect", "explanation"} <= set(own), sorted(own)
     assert isinstance(cls.explanation, str) and len(cls.explanation) > 40
     cause = cls()
+    if cls.replaces_dynamics:
+        assert cls.no_effect is None
+        return
     assert cause.parameters(no_effect_theta(cause)) == cls.no_effect
     assert set(cause.nl_params) <= set(cls.no_effect)
     compact_parameters(cls.no_effect)
 
 
-@pytest.mark.parametrize("cause_id", CONTRACT_IDS)
+def test_propulsion_replaces_the_dynamics_only_where_a_propeller_is_known(contexts):
+    """``propulsion`` is the one cause that replaces the baseline: it applies to no
+    record of the Mariner (no MMG particulars, no propeller rate) and declares it."""
+    assert REPLACING == ["propulsion"]
+    cause = CATALOGUE["propulsion"]()
+    assert not any(cause.applicable(ctx) for ctx in contexts.values())
+
+
+@pytest.mark.parametrize("cause_id", EXTENDING)
 def test_at_its_no_effect_values_a_cause_leaves_the_record_unchanged(cause_id, contexts):
     cause = CATALOGUE[cause_id]()
     for ctx in checked_contexts(cause, contexts).values():

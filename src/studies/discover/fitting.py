@@ -85,6 +85,8 @@ class CauseFit:
 
 def regression_fit(ctx: Context, setup: Setup):
     """LS on the setup's records; returns (params incl. fixed, prime residual per DOF, problems)."""
+    if setup.dynamics is not None:
+        return setup.dynamics.regression_fit(ctx, setup)
     problems = build_problems(setup.model, ctx.vessel, setup.fit_records, ctx.derivative, setup.fixed)
     if setup.bias is not None:
         bx, by, bn = setup.bias
@@ -266,8 +268,11 @@ def validate(ctx: Context, fit: CauseFit, keep: bool = False, whole: bool = Fals
             seg = init.copy()
             seg["x0"], seg["y0"] = part["x0"].to_numpy(), part["y0"].to_numpy()
             seg.attrs = dict(rec.attrs)
-            pred = replay(setup.model, fit.params, ctx.vessel, setup.sim_record(seg),
-                          setup.environment(seg), setup.external())
+            if setup.dynamics is not None:
+                pred = setup.dynamics.replay(fit.params, setup.sim_record(seg))
+            else:
+                pred = replay(setup.model, fit.params, ctx.vessel, setup.sim_record(seg),
+                              setup.environment(seg), setup.external())
             if keep and len(starts) == 1:
                 predictions.append(pred)
             if "diverged_at" in pred.attrs:
@@ -285,6 +290,7 @@ def validate(ctx: Context, fit: CauseFit, keep: bool = False, whole: bool = Fals
                 errors[f"rmse_{c}"].append(
                     float(np.sqrt(np.mean((pred[c].to_numpy() - part[c].to_numpy()) ** 2))))
     fit.validation = {k: float(np.mean(v)) for k, v in errors.items()}
+    fit.validation["windows"] = [float(x) for x in errors["position_rmse"]]
     fit.validation["diverged"] = sorted(set(diverged))
     if keep:
         fit.validation["predictions"] = predictions

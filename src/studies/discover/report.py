@@ -40,7 +40,7 @@ def indistinguishable(ranking: list, cause: str, margin: float = INDISTINGUISHAB
     the named cause's in ``ranking`` (``[{"cause", "score"}, ...]``): the data
     explain them as well, e.g. quadratic and cubic roll damping over a narrow
     range of amplitudes. Empty for ``none``."""
-    scores = {r["cause"]: float(r["score"]) for r in ranking}
+    scores = {r["cause"]: float(r["score"]) for r in ranking if r.get("score") is not None}
     if cause == "none" or cause not in scores:
         return []
     return [c for c, s in scores.items() if c not in (cause, "none") and abs(s - scores[cause]) < margin]
@@ -79,6 +79,7 @@ def plot_predictions(record, predictions: dict, title: str, path: Path) -> None:
 def plot_ranking(ranking: list, path: Path) -> None:
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(7, 3.5))
+    ranking = [r for r in ranking if r.get("score") is not None]   # scored on the baseline's residual
     names = [r["cause"] for r in ranking]
     scores = [r["score"] for r in ranking]
     ax.barh(names[::-1], scores[::-1], color=["tab:green" if i == 0 else "tab:grey"

@@ -20,7 +20,7 @@ from .output_error import (needs_refinement, noise_levels, output_error_scores, 
                            score_terms, training_windows)
 
 __all__ = ["select_missing_terms", "forward_select", "terms_by_output_error", "breaks_down", "not_named",
-           "search"]
+           "held_out_evidence", "named_on_held_out", "search"]
 
 log = logging.getLogger(__name__)
 
@@ -207,6 +207,12 @@ def not_named(fit: CauseFit, reference: CauseFit, near_gain: float = 0.10) -> st
     if lost and fit.score < reference.score:
         return (f"{fit.cause.id} not named: its prediction of {', '.join(lost)} diverges "
                 "(the baseline's does not), although its windowed error is lower")
+    if getattr(fit.cause, "replaces_dynamics", False):
+        better, n, p = held_out_evidence(fit, reference)
+        if lost or p < HELD_OUT_P:
+            return None
+        return (f"{fit.cause.id} not named: it predicts {better} of {n} held-out windows better than the "
+                f"baseline ({v:.4g} against {b:.4g} m), not significantly (Wilcoxon signed-rank p = {p:.2g})")
     if not lost and v < (1.0 - near_gain) * b and fit.score >= reference.score - EVIDENCE:
         d = reference.score - fit.score
         evidence = f"score lower by only {d:.1f}" if d > 0 else f"score higher by {-d:.1f}"
@@ -217,11 +223,60 @@ def not_named(fit: CauseFit, reference: CauseFit, near_gain: float = 0.10) -> st
     return None
 
 
+#: one-sided p-value below which held-out windows support a cause that replaces
+#: the baseline's dynamics (about the evidence of :data:`EVIDENCE`)
+HELD_OUT_P = 0.01
+
+
+def held_out_evidence(fit: CauseFit, reference: CauseFit) -> tuple[int, int, float]:
+    """Windows of the validation records that ``fit`` predicts better than
+    ``reference``: ``(better, windows, p)``, ``p`` the one-sided Wilcoxon
+    signed-rank test (``scipy.stats.wilcoxon``) that the paired log errors of
+    ``fit`` are lower (a sign test that also weighs by how much)."""
+    from scipy.stats import wilcoxon
+
+    a = np.asarray(fit.validation.get("windows", []), float)
+    b = np.asarray(reference.validation.get("windows", []), float)
+    if len(a) == 0 or len(a) != len(b) or not (np.all(a > 0) and np.all(b > 0)):
+        return 0, 0, 1.0
+    d = np.log(a) - np.log(b)
+    d = d[d != 0]
+    if len(d) == 0:
+        return 0, 0, 1.0
+    return int(np.sum(d < 0)), len(d), float(wilcoxon(d, alternative="less").pvalue)
+
+
 def _gains(fit: CauseFit, reference: CauseFit) -> bool:
     """``fit`` is preferred to ``reference``: score lower by :data:`EVIDENCE`,
-    windowed validation error lower, and no validation record lost."""
+    windowed validation error lower, and no validation record lost.
+
+    A cause that replaces the baseline's dynamics by a physical model
+    (``propulsion``: the MMG model) is judged on the held-out records instead
+    of the training score: its effect (thrust rising as the ship slows at
+    constant rpm) lies outside the states the training records cover, which
+    a flexible polynomial baseline fits at least as closely. It is preferred
+    when it predicts the held-out records better in a significant majority of
+    their windows (:func:`held_out_evidence`, :data:`HELD_OUT_P`) and loses none of them.
+    """
+    if getattr(fit.cause, "replaces_dynamics", False):
+        better, n, p = held_out_evidence(fit, reference)
+        return (p < HELD_OUT_P and fit.validation_rmse < reference.validation_rmse
+                and not breaks_down(fit, reference))
     return (fit.score < reference.score - EVIDENCE and fit.validation_rmse < reference.validation_rmse
             and not breaks_down(fit, reference))
+
+
+def named_on_held_out(fit: CauseFit, reference: CauseFit) -> str | None:
+    """The note that says why a cause replacing the dynamics was named on
+    held-out evidence (None for other causes)."""
+    if not getattr(fit.cause, "replaces_dynamics", False) or fit is reference:
+        return None
+    better, n, p = held_out_evidence(fit, reference)
+    d = reference.score - fit.score
+    train = f"score lower by {d:.1f}" if d > 0 else f"score higher by {-d:.1f}"
+    return (f"{fit.cause.id} is judged on the held-out records: it predicts {better} of {n} validation "
+            f"windows better than the baseline (Wilcoxon signed-rank p = {p:.2g}); the training records alone "
+            f"do not show it ({train}), their states lie where the baseline's polynomial fits well")
 
 
 def _candidate_fits(ctx: Context, threshold: float, max_terms: int, refined: bool, windows, sigma):
@@ -235,8 +290,11 @@ def _candidate_fits(ctx: Context, threshold: float, max_terms: int, refined: boo
         # once more from its own solution: the prior then centres where the
         # extensions by terms start (see terms_by_output_error), a fair comparison
         base = refine(ctx, base, windows, sigma, states=base.refined["states"])
-        fits = [base] + [refine(ctx, f, windows, sigma, states=base.refined["states"]) for f in fits[1:]]
-        terms, missing, candidates = terms_by_output_error(ctx, base, windows, sigma, max_terms, fits)
+        # a cause with its own dynamics (propulsion) is not refined by the baseline's replays
+        fits = [base] + [f if f.setup.dynamics is not None else
+                         refine(ctx, f, windows, sigma, states=base.refined["states"]) for f in fits[1:]]
+        terms, missing, candidates = terms_by_output_error(ctx, base, windows, sigma, max_terms,
+                                                           [f for f in fits if f.refined is not None])
         if missing is not None:
             fits.append(missing)
         return fits, terms, candidates
@@ -286,8 +344,12 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
                  f" (diverges on {', '.join(fit.whole['diverged'])})" if fit.whole["diverged"] else "",
                  fit.seconds)
     baseline = fits[0]
-    eligible = [f for f in fits if f is baseline or _gains(f, baseline)]
-    best = min(eligible, key=lambda f: f.score)
+    gaining = [f for f in fits if f is not baseline and _gains(f, baseline)]
+    if any(getattr(f.cause, "replaces_dynamics", False) for f in gaining):
+        # scores on different models' residuals do not compare: the held-out error decides
+        best = min(gaining, key=lambda f: f.validation_rmse)
+    else:
+        best = min(gaining, key=lambda f: f.score) if gaining else baseline
     out = {"baseline": baseline, "fits": fits, "best": best, "terms": terms, "candidates": candidates,
            "second": None, "output_error": output_error}
     if second and best is not baseline:
@@ -299,6 +361,8 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
                 continue
             if isinstance(best.cause, Combined) or other.cause.id == best.cause.id:
                 continue
+            if any(getattr(f.cause, "replaces_dynamics", False) for f in (best, other)):
+                continue            # a pair on top of another model's dynamics is not built
             first, second_ = (best, other) if not isinstance(best.cause, MissingTerm) else (other, best)
             if output_error:
                 fit = _refined_pair(ctx, first, second_, windows, sigma)

@@ -109,7 +109,7 @@ def mmg_problems(model: ManoeuvringModel, vessel, modules: MMGParameters, record
         force of a slow sample is a small SI force divided by a small
         ``U^2``; see :func:`studies.workflows.measured.problems_from_estimates`).
     """
-    primes, lhs, which, times, speed2 = [], [], [], [], []
+    primes, lhs, which, times, speed2, states = [], [], [], [], [], []
     for i, (rec, est) in enumerate(zip(records, estimates)):
         if "n" not in rec:
             raise ValueError(f"record '{rec.attrs.get('name', i)}' has no propeller rate 'n' [rps]")
@@ -120,6 +120,8 @@ def mmg_problems(model: ManoeuvringModel, vessel, modules: MMGParameters, record
         which.append(np.full(len(y), i))
         times.append(rec["t"].to_numpy(float)[est.index])
         speed2.append(np.asarray(est.states["u"], float) ** 2 + np.asarray(est.states["v"], float) ** 2)
+        states.append({k: np.asarray(est.states[k], float) for k in ("u", "v", "r", "delta", "psi")
+                       if k in est.states})
     primes, lhs = np.vstack(primes), np.vstack(lhs)
     which, times = np.concatenate(which), np.concatenate(times)
     root = None
@@ -128,7 +130,9 @@ def mmg_problems(model: ManoeuvringModel, vessel, modules: MMGParameters, record
         root = np.sqrt(w / w.mean())
     elif weights != "none":
         raise ValueError(f"MMG regression weights must be 'none' or 'speed', got '{weights}'")
-    problems = assemble_problems(model, primes, lhs, {}, which, times, row_weights=root)
+    keys = [k for k in states[0] if all(k in s for s in states)]
+    joined = {k: np.concatenate([s[k] for s in states]) for k in keys}
+    problems = assemble_problems(model, primes, lhs, {}, which, times, joined, row_weights=root)
     if prior and np.isfinite(prior_scale):
         for problem in problems.values():
             add_prior_rows(problem, prior, prior_scale, prior_floor)
@@ -169,5 +173,6 @@ def add_prior_rows(problem, prior: dict, scale: float, floor: float) -> None:
     if problem.time is not None:
         last = float(np.max(problem.time)) if len(problem.time) else 0.0
         problem.time = np.concatenate([problem.time, last + 1.0 + np.arange(len(names))])
+    problem.n_data = len(y)
     problem.prior = {"names": names, "mean": [float(prior[n]) for n in names], "sd": sds,
                      "sigma": sigma}

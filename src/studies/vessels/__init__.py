@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import math
+
 from ..errors import ConfigError
 from .base import Vessel, WindParticulars
 from .kvlcc2 import kvlcc2
 from .kvlcc2_mmg import MMGVessel, kvlcc2_mmg
 from .mariner import MARINER_COEFFICIENTS, mariner
 
-__all__ = ["Vessel", "WindParticulars", "MARINER_COEFFICIENTS", "MMGVessel", "get_vessel", "get_mmg_vessel"]
+__all__ = ["Vessel", "WindParticulars", "MARINER_COEFFICIENTS", "MMGVessel", "get_vessel", "get_mmg_vessel",
+           "has_mmg_particulars", "mmg_vessel_at_speed"]
 
 _REGISTRY = {"mariner": mariner, "kvlcc2": kvlcc2}
 
@@ -33,3 +36,16 @@ def get_mmg_vessel(name: str, full_scale: bool = False) -> MMGVessel:
         raise ConfigError(f"vessel '{name}' has no MMG particulars (propeller, rudder, interaction "
                           f"factors); model=mmg knows: {', '.join(sorted(_MMG_REGISTRY))}") from None
     return make(full_scale=full_scale)
+
+
+def has_mmg_particulars(name: str) -> bool:
+    """Whether vessel ``name`` has MMG particulars (:func:`get_mmg_vessel`)."""
+    return name in _MMG_REGISTRY
+
+
+def mmg_vessel_at_speed(name: str, speed: float) -> MMGVessel:
+    """The MMG particulars at model or full scale, whichever approach speed is
+    nearer ``speed`` [m/s] on a log scale (records do not say their scale)."""
+    model = get_mmg_vessel(name)
+    full = get_mmg_vessel(name, full_scale=True)
+    return min((model, full), key=lambda v: abs(math.log(max(float(speed), 1e-9) / v.speed)))

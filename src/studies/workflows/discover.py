@@ -27,7 +27,7 @@ from ..discover.diagnostics import explains
 from ..discover.fitting import Context, regression_fit, training_error
 from ..discover.report import (indistinguishable, plot_predictions, plot_ranking, plot_residuals,
                                write_discovery, write_report)
-from ..discover.search import breaks_down, not_named, search
+from ..discover.search import breaks_down, named_on_held_out, not_named, search
 from ..errors import ConfigError
 from ..identify.kalman import ekf_derivatives
 from ..vessels import get_vessel
@@ -217,7 +217,9 @@ def execute_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
         uncertainty = _interval_dict(names, post)
         if cause.id in ("current", "wind_unmodelled") and "direction" in uncertainty:
             uncertainty["direction"] = [float(x) % (2 * np.pi) for x in uncertainty["direction"]]
-    ranked = sorted(result["fits"], key=lambda f: f.score)
+    # a cause that replaces the dynamics is scored on another model's residual: listed last, no score
+    ranked = (sorted([f for f in result["fits"] if not f.cause.replaces_dynamics], key=lambda f: f.score)
+              + [f for f in result["fits"] if f.cause.replaces_dynamics])
     top = ranked[0].score
     lost = {f.cause.id: breaks_down(f, baseline) for f in ranked}
     b_rmse, e_rmse = baseline.validation_rmse, best.validation_rmse
@@ -234,7 +236,8 @@ def execute_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
         "explains_validation": explained,
         "gain_pct": gain_pct(b_rmse, e_rmse),
         "units": "m (position RMSE over prediction windows)",
-        "ranking": [{"cause": f.cause.id, "score": float(f.score - top),
+        "ranking": [{"cause": f.cause.id,
+                     "score": None if f.cause.replaces_dynamics else float(f.score - top),
                      "validation_rmse": f.validation_rmse,
                      "validation_rmse_whole_records": f.whole["position_rmse"],
                      "diverges_on": lost[f.cause.id]} for f in ranked],
@@ -246,8 +249,8 @@ def execute_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
         "fit": "output error" if result["output_error"] else "equation error",
         "candidate_terms": [t.name for t in result["candidates"]],
         "selected_terms": [t.name for t in result["terms"]],
-        "notes": study.notes + [note for note in (not_named(f, baseline) for f in ranked if f is not best)
-                                if note],
+        "notes": study.notes + [note for note in [named_on_held_out(best, baseline)]
+                                + [not_named(f, baseline) for f in ranked if f is not best] if note],
     }
     discovery["indistinguishable_from"] = indistinguishable(discovery["ranking"], discovery["cause"])
     other = [on_record_time(study.simulation, rec) if study.simulation is not None else None
@@ -256,6 +259,8 @@ def execute_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
         discovery["notes"].append(f"simulation.path ({study.simulation.attrs.get('name')}) not judged: its "
                                   "time span or rudder matches no validation record")
     models = {"baseline": full_base["predictions"]}
+    if best is not baseline:
+        models[f"extended ({cause.id})"] = full_best["predictions"]
     if any(o is not None for o in other):
         models["other simulator"] = other
     departed = _departures(ctx.validation, models, study.vessel)
@@ -313,7 +318,9 @@ def execute_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
                "discover/n_causes": float(len(result["fits"])), "discover/tau": ctx.tau,
                "runtime/total_s": time.perf_counter() - t0}
     for f in result["fits"]:
-        metrics[f"discover/score/{f.cause.id}"] = float(f.score - top)
+        if not f.cause.replaces_dynamics:
+            metrics[f"discover/score/{f.cause.id}"] = float(f.score - top)
+        metrics[f"discover/validation_rmse/{f.cause.id}"] = f.validation_rmse
     if discovery.get("splits"):
         metrics["discover/splits_agreeing"] = float(sum(r["cause"] == cause.id for r in discovery["splits"]))
         metrics["discover/splits"] = float(len(discovery["splits"]))

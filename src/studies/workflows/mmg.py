@@ -60,7 +60,7 @@ from ..models.abkowitz import ManoeuvringModel
 from ..models.registry import get_model
 from ..report.figures import plot_overlay
 from ..simulate.mmg import replay_mmg, simulate_mmg
-from ..vessels import get_mmg_vessel, get_vessel
+from ..vessels import get_mmg_vessel, get_vessel, mmg_vessel_at_speed
 from ..vessels.kvlcc2_mmg import MMGVessel
 from . import manoeuvring as _manoeuvring
 from . import measured as _measured
@@ -137,12 +137,10 @@ def choose_scale(vessel_name: str, setting: str, records) -> MMGVessel:
     """
     if setting in ("model", "full"):
         return get_mmg_vessel(vessel_name, full_scale=setting == "full")
-    model = get_mmg_vessel(vessel_name)
     if not records:
-        return model
+        return get_mmg_vessel(vessel_name)
     speed = float(np.median([float(np.hypot(r["u"].iloc[0], r["v"].iloc[0])) for r in records]))
-    full = get_mmg_vessel(vessel_name, full_scale=True)
-    return min((model, full), key=lambda v: abs(math.log(max(speed, 1e-9) / v.speed)))
+    return mmg_vessel_at_speed(vessel_name, speed)
 
 
 def _at_approach(vessel: MMGVessel, records) -> MMGVessel:

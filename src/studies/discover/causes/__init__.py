@@ -30,16 +30,17 @@ from .current import Current
 from .environmental_bias import EnvironmentalBias
 from .missing_term import MissingTerm, extended_library
 from .none import NoCause
+from .propulsion import Propulsion
 from .rudder_offset import RudderOffset
 from .wind import WindSpeedBias, WindUnmodelled
 
 __all__ = ["Setup", "Cause", "CATALOGUE", "manoeuvring_causes", "compact_parameters", "NoCause",
            "RudderOffset", "Current", "WindUnmodelled", "WindSpeedBias", "EnvironmentalBias",
-           "MissingTerm", "Combined", "extended_library"]
+           "MissingTerm", "Combined", "extended_library", "Propulsion"]
 
 #: every manoeuvring cause by its contract id, ``none`` first
 CATALOGUE = {c.id: c for c in (NoCause, RudderOffset, Current, WindUnmodelled, WindSpeedBias,
-                               EnvironmentalBias, MissingTerm)}
+                               EnvironmentalBias, MissingTerm, Propulsion)}
 
 
 def manoeuvring_causes(ctx, missing_terms=()) -> list[Cause]:
@@ -54,5 +55,5 @@ def manoeuvring_causes(ctx, missing_terms=()) -> list[Cause]:
     """
     has_n0 = any(t.powers == (0, 0, 0, 0) for t in ctx.model.terms_of("N"))
     causes = [NoCause(), RudderOffset(), Current(), WindUnmodelled(), WindSpeedBias(),
-              EnvironmentalBias(fit_moment=not has_n0), MissingTerm(missing_terms)]
+              EnvironmentalBias(fit_moment=not has_n0), MissingTerm(missing_terms), Propulsion()]
     return [c for c in causes if c.applicable(ctx)]

@@ -46,6 +46,12 @@ class Setup:
         The cause that made the setup (None: the baseline).
     theta : ndarray or None
         The cause's nonlinear parameters (:attr:`Cause.nl_params`).
+    dynamics : object or None
+        A cause that replaces the baseline's dynamics (``propulsion``: the
+        MMG model) gives here how it is identified and replayed:
+        ``regression_fit(ctx, setup) -> (params, residuals, problems)`` and
+        ``replay(params, record) -> record``; None: the baseline's
+        regression and simulator.
     """
 
     model: ManoeuvringModel
@@ -54,6 +60,7 @@ class Setup:
     bias: np.ndarray | None = None
     cause: "Cause | None" = None
     theta: np.ndarray | None = None
+    dynamics: object | None = None
 
     def sim_record(self, record: pd.DataFrame) -> pd.DataFrame:
         """The record to replay (its rudder as the hydrodynamics see it)."""
@@ -94,11 +101,18 @@ class Cause:
         ``discovery.json`` and the report.
     params : tuple of str
         Names of the cause's parameters, in the order of ``theta``.
-    no_effect : dict
+    no_effect : dict or None
         The parameters, as :meth:`parameters` writes them, at which the
         cause changes nothing: the extended model is then the baseline
         (``{}`` for a cause without parameters). ``tests/test_discover_causes.py``
-        checks that the hooks leave a record unchanged there.
+        checks that the hooks leave a record unchanged there. None for a
+        cause that replaces the baseline's dynamics (``replaces_dynamics``,
+        its :class:`Setup` carries ``dynamics``): no value of its parameters
+        is the baseline.
+    replaces_dynamics : bool
+        The extension is another model, not the baseline extended
+        (``propulsion``); such a cause is judged on held-out records
+        (:func:`studies.discover.search._gains`).
     explanation : str
         What the cause is physically, in words the report prints when the
         cause is named.
@@ -135,9 +149,10 @@ class Cause:
     """
 
     id: str
-    no_effect: dict
+    no_effect: dict | None
     explanation: str
     params: tuple = ()
+    replaces_dynamics: bool = False
 
     def applicable(self, ctx) -> bool:
         """Whether the cause can be fitted to the training records of ``ctx``."""
