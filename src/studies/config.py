@@ -707,6 +707,10 @@ class MMGModelConfig(ModelConfig):
     captive : bool
         Compare the identified model with the vessel's captive tests
         (``captive.csv``, ``captive/...`` metrics) when it has them.
+    captive_weight : float
+        The captive tests' hull forces as rows of the regression, with this
+        weight relative to the records (1: as much say as all the records
+        together), >= 0; 0: not used.
     """
 
     prior_scale: float = 0.5
@@ -718,6 +722,7 @@ class MMGModelConfig(ModelConfig):
     scale: str = "auto"
     compare_abkowitz: bool = True
     captive: bool = True
+    captive_weight: float = 0.0
 
     def __post_init__(self):
         super().__post_init__()
@@ -734,6 +739,8 @@ class MMGModelConfig(ModelConfig):
                               "model.output_error_evaluations at least 1")
         if self.weights not in ("none", "speed"):
             raise ConfigError(f"model.weights must be none or speed, got '{self.weights}'")
+        if not self.captive_weight >= 0:
+            raise ConfigError(f"model.captive_weight must be >= 0, got {self.captive_weight}")
         if self.scale not in MMG_SCALES:
             raise ConfigError(f"model.scale must be one of {', '.join(MMG_SCALES)}, got '{self.scale}'")
 

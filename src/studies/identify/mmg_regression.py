@@ -47,10 +47,38 @@ from ..models.abkowitz import ManoeuvringModel
 from ..models.mmg import MMGParameters, module_constants, module_forces
 from .regression import assemble_problems
 
-__all__ = ["hull_force_targets", "mmg_problems", "add_prior_rows", "MMG_PRIOR_RECORD"]
+__all__ = ["hull_force_targets", "captive_targets", "mmg_problems", "add_prior_rows", "MMG_PRIOR_RECORD",
+           "MMG_CAPTIVE_RECORD"]
 
 #: the ``record`` index of the prior's pseudo-observation rows
 MMG_PRIOR_RECORD = -1
+#: the ``record`` index of the captive tests' rows
+MMG_CAPTIVE_RECORD = -2
+
+
+def captive_targets(vessel, modules: MMGParameters, tests) -> tuple[np.ndarray, np.ndarray]:
+    """Prime states ``(0, v', 0, delta)`` and MMG prime hull forces (k, 3) of captive tests.
+
+    The hull force of a test is its measured total force (captive primes over
+    ``0.5 rho L^2 U^2``, moment ``0.5 rho L^3 U^2``; :mod:`studies.data.captive`)
+    less the propeller and rudder modules at its speed, drift, rudder angle
+    and propeller rate, over ``0.5 rho L d U^2`` (moment ``0.5 rho L^2 d U^2``).
+    ``vessel`` at the tests' scale.
+    """
+    speed = np.asarray(tests["speed"], float)
+    beta = np.asarray(tests["beta"], float)
+    u, v = speed * np.cos(beta), -speed * np.sin(beta)
+    r = np.asarray(tests["r"], float)
+    delta = np.asarray(tests["delta"], float)
+    xm, ym, nm = module_forces(u, v, r, delta, np.asarray(tests["n"], float),
+                               module_constants(vessel, modules))
+    qd = 0.5 * vessel.rho * vessel.length * vessel.draught * speed ** 2
+    q2 = 0.5 * vessel.rho * vessel.length ** 2 * speed ** 2
+    lhs = np.column_stack([(np.asarray(tests["X"], float) * q2 - xm) / qd,
+                           (np.asarray(tests["Y"], float) * q2 - ym) / qd,
+                           (np.asarray(tests["N"], float) * q2 * vessel.length - nm) / (qd * vessel.length)])
+    primes = np.column_stack([np.zeros_like(u), v / speed, r * vessel.length / speed, delta])
+    return primes, lhs
 
 
 def hull_force_targets(vessel, modules: MMGParameters, estimate: DerivativeEstimate,
@@ -87,7 +115,7 @@ def hull_force_targets(vessel, modules: MMGParameters, estimate: DerivativeEstim
 
 def mmg_problems(model: ManoeuvringModel, vessel, modules: MMGParameters, records, estimates,
                  prior: dict | None = None, prior_scale: float = 0.5, prior_floor: float = 0.005,
-                 weights: str = "none") -> dict:
+                 weights: str = "none", captive=None) -> dict:
     """``{dof: RegressionProblem}`` of the MMG hull terms from estimated states.
 
     Parameters
@@ -108,6 +136,11 @@ def mmg_problems(model: ManoeuvringModel, vessel, modules: MMGParameters, record
         ``none`` or ``speed``: rows weighted by ``(U / U0)^4`` (the prime
         force of a slow sample is a small SI force divided by a small
         ``U^2``; see :func:`studies.workflows.measured.problems_from_estimates`).
+    captive : tuple, optional
+        ``(vessel at the tests' scale, tests, weight)``: the captive tests'
+        hull forces (:func:`captive_targets`) as rows of the regression, each
+        scaled by ``weight sqrt(n / k)`` (``n`` record rows, ``k`` tests), so
+        that ``weight = 1`` gives the tests as much say as the records.
     """
     primes, lhs, which, times, speed2, states = [], [], [], [], [], []
     for i, (rec, est) in enumerate(zip(records, estimates)):
@@ -130,12 +163,29 @@ def mmg_problems(model: ManoeuvringModel, vessel, modules: MMGParameters, record
         root = np.sqrt(w / w.mean())
     elif weights != "none":
         raise ValueError(f"MMG regression weights must be 'none' or 'speed', got '{weights}'")
+    n_records = len(which)
+    if captive is not None:
+        cap_vessel, tests, weight = captive
+        cp, cy = captive_targets(cap_vessel, modules, tests)
+        w = float(weight) * np.sqrt(n_records / len(cy))
+        if root is not None:
+            root = np.concatenate([root, np.full(len(cy), w)])
+        else:
+            root = np.concatenate([np.ones(n_records), np.full(len(cy), w)])
+        primes, lhs = np.vstack([primes, cp]), np.vstack([lhs, cy])
+        which = np.concatenate([which, np.full(len(cy), MMG_CAPTIVE_RECORD)])
+        times = np.concatenate([times, times[-1] + 1.0 + np.arange(len(cy))])
+        states.append({"u": np.asarray(tests["speed"], float) * np.cos(np.asarray(tests["beta"], float)),
+                       "v": -np.asarray(tests["speed"], float) * np.sin(np.asarray(tests["beta"], float)),
+                       "r": np.asarray(tests["r"], float), "delta": np.asarray(tests["delta"], float)})
     keys = [k for k in states[0] if all(k in s for s in states)]
     joined = {k: np.concatenate([s[k] for s in states]) for k in keys}
     problems = assemble_problems(model, primes, lhs, {}, which, times, joined, row_weights=root)
     if prior and np.isfinite(prior_scale):
         for problem in problems.values():
             add_prior_rows(problem, prior, prior_scale, prior_floor)
+    for problem in problems.values():
+        problem.n_data = n_records            # the records' rows come first
     for problem in problems.values():
         problem.meta = {"derivative": estimates[0].method if estimates else "none", "weights": weights}
     return problems
@@ -173,6 +223,5 @@ def add_prior_rows(problem, prior: dict, scale: float, floor: float) -> None:
     if problem.time is not None:
         last = float(np.max(problem.time)) if len(problem.time) else 0.0
         problem.time = np.concatenate([problem.time, last + 1.0 + np.arange(len(names))])
-    problem.n_data = len(y)
     problem.prior = {"names": names, "mean": [float(prior[n]) for n in names], "sd": sds,
                      "sigma": sigma}

@@ -51,7 +51,7 @@ from ..analysis.metrics import error_metrics
 from ..config import MethodConfig, MMGModelConfig, RunConfig
 from ..data.captive import read_captive
 from ..environment.noise import add_measurement_noise
-from ..errors import DataError
+from ..errors import ConfigError, DataError
 from ..identify import make_identifier
 from ..identify.ls import LeastSquares
 from ..identify.mmg_output_error import MMGObjective, refine_modules
@@ -213,14 +213,23 @@ def identify_mmg(run: MMGRun, out_dir: Path | None = None):
     estimates, derivative = _estimates(run)
     prior = dict(run.vessel.coefficients) if math.isfinite(cfg.prior_scale) else None
 
+    captive = None
+    if cfg.captive_weight > 0:
+        model_scale = get_mmg_vessel(str(run.cfg.vessel.name))
+        if not model_scale.captive:
+            raise ConfigError(f"model.captive_weight: vessel '{run.cfg.vessel.name}' has no captive tests")
+        captive = (model_scale, read_captive(model_scale.captive), cfg.captive_weight)
+
     def problems(modules):
         return mmg_problems(run.model, run.vessel, modules, run.records, estimates, prior,
-                            cfg.prior_scale, cfg.prior_floor, cfg.weights)
+                            cfg.prior_scale, cfg.prior_floor, cfg.weights,
+                            None if captive is None else (captive[0], captive[1], captive[2]))
 
     def fit_hull(modules):
         return LeastSquares().fit(problems(modules)).params
 
-    metrics = {"mmg/prior_scale": float(cfg.prior_scale), "mmg/scale": float(run.vessel.scale)}
+    metrics = {"mmg/prior_scale": float(cfg.prior_scale), "mmg/scale": float(run.vessel.scale),
+               "mmg/captive_weight": float(cfg.captive_weight)}
     modules = run.modules
     if cfg.output_error:
         modules, _, info = refine_modules(run.model, run.vessel, run.records, modules,
@@ -341,6 +350,8 @@ def _scale_note(run: MMGRun) -> str:
                       f"- hull coefficients: MMG primes (X, Y over 0.5 rho L d U^2, N over "
                       f"0.5 rho L^2 d U^2), prior sd max({run.cfg.model.prior_scale:g} |c0|, "
                       f"{run.cfg.model.prior_floor:g}) around {v.reference}",
+                      f"- captive tests in the regression: "
+                      f"{'weight %g' % run.cfg.model.captive_weight if run.cfg.model.captive_weight > 0 else 'no'}",
                       f"- interaction factors fitted by output error: "
                       f"{', '.join(run.cfg.model.output_error) or 'none (published values)'}", ""])
 
