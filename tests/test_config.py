@@ -28,7 +28,7 @@ METHODS = {"ls": C.MethodConfig, "nls": C.MethodConfig, "fls": C.MethodConfig,
            "svm_ga": C.GaMethod, "bayes": C.BayesMethod, "sindy": C.SindyMethod}
 MODELS = {"abkowitz": C.ModelConfig, "symmetric": C.ModelConfig,
           "simplified": C.SimplifiedModelConfig, "simplified_li2023": C.ModelConfig,
-          "roll": C.RollModelConfig}
+          "roll": C.RollModelConfig, "mmg": C.MMGModelConfig}
 GROUPS = {"vessel": None, "model": MODELS, "method": METHODS, "manoeuvre": None}
 
 

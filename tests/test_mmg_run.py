@@ -178,3 +178,19 @@ def test_a_captive_table_with_a_bad_cell_is_refused_with_its_column_and_row(tmp_
     assert info.value.column == "Y'" and info.value.row == 5, str(info.value)
     good = read_captive(source)
     assert len(good) == 81 and good["delta"].abs().max() == pytest.approx(np.deg2rad(35.0), abs=0.2)
+
+
+def test_mmg_settings_and_commands_it_does_not_serve_are_refused(tmp_path):
+    from hydra import initialize_config_module
+
+    from studies.config import compose_settings
+    from studies.workflows.kinds import prepare_discover
+
+    with initialize_config_module("studies.conf", version_base="1.3"):
+        with pytest.raises(ConfigError, match="model.output_error"):
+            compose_settings("config", overrides=["vessel=kvlcc2", "model=mmg", "model.output_error=[banana]"])
+        with pytest.raises(ConfigError, match="captive_weight"):
+            compose_settings("config", overrides=["vessel=kvlcc2", "model=mmg", "model.captive_weight=-1"])
+        cfg = compose_settings("discover", overrides=["vessel=kvlcc2", "model=mmg"])
+    with pytest.raises(ConfigError, match="propulsion"):
+        prepare_discover(cfg, tmp_path)

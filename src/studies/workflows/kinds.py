@@ -45,6 +45,9 @@ class ManoeuvringStudy:
 
     def prepare_discovery(self, cfg: DiscoverConfig, root: Path,
                           record: Recorder | None = None) -> DiscoverStudy:
+        if _mmg.is_mmg(cfg):
+            raise ConfigError("model=mmg: discovery judges a polynomial baseline (model=abkowitz or "
+                              "symmetric); the MMG model is its 'propulsion' extension")
         study = _discover.prepare_discovery(cfg, root, self, record)
         paths = as_path_list(cfg.data.path) + as_path_list(cfg.validate.path)
         contexts = ["training"] * len(as_path_list(cfg.data.path)) + ["validation"] * len(paths)
