@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from ..data.captive import captive_motion
 from ..models.abkowitz import ManoeuvringModel
 from ..models.mmg import HULL_TERMS, MMGParameters, hull_forces, module_constants, module_forces
 from ..plotting import pyplot
@@ -29,16 +30,12 @@ def captive_forces(model: ManoeuvringModel, values: dict, vessel, modules: MMGPa
     ``vessel`` at the scale of the tests; ``tests`` as read by
     :func:`studies.data.captive.read_captive`.
     """
-    speed = tests["speed"].to_numpy(float)
-    beta = tests["beta"].to_numpy(float)
-    u = speed * np.cos(beta)
-    v = -speed * np.sin(beta)
-    r = tests["r"].to_numpy(float)
+    m = captive_motion(tests)
+    speed = m["U"]
     names = set(model.names)
     hull = tuple(float(values.get(n, 0.0)) if n in names else 0.0 for n, *_ in HULL_TERMS)
-    xh, yh, nh = hull_forces(v / speed, r * vessel.length / speed, hull)
-    xm, ym, nm = module_forces(u, v, r, tests["delta"].to_numpy(float), tests["n"].to_numpy(float),
-                               module_constants(vessel, modules))
+    xh, yh, nh = hull_forces(m["v"] / speed, m["r"] * vessel.length / speed, hull)
+    xm, ym, nm = module_forces(m["u"], m["v"], m["r"], m["delta"], m["n"], module_constants(vessel, modules))
     qd = 0.5 * vessel.rho * vessel.length * vessel.draught * speed ** 2
     q2 = 0.5 * vessel.rho * vessel.length ** 2 * speed ** 2
     return np.column_stack([(qd * xh + xm) / q2, (qd * yh + ym) / q2,

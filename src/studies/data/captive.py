@@ -28,7 +28,7 @@ import pandas as pd
 
 from ..errors import DataError
 
-__all__ = ["read_captive", "CAPTIVE_COLUMNS"]
+__all__ = ["read_captive", "captive_motion", "CAPTIVE_COLUMNS"]
 
 #: columns a captive table must have, by the name in the file
 CAPTIVE_COLUMNS = {"beta(deg)": "beta", "delta(deg)": "delta", "r": "r", "Speed(m/s)": "speed",
@@ -61,3 +61,13 @@ def read_captive(path) -> pd.DataFrame:
     out["test"] = out["test"].astype(str)
     out.attrs["name"] = path.stem
     return out.reset_index(drop=True)
+
+
+def captive_motion(tests: pd.DataFrame) -> dict:
+    """The tests' motion as the data contract has it: ``u, v`` [m/s] at
+    midship (``v = -U sin(beta)``), ``r`` [rad/s], ``delta`` [rad], ``n``
+    [rps] and the speed ``U`` [m/s], arrays of one value per test."""
+    speed = tests["speed"].to_numpy(float)
+    beta = tests["beta"].to_numpy(float)
+    return {"u": speed * np.cos(beta), "v": -speed * np.sin(beta), "r": tests["r"].to_numpy(float),
+            "delta": tests["delta"].to_numpy(float), "n": tests["n"].to_numpy(float), "U": speed}

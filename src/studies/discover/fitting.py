@@ -37,7 +37,6 @@ from scipy.signal import savgol_filter
 from ..data.derivatives import choose_window
 from ..identify import LeastSquares, build_problems
 from ..identify.bayes import run_with_progress
-from ..simulate.simulator import replay
 from .causes.base import Cause, Setup
 
 __all__ = ["Context", "CauseFit", "regression_fit", "scored_fit", "nominal_residuals", "fit_cause",
@@ -268,11 +267,7 @@ def validate(ctx: Context, fit: CauseFit, keep: bool = False, whole: bool = Fals
             seg = init.copy()
             seg["x0"], seg["y0"] = part["x0"].to_numpy(), part["y0"].to_numpy()
             seg.attrs = dict(rec.attrs)
-            if setup.dynamics is not None:
-                pred = setup.dynamics.replay(fit.params, setup.sim_record(seg))
-            else:
-                pred = replay(setup.model, fit.params, ctx.vessel, setup.sim_record(seg),
-                              setup.environment(seg), setup.external())
+            pred = setup.replay(fit.params, ctx.vessel, seg)
             if keep and len(starts) == 1:
                 predictions.append(pred)
             if "diverged_at" in pred.attrs:

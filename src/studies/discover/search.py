@@ -207,7 +207,7 @@ def not_named(fit: CauseFit, reference: CauseFit, near_gain: float = 0.10) -> st
     if lost and fit.score < reference.score:
         return (f"{fit.cause.id} not named: its prediction of {', '.join(lost)} diverges "
                 "(the baseline's does not), although its windowed error is lower")
-    if getattr(fit.cause, "replaces_dynamics", False):
+    if fit.cause.replaces_dynamics:
         better, n, p = held_out_evidence(fit, reference)
         if lost or p < HELD_OUT_P:
             return None
@@ -258,7 +258,7 @@ def _gains(fit: CauseFit, reference: CauseFit) -> bool:
     when it predicts the held-out records better in a significant majority of
     their windows (:func:`held_out_evidence`, :data:`HELD_OUT_P`) and loses none of them.
     """
-    if getattr(fit.cause, "replaces_dynamics", False):
+    if fit.cause.replaces_dynamics:
         better, n, p = held_out_evidence(fit, reference)
         return (p < HELD_OUT_P and fit.validation_rmse < reference.validation_rmse
                 and not breaks_down(fit, reference))
@@ -269,7 +269,7 @@ def _gains(fit: CauseFit, reference: CauseFit) -> bool:
 def named_on_held_out(fit: CauseFit, reference: CauseFit) -> str | None:
     """The note that says why a cause replacing the dynamics was named on
     held-out evidence (None for other causes)."""
-    if not getattr(fit.cause, "replaces_dynamics", False) or fit is reference:
+    if not fit.cause.replaces_dynamics or fit is reference:
         return None
     better, n, p = held_out_evidence(fit, reference)
     d = reference.score - fit.score
@@ -345,7 +345,7 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
                  fit.seconds)
     baseline = fits[0]
     gaining = [f for f in fits if f is not baseline and _gains(f, baseline)]
-    if any(getattr(f.cause, "replaces_dynamics", False) for f in gaining):
+    if any(f.cause.replaces_dynamics for f in gaining):
         # scores on different models' residuals do not compare: the held-out error decides
         best = min(gaining, key=lambda f: f.validation_rmse)
     else:
@@ -361,7 +361,7 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
                 continue
             if isinstance(best.cause, Combined) or other.cause.id == best.cause.id:
                 continue
-            if any(getattr(f.cause, "replaces_dynamics", False) for f in (best, other)):
+            if best.cause.replaces_dynamics or other.cause.replaces_dynamics:
                 continue            # a pair on top of another model's dynamics is not built
             first, second_ = (best, other) if not isinstance(best.cause, MissingTerm) else (other, best)
             if output_error:

@@ -33,7 +33,7 @@ from scipy.optimize import least_squares
 from ..models.abkowitz import ManoeuvringModel
 from ..models.mmg import MMGParameters
 from ..simulate.mmg import replay_mmg
-from ..simulate.simulator import DIVERGED_PENALTY
+from .objective import TrajectoryObjective
 
 __all__ = ["MMGObjective", "refine_modules", "REFINABLE"]
 
@@ -42,8 +42,11 @@ REFINABLE = ("tP", "wP0", "C1", "C2_plus", "C2_minus", "tR", "aH", "xH", "gammaR
              "gammaR_plus", "lR", "epsilon", "kappa", "f_alpha")
 
 
-class MMGObjective:
+class MMGObjective(TrajectoryObjective):
     """Trajectory fitness (thesis eq. 3.43) of MMG hull-coefficient vectors.
+
+    :class:`~studies.identify.objective.TrajectoryObjective` with the MMG
+    simulator: each record replayed with its rudder and propeller rate.
 
     Parameters
     ----------
@@ -59,15 +62,8 @@ class MMGObjective:
 
     def __init__(self, model: ManoeuvringModel, vessel, records, modules: MMGParameters,
                  max_samples: int | None = None):
-        self.model = model
-        self.vessel = vessel
-        self.records = list(records)
+        super().__init__(model, vessel, records, max_samples)
         self.modules = modules
-        self.max_samples = max_samples
-
-    @property
-    def names(self) -> list[str]:
-        return self.model.names
 
     def residuals_many(self, vectors: np.ndarray) -> list[np.ndarray]:
         """Per record, replayed minus recorded ``(u, v, r)``: (n_sets, n_samples, 3); NaN
@@ -84,20 +80,6 @@ class MMGObjective:
                 block[i, :n] = pred[["u", "v", "r"]].to_numpy(float)[:n] - target[:n]
             out.append(block)
         return out
-
-    def fitness_many(self, vectors: np.ndarray) -> np.ndarray:
-        """Eq. 3.43 per vector (rows in model term order); diverged sets get the penalty."""
-        vectors = np.atleast_2d(np.asarray(vectors, float))
-        total = np.zeros(vectors.shape[0])
-        for res in self.residuals_many(vectors):
-            if self.max_samples and res.shape[1] > self.max_samples:
-                res = res[:, np.linspace(0, res.shape[1] - 1, self.max_samples).astype(int)]
-            total += np.mean(res ** 2, axis=1).sum(axis=1)
-        total[~np.isfinite(total)] = DIVERGED_PENALTY
-        return np.minimum(total, DIVERGED_PENALTY)
-
-    def fitness(self, values: dict) -> float:
-        return float(self.fitness_many(self.model.vector(values)[None, :])[0])
 
 
 def _replay_residual(model, values, vessel, modules, record, sample_s: float) -> np.ndarray:

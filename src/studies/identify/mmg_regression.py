@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..data.captive import captive_motion
 from ..data.derivatives import DerivativeEstimate
 from ..models.abkowitz import ManoeuvringModel
 from ..models.mmg import MMGParameters, module_constants, module_forces
@@ -65,19 +66,15 @@ def captive_targets(vessel, modules: MMGParameters, tests) -> tuple[np.ndarray, 
     and propeller rate, over ``0.5 rho L d U^2`` (moment ``0.5 rho L^2 d U^2``).
     ``vessel`` at the tests' scale.
     """
-    speed = np.asarray(tests["speed"], float)
-    beta = np.asarray(tests["beta"], float)
-    u, v = speed * np.cos(beta), -speed * np.sin(beta)
-    r = np.asarray(tests["r"], float)
-    delta = np.asarray(tests["delta"], float)
-    xm, ym, nm = module_forces(u, v, r, delta, np.asarray(tests["n"], float),
-                               module_constants(vessel, modules))
+    m = captive_motion(tests)
+    speed, v, r = m["U"], m["v"], m["r"]
+    xm, ym, nm = module_forces(m["u"], v, r, m["delta"], m["n"], module_constants(vessel, modules))
     qd = 0.5 * vessel.rho * vessel.length * vessel.draught * speed ** 2
     q2 = 0.5 * vessel.rho * vessel.length ** 2 * speed ** 2
     lhs = np.column_stack([(np.asarray(tests["X"], float) * q2 - xm) / qd,
                            (np.asarray(tests["Y"], float) * q2 - ym) / qd,
                            (np.asarray(tests["N"], float) * q2 * vessel.length - nm) / (qd * vessel.length)])
-    primes = np.column_stack([np.zeros_like(u), v / speed, r * vessel.length / speed, delta])
+    primes = np.column_stack([np.zeros_like(v), v / speed, r * vessel.length / speed, m["delta"]])
     return primes, lhs
 
 
@@ -175,9 +172,8 @@ def mmg_problems(model: ManoeuvringModel, vessel, modules: MMGParameters, record
         primes, lhs = np.vstack([primes, cp]), np.vstack([lhs, cy])
         which = np.concatenate([which, np.full(len(cy), MMG_CAPTIVE_RECORD)])
         times = np.concatenate([times, times[-1] + 1.0 + np.arange(len(cy))])
-        states.append({"u": np.asarray(tests["speed"], float) * np.cos(np.asarray(tests["beta"], float)),
-                       "v": -np.asarray(tests["speed"], float) * np.sin(np.asarray(tests["beta"], float)),
-                       "r": np.asarray(tests["r"], float), "delta": np.asarray(tests["delta"], float)})
+        motion = captive_motion(tests)
+        states.append({k: motion[k] for k in ("u", "v", "r", "delta")})
     keys = [k for k in states[0] if all(k in s for s in states)]
     joined = {k: np.concatenate([s[k] for s in states]) for k in keys}
     problems = assemble_problems(model, primes, lhs, {}, which, times, joined, row_weights=root)

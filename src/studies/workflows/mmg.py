@@ -40,7 +40,7 @@ import dataclasses
 import json
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -56,7 +56,6 @@ from ..identify import make_identifier
 from ..identify.ls import LeastSquares
 from ..identify.mmg_output_error import MMGObjective, refine_modules
 from ..identify.mmg_regression import mmg_problems
-from ..models.abkowitz import ManoeuvringModel
 from ..models.registry import get_model
 from ..report.figures import plot_overlay
 from ..simulate.mmg import replay_mmg, simulate_mmg
@@ -64,7 +63,7 @@ from ..vessels import get_mmg_vessel, get_vessel, mmg_vessel_at_speed
 from ..vessels.kvlcc2_mmg import MMGVessel
 from . import manoeuvring as _manoeuvring
 from . import measured as _measured
-from .settings import Settings, named_manoeuvre, read_settings
+from .settings import named_manoeuvre, read_settings
 
 __all__ = ["MMGRun", "is_mmg", "prepare_mmg", "execute_mmg", "choose_scale"]
 
@@ -75,24 +74,17 @@ def is_mmg(cfg: RunConfig) -> bool:
 
 
 @dataclass
-class MMGRun:
-    """A checked ``model=mmg`` configuration with its records (a PreparedRun)."""
+class MMGRun(_manoeuvring.Study):
+    """A checked ``model=mmg`` configuration with its records (a PreparedRun).
 
-    cfg: RunConfig
-    settings: Settings
-    vessel: MMGVessel
-    model: ManoeuvringModel
-    method: str
-    records: list
-    truth: dict | None
-    validation_records: list = field(default_factory=list)
-    measured: bool = False
+    The fields, name and inputs of :class:`studies.workflows.manoeuvring.Study`
+    (``vessel`` the MMG particulars at the records' scale), plus the
+    propeller and rudder parameters ``modules``; replays and simulations use
+    the MMG simulator, and no posterior band is drawn (``bands``).
+    """
+
     modules: object = None
     bands: bool = False
-
-    @property
-    def name(self) -> str:
-        return _manoeuvring.run_name(self.cfg, self.settings)
 
     @property
     def tags(self) -> dict:
@@ -100,13 +92,6 @@ class MMGRun:
         tags["scale"] = "model" if self.vessel.scale == 1 else f"1:{1 / self.vessel.scale:g}" \
             if self.vessel.scale < 1 else f"{self.vessel.scale:g}x model"
         return tags
-
-    @property
-    def inputs(self) -> list:
-        training = list(zip(self.settings.data_paths, self.records)) if self.settings.data_paths else []
-        return ([(p, r, "training") for p, r in training]
-                + [(p, r, "validation") for p, r in zip(self.settings.validate_paths,
-                                                        self.validation_records)])
 
     def execute(self, out_dir: Path) -> dict:
         return execute_mmg(self, out_dir)
@@ -129,6 +114,11 @@ class MMGRun:
         return float(np.median(rates)) if rates else self.vessel.rps
 
 
+def _approach_speed(records) -> float:
+    """Median initial speed [m/s] of the records."""
+    return float(np.median([float(np.hypot(r["u"].iloc[0], r["v"].iloc[0])) for r in records]))
+
+
 def choose_scale(vessel_name: str, setting: str, records) -> MMGVessel:
     """The vessel's MMG particulars at the records' scale (``model.scale``).
 
@@ -139,17 +129,15 @@ def choose_scale(vessel_name: str, setting: str, records) -> MMGVessel:
         return get_mmg_vessel(vessel_name, full_scale=setting == "full")
     if not records:
         return get_mmg_vessel(vessel_name)
-    speed = float(np.median([float(np.hypot(r["u"].iloc[0], r["v"].iloc[0])) for r in records]))
-    return mmg_vessel_at_speed(vessel_name, speed)
+    return mmg_vessel_at_speed(vessel_name, _approach_speed(records))
 
 
 def _at_approach(vessel: MMGVessel, records) -> MMGVessel:
     """The vessel with the training records' median approach speed and rate."""
     if not records:
         return vessel
-    speed = float(np.median([float(np.hypot(r["u"].iloc[0], r["v"].iloc[0])) for r in records]))
     rps = float(np.median([float(r["n"].iloc[0]) for r in records]))
-    return dataclasses.replace(vessel, speed=speed, rps=rps)
+    return dataclasses.replace(vessel, speed=_approach_speed(records), rps=rps)
 
 
 def _require_rate(records, paths) -> None:
@@ -197,20 +185,20 @@ def prepare_mmg(cfg: RunConfig, root: Path | None = None, record=None) -> MMGRun
                   vessel.modules)
 
 
-def _estimates(run: MMGRun) -> tuple[list, str]:
+def _estimates(run: MMGRun) -> list:
     derivative = run.cfg.data.derivative
     if run.measured:
         derivative = _manoeuvring.measured_derivative(run.records, derivative)
     if derivative == "ekf":
         derivative = "ekf_kinematic"
     kalman, _ = _measured.kalman_options(run.cfg)
-    return _measured.estimate_all(run.records, derivative, kalman), derivative
+    return _measured.estimate_all(run.records, derivative, kalman)
 
 
-def identify_mmg(run: MMGRun, out_dir: Path | None = None):
+def identify_mmg(run: MMGRun):
     """Hull coefficients (and listed interaction factors); ``(result, modules, metrics)``."""
     cfg = run.cfg.model
-    estimates, derivative = _estimates(run)
+    estimates = _estimates(run)
     prior = dict(run.vessel.coefficients) if math.isfinite(cfg.prior_scale) else None
 
     captive = None
@@ -222,8 +210,7 @@ def identify_mmg(run: MMGRun, out_dir: Path | None = None):
 
     def problems(modules):
         return mmg_problems(run.model, run.vessel, modules, run.records, estimates, prior,
-                            cfg.prior_scale, cfg.prior_floor, cfg.weights,
-                            None if captive is None else (captive[0], captive[1], captive[2]))
+                            cfg.prior_scale, cfg.prior_floor, cfg.weights, captive)
 
     def fit_hull(modules):
         return LeastSquares().fit(problems(modules)).params
@@ -242,7 +229,7 @@ def identify_mmg(run: MMGRun, out_dir: Path | None = None):
     result = identifier.fit(problems(modules), objective=objective)
     metrics["runtime/identify_s"] = time.perf_counter() - t0
     metrics.update(result.metrics)
-    return result, modules, metrics, derivative
+    return result, modules, metrics
 
 
 def _factor_table(run: MMGRun, modules) -> pd.DataFrame:
@@ -361,7 +348,7 @@ def execute_mmg(run: MMGRun, out_dir: Path) -> dict:
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
-    result, modules, metrics, derivative = identify_mmg(run, out_dir)
+    result, modules, metrics = identify_mmg(run)
     run.modules = modules
     params = {name: result.params[name] for name in run.model.names}
     table = _manoeuvring.coefficient_table(run.model, params, result.lower, result.upper, run.truth)

@@ -23,7 +23,7 @@ import pandas as pd
 
 from ...environment.conditions import Environment
 from ...models.abkowitz import ManoeuvringModel
-from ...simulate.simulator import record_environment
+from ...simulate.simulator import record_environment, replay
 
 __all__ = ["Setup", "Cause", "compact_parameters"]
 
@@ -61,6 +61,14 @@ class Setup:
     cause: "Cause | None" = None
     theta: np.ndarray | None = None
     dynamics: object | None = None
+
+    def replay(self, params: dict, vessel, record: pd.DataFrame) -> pd.DataFrame:
+        """``record`` replayed by the identified model ``params`` (the cause's
+        dynamics, or the baseline's simulator in the cause's environment)."""
+        seen = self.sim_record(record)
+        if self.dynamics is not None:
+            return self.dynamics.replay(params, seen)
+        return replay(self.model, params, vessel, seen, self.environment(record), self.external())
 
     def sim_record(self, record: pd.DataFrame) -> pd.DataFrame:
         """The record to replay (its rudder as the hydrodynamics see it)."""
