@@ -387,3 +387,71 @@ def test_a_simulation_that_covers_no_record_is_not_judged(hidden_none_11):
     same = on_record_time(rec.iloc[::3].reset_index(drop=True), rec)
     assert same is not None and len(same) == len(rec)
     assert np.allclose(same["r"], rec["r"], atol=1e-3 * np.abs(rec["r"]).max())
+
+
+def _discover_files(tmp_path, train, validation, overrides=()):
+    paths = write_records(train + validation, tmp_path)
+    with initialize_config_module("studies.conf", version_base="1.3"):
+        cfg = compose_settings("discover", overrides=[f"data.path=[{','.join(paths[:len(train)])}]",
+                                                      f"validate.path=[{','.join(paths[len(train):])}]",
+                                                      *overrides])
+    study = prepare_discover(cfg, tmp_path)
+    execute_discover(study, tmp_path / "out")
+    return json.loads((tmp_path / "out" / "discovery.json").read_text())
+
+
+@pytest.mark.slow
+def test_propeller_side_force_is_named_from_turning_circles_to_both_sides(tmp_path, vessel):
+    """A body-fixed side force and moment of constant magnitude (a single propeller at
+    constant rpm) hidden in a zig-zag and 35 deg turning circles to port and to
+    starboard, with 2 % measurement noise, judged against the symmetric baseline:
+    ``propeller_asymmetry`` is named with both parameters within 20 %, not a rudder
+    offset or asymmetric polynomial terms."""
+    from studies.discover.hidden import turning_to_starboard
+    from studies.simulate import turning, zigzag
+
+    mans = [zigzag(20, 20, duration=600.0), turning(35, pullout=0.0, duration=600.0),
+            turning_to_starboard(35, duration=600.0), zigzag(10, 10, duration=600.0)]
+    records, truth = hidden_records(vessel, "propeller_asymmetry", seed=13, noise=0.02, manoeuvres=mans)
+    d = _discover_files(tmp_path, records[:3], records[3:], ["model=symmetric", "discover.second_cause=false",
+                                                             "discover.posterior_steps=15"])
+    assert d["cause"] == "propeller_asymmetry", (d["cause"], d["ranking"][:3])
+    assert parameters_match("propeller_asymmetry", d["parameters"], truth), (d["parameters"], truth)
+    assert d["gain_pct"] > 50.0 and d["explains_validation"], (d["baseline"], d["extended"])
+    assert "undecided" not in d
+
+
+@pytest.mark.slow
+def test_propeller_asymmetry_is_not_named_from_a_turn_to_one_side(tmp_path, vessel):
+    """The same side force seen in a turning circle to one side only (and a zig-zag):
+    the cause is not named, and the report says which turning circle would decide it."""
+    from studies.simulate import turning, zigzag
+
+    mans = [zigzag(20, 20, duration=600.0), turning(35, pullout=0.0, duration=600.0),
+            zigzag(10, 10, duration=600.0)]
+    records, truth = hidden_records(vessel, "propeller_asymmetry", seed=13, manoeuvres=mans)
+    d = _discover_files(tmp_path, records[:2], records[2:], ["model=symmetric", "discover.second_cause=false",
+                                                             "discover.posterior_steps=15"])
+    assert d["cause"] != "propeller_asymmetry"
+    note = [n for n in d["notes"] if n.startswith("propeller_asymmetry")]
+    assert note and "a turning circle to starboard would decide it" in note[0], d["notes"]
+    assert "a turning circle to starboard would decide it" in (tmp_path / "out" / "report.md").read_text()
+    assert d["undecided"] == [d["cause"], "propeller_asymmetry"]
+    assert d["next_manoeuvre"] == "a turning circle to starboard"
+
+
+def test_turning_sides_reads_steady_turns(vessel):
+    from studies.discover.causes.propeller_asymmetry import turning_sides
+    from studies.discover.hidden import turning_to_starboard
+    from studies.simulate import simulate, turning, zigzag
+    from studies.models import abkowitz
+
+    model, values = abkowitz(), vessel.coefficients
+    port = simulate(model, values, vessel, turning(35, pullout=0.0, duration=200.0))
+    starboard = simulate(model, values, vessel, turning_to_starboard(35, duration=200.0))
+    zz = simulate(model, values, vessel, zigzag(20, 20, duration=200.0))
+    assert turning_sides([port], vessel) == {"port"}
+    assert turning_sides([starboard], vessel) == {"starboard"}
+    assert turning_sides([port, starboard], vessel) == {"port", "starboard"}
+    # a zig-zag loses too little speed to count as a steady turn
+    assert turning_sides([zz], vessel) == set()

@@ -25,7 +25,7 @@ from studies.simulate.simulator import record_environment
 
 #: the causes of DESIGN.md's catalogue, in the order they are tried
 CONTRACT_IDS = ["none", "rudder_offset", "current", "wind_unmodelled", "wind_speed_bias",
-                "environmental_bias", "missing_term", "propulsion"]
+                "environmental_bias", "missing_term", "propulsion", "propeller_asymmetry"]
 #: causes whose extension is another model (no parameter value is the baseline)
 REPLACING = [c for c in CONTRACT_IDS if CATALOGUE[c].replaces_dynamics]
 EXTENDING = [c for c in CONTRACT_IDS if c not in REPLACING]

@@ -72,6 +72,9 @@ class CauseFit:
     validation: dict = field(default_factory=dict)
     setup: Setup | None = None
     seconds: float = 0.0
+    #: ``(why, manoeuvre)``: the training records cannot decide for the cause, and which
+    #: manoeuvre would (:meth:`Cause.undecidable`; None: they can)
+    undecidable: tuple | None = None
     #: the output-error refinement's solution (:func:`studies.discover.output_error.refine`), if any
     refined: dict | None = None
     #: :func:`validate` of the whole validation records (one replay each, no windows)
@@ -97,6 +100,10 @@ def regression_fit(ctx: Context, setup: Setup):
                 p.y = p.y - (-np.sin(psi) * bx + np.cos(psi) * by)
             else:
                 p.y = p.y - bn
+    if setup.body is not None:
+        for k, dof in enumerate(("X", "Y", "N")):
+            st = problems[dof].states
+            problems[dof].y = problems[dof].y - setup.body[k] * ctx.vessel.speed ** 2 / (st["u"] ** 2 + st["v"] ** 2)
     ls = LeastSquares()
     params = dict(setup.fixed)
     residuals = []
@@ -211,6 +218,7 @@ def fit_cause(ctx: Context, cause: Cause) -> CauseFit:
     fit = CauseFit(cause, np.asarray(theta, float), params, rss, setup=setup,
                    tau=max(integrated_time(r) for r in residuals))
     fit.score = _score(ctx, rss, cause.n_params())
+    fit.undecidable = cause.undecidable(ctx)
     fit.seconds = time.perf_counter() - t0
     return fit
 

@@ -15,16 +15,18 @@ import numpy as np
 from ..environment.conditions import Environment
 from ..environment.noise import add_measurement_noise
 from ..models.abkowitz import abkowitz
+from ..models.registry import symmetric
 from ..models.terms import candidate_terms
 from ..roll.simulate import simulate_decay_record
 from ..simulate import simulate, turning, zigzag
+from ..simulate.manoeuvres import Manoeuvre
 
 __all__ = ["HIDDEN_CAUSES", "HIDDEN_ROLL_CAUSES", "HIDDEN_ROLL_SPEED_CAUSES", "hidden_records",
            "hidden_roll_decays", "hidden_roll_decays_at_speed", "hidden_roll_speed_series", "write_records",
            "parameters_match"]
 
 HIDDEN_CAUSES = ("none", "current", "rudder_offset", "wind_speed_bias", "environmental_bias",
-                 "missing_term", "wind_unmodelled")
+                 "missing_term", "wind_unmodelled", "propeller_asymmetry")
 
 
 #: roll-decay causes: the damping term hidden and the centre of its drawn magnitude
@@ -56,7 +58,19 @@ def _draw(cause: str, rng) -> dict:
         return {"Nrrr": -rng.uniform(0.002, 0.004)}
     if cause == "wind_unmodelled":
         return {"speed": rng.uniform(10, 16), "direction": rng.uniform(0, 2 * np.pi)}
+    if cause == "propeller_asymmetry":
+        # a side force worth 0.6-1.6 deg of the Mariner's rudder at the approach speed,
+        # applied near the propeller (moment arm 0.35-0.55 L aft)
+        yp = sign * rng.uniform(3e-5, 8e-5)
+        return {"Yp0": yp, "Np0": -yp * rng.uniform(0.35, 0.55)}
     return {}
+
+
+def turning_to_starboard(amplitude: float = 35.0, duration: float = 600.0, dt: float = 0.1) -> Manoeuvre:
+    """A turning circle with the rudder to port (negative in the data contract: the heading
+    increases, a turn to starboard), no pull-out, named ``turning_<a>_starboard``."""
+    return Manoeuvre(f"turning_{amplitude:g}_starboard", "turning", duration, dt, amplitude=amplitude,
+                     heading=0.0, first_sign=-1)
 
 
 def hidden_records(vessel, cause: str, seed: int = 0, noise: float = 0.0,
@@ -65,7 +79,10 @@ def hidden_records(vessel, cause: str, seed: int = 0, noise: float = 0.0,
 
     Returns ``(records, truth)``: records named after their manoeuvre
     (default: zig-zag 20/20 and a 35 deg turning circle for training, then a
-    zig-zag 10/10 to validate; 600 s each at 0.1 s) and the drawn parameters.
+    zig-zag 10/10 to validate; 600 s each at 0.1 s; for ``propeller_asymmetry``
+    35 deg turning circles to port and to starboard for training, the
+    symmetric model's coefficients with the side force added: discover it
+    with ``model=symmetric``) and the drawn parameters.
     """
     rng = np.random.default_rng(seed)
     truth = _draw(cause, rng)
@@ -77,9 +94,18 @@ def hidden_records(vessel, cause: str, seed: int = 0, noise: float = 0.0,
         env = Environment(truth["wind_speed"], truth["wind_direction"])
     elif cause == "wind_unmodelled":
         env = Environment(truth["speed"], truth["direction"])
+    elif cause == "propeller_asymmetry":
+        # the Mariner's own port-starboard terms (Y0 ... N0uu) replaced by the propeller's force:
+        # discover it against the symmetric baseline (model=symmetric)
+        model = symmetric()
+        values = {t.name: values[t.name] for t in model.terms}
     elif cause == "missing_term":
         model = model.extended([t for t in candidate_terms("N", 3) if t.name == "Nrrr"])
         values["Nrrr"] = truth["Nrrr"]
+    if manoeuvres is None and cause == "propeller_asymmetry":
+        # an asymmetry shows in turns to both sides
+        manoeuvres = [turning(35, pullout=0.0, duration=600.0), turning_to_starboard(35, duration=600.0),
+                      zigzag(10, 10, duration=600.0)]
     manoeuvres = manoeuvres or [zigzag(20, 20, duration=600.0), turning(35, pullout=0.0, duration=600.0),
                                 zigzag(10, 10, duration=600.0)]
     records = []
@@ -87,6 +113,10 @@ def hidden_records(vessel, cause: str, seed: int = 0, noise: float = 0.0,
         if cause == "environmental_bias":
             n = len(man.step_times()) - 1
             external = np.tile([truth["bx"], truth["by"], truth["bn"], 0, 0, 0], (n, 1))
+        if cause == "propeller_asymmetry":
+            # a body-fixed force of constant magnitude (prime at the approach speed)
+            n = len(man.step_times()) - 1
+            external = np.tile([0, 0, 0, 0, 0, 0, 0, truth["Yp0"], truth["Np0"]], (n, 1))
         rec = simulate(model, values, vessel, man, env, external)
         if cause == "rudder_offset":
             rec["delta"] = rec["delta"] + truth["delta0"]
@@ -193,6 +223,8 @@ def parameters_match(cause: str, parameters: dict, truth: dict, rel: float = 0.2
         return close(p["speed"], truth["speed"]) and near(p["direction"], truth["direction"])
     if cause == "rudder_offset":
         return close(p["delta0"], truth["delta0"])
+    if cause == "propeller_asymmetry":
+        return close(p["Yp0"], truth["Yp0"]) and close(p["Np0"], truth["Np0"])
     if cause == "wind_speed_bias":
         return close(p["k"], truth["k"])
     if cause == "environmental_bias":

@@ -177,6 +177,10 @@ def write_report(out_dir: Path, discovery: dict, explanation: str, sections: lis
         others = ", ".join(f"**{c}**" for c in d["indistinguishable_from"])
         verdict.append(f"\nThe training data do not tell it apart from {others} (scores within "
                        f"{INDISTINGUISHABLE:g}): the choice between them is not established by these records.")
+    if d.get("next_manoeuvre"):
+        rivals = ", ".join(f"**{c}**" for c in d.get("undecided", [])[1:])
+        verdict.append(f"\nThese records cannot decide between **{d['cause']}** and {rivals}: "
+                       f"{d['next_manoeuvre']} would (see the notes).")
     if d.get("splits"):
         named = Counter(row["cause"] for row in d["splits"])
         agree = named.get(d["cause"], 0)

@@ -203,6 +203,11 @@ def not_named(fit: CauseFit, reference: CauseFit, near_gain: float = 0.10) -> st
     b, v = reference.validation_rmse, fit.validation_rmse
     if fit is reference or not v < b:
         return None
+    if fit.undecidable and fit.score < reference.score - EVIDENCE:
+        values = compact_parameters(fit.cause.parameters(fit.theta, fit.params))
+        why, manoeuvre = fit.undecidable
+        return (f"{fit.cause.id} ({values}) not named although it explains the records better: "
+                f"{why}; {manoeuvre} would decide it")
     lost = breaks_down(fit, reference)
     if lost and fit.score < reference.score:
         return (f"{fit.cause.id} not named: its prediction of {', '.join(lost)} diverges "
@@ -248,7 +253,8 @@ def held_out_evidence(fit: CauseFit, reference: CauseFit) -> tuple[int, int, flo
 
 def _gains(fit: CauseFit, reference: CauseFit) -> bool:
     """``fit`` is preferred to ``reference``: score lower by :data:`EVIDENCE`,
-    windowed validation error lower, and no validation record lost.
+    windowed validation error lower, and no validation record lost; never
+    when the training records cannot decide for it (``fit.undecidable``).
 
     A cause that replaces the baseline's dynamics by a physical model
     (``propulsion``: the MMG model) is judged on the held-out records instead
@@ -258,6 +264,8 @@ def _gains(fit: CauseFit, reference: CauseFit) -> bool:
     when it predicts the held-out records better in a significant majority of
     their windows (:func:`held_out_evidence`, :data:`HELD_OUT_P`) and loses none of them.
     """
+    if fit.undecidable:
+        return False
     if fit.cause.replaces_dynamics:
         better, n, p = held_out_evidence(fit, reference)
         return (p < HELD_OUT_P and fit.validation_rmse < reference.validation_rmse

@@ -51,11 +51,13 @@ DIVERGED_SPEED_FACTOR = 5.0
 
 @njit(cache=True, inline="always")
 def _derivatives(du, v, r, cpsi, spsi, delta, delta_c, prescribed_rate, prescribed, c, k, wp,
-                 e0, e1, e2, e3, e4, e5, has_ext):
+                 e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext):
     """State derivative at one RK4 stage. ``c`` is :func:`coefficient_tuple`,
     ``k`` the tuple of :func:`_constants`, ``e0..e5`` this step's external
-    forces (prime: earth-fixed X, Y, N bias then body X, Y, N noise). Only
-    scalars and tuples come in: no array reference counting per stage."""
+    forces (prime: earth-fixed X, Y, N bias then body X, Y, N noise),
+    ``g0..g2`` its body-fixed forces of given magnitude (prime at the
+    approach speed times ``U0^2``). Only scalars and tuples come in: no
+    array reference counting per stage."""
     u = k[0] + du
     speed2 = u * u + v * v
     speed = math.sqrt(speed2)
@@ -74,6 +76,10 @@ def _derivatives(du, v, r, cpsi, spsi, delta, delta_c, prescribed_rate, prescrib
         fx += (cpsi * e0 + spsi * e1 + e3) * speed2
         fy += (cpsi * e1 - spsi * e0 + e4) * speed2
         fn += (e2 + e5) * speed2
+        # body-fixed forces whose magnitude does not scale with the speed (a propeller's side force)
+        fx += g0
+        fy += g1
+        fn += g2
     du_dot = fx * k[2]
     v_dot = k[5] * fy + k[6] * fn
     r_dot = k[7] * fy + k[8] * fn
@@ -163,7 +169,8 @@ def _integrate(cm, k, x0, dt, cmd, mode, params, wp, ext, out):
     prescribed = mode == 3
     limit = DIVERGED_SPEED_FACTOR * k[0]
     has_ext = ext.shape[0] > 0
-    e0 = e1 = e2 = e3 = e4 = e5 = 0.0
+    e0 = e1 = e2 = e3 = e4 = e5 = g0 = g1 = g2 = 0.0
+    speed0_2 = k[0] * k[0]
     h = 0.5 * dt
     sixth = dt / 6.0
     for i in range(n - 1):
@@ -174,23 +181,24 @@ def _integrate(cm, k, x0, dt, cmd, mode, params, wp, ext, out):
             rate = (cmd[i + 1] - cmd[i]) / dt
         if has_ext:
             e0, e1, e2, e3, e4, e5 = ext[i, 0], ext[i, 1], ext[i, 2], ext[i, 3], ext[i, 4], ext[i, 5]
+            g0, g1, g2 = ext[i, 6] * speed0_2, ext[i, 7] * speed0_2, ext[i, 8] * speed0_2
         # one cosine/sine per step: the stages rotate it by their small heading increments
         cp = math.cos(s5)
         sp = math.sin(s5)
         k1 = _derivatives(s0, s1, s2, cp, sp, s6, dc, rate, prescribed, c, k, wp,
-                          e0, e1, e2, e3, e4, e5, has_ext)
+                          e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
         ca, sa = _small_rotation(h * k1[5])
         k2 = _derivatives(s0 + h * k1[0], s1 + h * k1[1], s2 + h * k1[2], cp * ca - sp * sa,
                           sp * ca + cp * sa, s6 + h * k1[6], dc, rate, prescribed, c, k, wp,
-                          e0, e1, e2, e3, e4, e5, has_ext)
+                          e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
         ca, sa = _small_rotation(h * k2[5])
         k3 = _derivatives(s0 + h * k2[0], s1 + h * k2[1], s2 + h * k2[2], cp * ca - sp * sa,
                           sp * ca + cp * sa, s6 + h * k2[6], dc, rate, prescribed, c, k, wp,
-                          e0, e1, e2, e3, e4, e5, has_ext)
+                          e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
         ca, sa = _small_rotation(dt * k3[5])
         k4 = _derivatives(s0 + dt * k3[0], s1 + dt * k3[1], s2 + dt * k3[2], cp * ca - sp * sa,
                           sp * ca + cp * sa, s6 + dt * k3[6], dc, rate, prescribed, c, k, wp,
-                          e0, e1, e2, e3, e4, e5, has_ext)
+                          e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
         s0 += sixth * (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0])
         s1 += sixth * (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1])
         s2 += sixth * (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2])
@@ -217,13 +225,24 @@ def _integrate(cm, k, x0, dt, cmd, mode, params, wp, ext, out):
     return -1
 
 
+#: columns of the external forces per step: earth-fixed bias (bx, by, bn) and body-fixed
+#: process noise (wx, wy, wn), prime at the current speed; body-fixed forces of given
+#: magnitude (fx, fy, fn), prime at the approach speed U0 (optional, zero when absent)
+EXTERNAL_COLUMNS = 9
+
+
 def _ext_rows(ext, n):
-    """External forces per step, or an empty array when there are none."""
+    """External forces per step (:data:`EXTERNAL_COLUMNS`, a 6-column array
+    padded with zeros), or an empty array when there are none."""
     ext = np.ascontiguousarray(ext, dtype=float)
     if not ext.any():
-        return np.zeros((0, 6))
+        return np.zeros((0, EXTERNAL_COLUMNS))
     if ext.shape[0] < n - 1:
         raise ValueError(f"external forces cover {ext.shape[0]} steps, need {n - 1}")
+    if ext.ndim != 2 or ext.shape[1] not in (6, EXTERNAL_COLUMNS):
+        raise ValueError(f"external forces have {ext.shape[-1]} columns, need 6 or {EXTERNAL_COLUMNS}")
+    if ext.shape[1] == 6:
+        ext = np.ascontiguousarray(np.hstack([ext, np.zeros((ext.shape[0], 3))]))
     return ext
 
 

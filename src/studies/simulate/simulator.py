@@ -121,9 +121,13 @@ def simulate(model: ManoeuvringModel, values: dict, vessel: Vessel, manoeuvre: M
     manoeuvre : Manoeuvre
     environment : Environment, optional
         Steady wind and current (default calm).
-    external : ndarray (n_steps, 6), optional
+    external : ndarray (n_steps, 6) or (n_steps, 9), optional
         Prime external forces per integration step: earth-fixed bias
-        ``(bx, by, bn)`` then body-fixed process noise ``(wx, wy, wn)``.
+        ``(bx, by, bn)`` then body-fixed process noise ``(wx, wy, wn)``
+        (prime at the current speed ``U``), then optionally body-fixed
+        forces of given magnitude ``(fx, fy, fn)`` (prime at the approach
+        speed ``U0``: a dimensional force that does not scale with the
+        speed, such as a propeller's side force at constant rpm).
     initial : dict, optional
         Initial ``u`` (total), ``v``, ``r``, ``x0``, ``y0``, ``psi``,
         ``delta``; default straight at the vessel's speed.
@@ -207,8 +211,10 @@ def replay(model: ManoeuvringModel, values: dict, vessel: Vessel, record: pd.Dat
     split so it is at most 0.1 s. The environment defaults to the wind the
     record carries. This is how a model is validated against a measured
     manoeuvre, and how trajectory objectives compare coefficient sets.
-    ``external`` adds prime forces: a 6-vector held constant (earth-fixed
-    bias bx, by, bn and body-fixed wx, wy, wn) or one row per step.
+    ``external`` adds prime forces: a 6- or 9-vector held constant
+    (earth-fixed bias bx, by, bn and body-fixed wx, wy, wn at the current
+    speed, then body-fixed fx, fy, fn at the approach speed; see
+    :func:`simulate`) or one row per step.
     """
     environment = environment or record_environment(record)
     inputs = _replay_inputs(model, vessel, record, environment, model.rudder_yaw_sign(values),

@@ -27,7 +27,7 @@ from ..discover.diagnostics import explains
 from ..discover.fitting import Context, regression_fit, training_error
 from ..discover.report import (indistinguishable, plot_predictions, plot_ranking, plot_residuals,
                                write_discovery, write_report)
-from ..discover.search import breaks_down, named_on_held_out, not_named, search
+from ..discover.search import EVIDENCE, breaks_down, named_on_held_out, not_named, search
 from ..errors import ConfigError
 from ..identify.kalman import ekf_derivatives
 from ..vessels import get_vessel
@@ -253,6 +253,12 @@ def execute_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
                                 + [not_named(f, baseline) for f in ranked if f is not best] if note],
     }
     discovery["indistinguishable_from"] = indistinguishable(discovery["ranking"], discovery["cause"])
+    # a cause that explains the training records better but that they cannot decide for:
+    # the rivals and the manoeuvre that would separate them (DESIGN.md)
+    open_ = [f for f in ranked if f.undecidable and f is not best and f.score < baseline.score - EVIDENCE]
+    if open_:
+        discovery["undecided"] = [discovery["cause"]] + [f.cause.id for f in open_]
+        discovery["next_manoeuvre"] = "; ".join(f.undecidable[1] for f in open_)
     other = [on_record_time(study.simulation, rec) if study.simulation is not None else None
              for rec in ctx.validation]
     if study.simulation is not None and all(o is None for o in other):

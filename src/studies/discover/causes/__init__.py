@@ -8,7 +8,8 @@ its explanation) is :class:`~studies.discover.causes.base.Cause`.
 
 Modules: :mod:`.base` (the protocol, :class:`Setup`), one module per cause
 (:mod:`.none`, :mod:`.rudder_offset`, :mod:`.current`, :mod:`.wind`,
-:mod:`.environmental_bias`, :mod:`.missing_term`) and :mod:`.combined` (two
+:mod:`.environmental_bias`, :mod:`.missing_term`, :mod:`.propulsion`,
+:mod:`.propeller_asymmetry`) and :mod:`.combined` (two
 causes at once).
 
 Adding a cause
@@ -30,17 +31,18 @@ from .current import Current
 from .environmental_bias import EnvironmentalBias
 from .missing_term import MissingTerm, extended_library
 from .none import NoCause
+from .propeller_asymmetry import PropellerAsymmetry
 from .propulsion import Propulsion
 from .rudder_offset import RudderOffset
 from .wind import WindSpeedBias, WindUnmodelled
 
 __all__ = ["Setup", "Cause", "CATALOGUE", "manoeuvring_causes", "compact_parameters", "NoCause",
            "RudderOffset", "Current", "WindUnmodelled", "WindSpeedBias", "EnvironmentalBias",
-           "MissingTerm", "Combined", "extended_library", "Propulsion"]
+           "MissingTerm", "Combined", "extended_library", "Propulsion", "PropellerAsymmetry"]
 
 #: every manoeuvring cause by its contract id, ``none`` first
 CATALOGUE = {c.id: c for c in (NoCause, RudderOffset, Current, WindUnmodelled, WindSpeedBias,
-                               EnvironmentalBias, MissingTerm, Propulsion)}
+                               EnvironmentalBias, MissingTerm, Propulsion, PropellerAsymmetry)}
 
 
 def manoeuvring_causes(ctx, missing_terms=()) -> list[Cause]:
@@ -55,5 +57,6 @@ def manoeuvring_causes(ctx, missing_terms=()) -> list[Cause]:
     """
     has_n0 = any(t.powers == (0, 0, 0, 0) for t in ctx.model.terms_of("N"))
     causes = [NoCause(), RudderOffset(), Current(), WindUnmodelled(), WindSpeedBias(),
-              EnvironmentalBias(fit_moment=not has_n0), MissingTerm(missing_terms), Propulsion()]
+              EnvironmentalBias(fit_moment=not has_n0), MissingTerm(missing_terms), Propulsion(),
+              PropellerAsymmetry()]
     return [c for c in causes if c.applicable(ctx)]

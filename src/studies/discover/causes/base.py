@@ -46,6 +46,11 @@ class Setup:
         The cause that made the setup (None: the baseline).
     theta : ndarray or None
         The cause's nonlinear parameters (:attr:`Cause.nl_params`).
+    body : ndarray (3,) or None
+        Body-fixed prime force and moment (fx, fy, fn) at the approach speed
+        ``U0``: a force of constant magnitude (a propeller's side force at
+        constant rpm), ``(U0 / U)^2`` times this in prime at the speed ``U``;
+        subtracted from the regression and added to the replay.
     dynamics : object or None
         A cause that replaces the baseline's dynamics (``propulsion``: the
         MMG model) gives here how it is identified and replayed:
@@ -60,6 +65,7 @@ class Setup:
     bias: np.ndarray | None = None
     cause: "Cause | None" = None
     theta: np.ndarray | None = None
+    body: np.ndarray | None = None
     dynamics: object | None = None
 
     def replay(self, params: dict, vessel, record: pd.DataFrame) -> pd.DataFrame:
@@ -79,10 +85,13 @@ class Setup:
         return self.cause.environment(record, self.theta) if self.cause else record_environment(record)
 
     def external(self):
-        """The external prime forces of the replay: ``(bx, by, bn, 0, 0, 0)``, or None without a bias."""
-        if self.bias is None:
+        """The external prime forces of the replay (:func:`studies.simulate.simulate`'s
+        columns): ``(bx, by, bn, 0, 0, 0, fx, fy, fn)``, or None without a bias or a body force."""
+        if self.bias is None and self.body is None:
             return None
-        return np.concatenate([self.bias, np.zeros(3)])
+        bias = np.zeros(3) if self.bias is None else self.bias
+        body = np.zeros(3) if self.body is None else self.body
+        return np.concatenate([bias, np.zeros(3), body])
 
 
 def compact_parameters(params: dict) -> str:
@@ -132,7 +141,10 @@ class Cause:
     Applicability
         :meth:`applicable` says whether the cause can be fitted to the
         training records of ``ctx`` (:class:`studies.discover.fitting.Context`),
-        e.g. a wind cause needs the vessel's wind coefficients.
+        e.g. a wind cause needs the vessel's wind coefficients;
+        :meth:`undecidable` whether those records can tell it from the
+        baseline at all (``propeller_asymmetry`` needs turns to both sides),
+        and if not, which manoeuvre would.
     What it changes in the baseline (at parameters ``theta``)
         - :meth:`transform`: the training record as the hydrodynamics saw it
           (the regression is built on it), e.g. velocities through the water.
@@ -142,7 +154,8 @@ class Cause:
         - :meth:`model`: the model whose coefficients are identified (added
           terms).
         - :meth:`setup`: all of it in one :class:`Setup`, which also carries
-          external forces (an earth-fixed bias) and fixed coefficients.
+          external forces (an earth-fixed bias, a body-fixed force) and fixed
+          coefficients.
     Its parameters
         :attr:`nl_params` are searched by the outer nonlinear fit; the
         others (added terms' coefficients) come out of the LS.
@@ -165,6 +178,13 @@ class Cause:
     def applicable(self, ctx) -> bool:
         """Whether the cause can be fitted to the training records of ``ctx``."""
         return True
+
+    def undecidable(self, ctx) -> tuple[str, str] | None:
+        """``(why, manoeuvre)`` when the training records of ``ctx`` cannot
+        decide for this cause: why not, and which manoeuvre would (e.g. "a
+        turning circle to starboard"); None when they can. An undecidable
+        cause is fitted and reported, but not named."""
+        return None
 
     def starts(self, ctx) -> list[np.ndarray]:
         """Initial guesses (a coarse grid where the fit is not convex)."""

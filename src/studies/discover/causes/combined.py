@@ -75,7 +75,11 @@ class Combined(Cause):
         s1, s2 = self.first.setup(ctx, a), self.second.setup(ctx, b)
         return Setup(self.model(ctx, theta), [self.transform(r, theta) for r in ctx.train],
                      {**s1.fixed, **s2.fixed}, s1.bias if s1.bias is not None else s2.bias,
-                     cause=self, theta=np.asarray(theta, float))
+                     cause=self, theta=np.asarray(theta, float),
+                     body=s1.body if s1.body is not None else s2.body)
+
+    def undecidable(self, ctx):
+        return self.first.undecidable(ctx) or self.second.undecidable(ctx)
 
     def parameters(self, theta, fitted=None):
         a, b = self._split(theta)
