@@ -33,8 +33,10 @@ def _one(cause, seed, noise):
         tmp = Path(tmp)
         paths = write_records(records, tmp)
         with initialize_config_module("studies.conf", version_base="1.3"):
+            # a propeller's side force is judged against the symmetric baseline
+            model = ["model=symmetric"] if cause == "propeller_asymmetry" else []
             cfg = compose_settings("discover", overrides=[f"data.path=[{paths[0]},{paths[1]}]",
-                                                 f"validate.path=[{paths[2]}]", f"seed={seed}"])
+                                                 f"validate.path=[{paths[2]}]", f"seed={seed}", *model])
         t0 = time.perf_counter()
         d, _ = execute_discover(prepare_discover(cfg, tmp), tmp / "out")
         elapsed = time.perf_counter() - t0
