@@ -24,7 +24,8 @@ from studies.data.marin import read_marin
 from studies.models.mmg import (HULL_TERMS, KVLCC2_HULL, hull_forces, mmg,
                                 module_constants, module_forces)
 from studies.simulate import Manoeuvre, turning, zigzag
-from studies.simulate.mmg import (_rudder_propeller, mmg_forces, replay_mmg, self_propulsion_rps,
+from studies.simulate.mmg import (_derivatives, _drift, _module_accelerations, hull_vector,
+                                  mmg_forces, mmg_inputs, replay_mmg, self_propulsion_rps,
                                   simulate_mmg)
 from studies.vessels.kvlcc2_mmg import kvlcc2_mmg
 
@@ -80,13 +81,29 @@ def test_kt_fit_reproduces_the_open_water_table(ship):
     assert k1 < 0 and 0.9 < np.max(np.roots([k2, k1, k0])) < 1.0
 
 
-def test_compiled_modules_are_the_array_definition(ship):
-    k = module_constants(ship, ship.modules)
+def test_compiled_right_hand_side_is_the_array_definition(ship, model):
+    """The accelerations of the compiled RK4 stage (drift angle by the one-argument
+    arctangent, module gains through the inverse mass matrix) are the equations of
+    motion solved with the array forces of :func:`mmg_forces`."""
     u, v, r, delta, n = _states()
-    x, y, nn = module_forces(u, v, r, delta, n, k)
-    compiled = np.array([_rudder_propeller(a, b, c, np.sin(d), np.cos(d), e, k)
-                         for a, b, c, d, e in zip(u, v, r, delta, n)])
-    np.testing.assert_allclose(compiled, np.column_stack([x, y, nn]), rtol=1e-10, atol=1e-9)
+    k, a = mmg_inputs(ship)
+    g = _module_accelerations(k, a)
+    c = hull_vector(model, KVLCC2_HULL)
+    # heading 0, prescribed rudder at rest: only the first three derivatives are compared
+    compiled = np.array([_derivatives(uu, vv, rr, 1.0, 0.0, d, np.sin(d), np.cos(d), 0.0, 0.0, True,
+                                      nn, c, k, a, g)[:3]
+                         for uu, vv, rr, d, nn in zip(u, v, r, delta, n)])
+    f = mmg_forces(model, KVLCC2_HULL, ship, u, v, r, delta, n)
+    mx, my, jz = ship.added_masses()
+    m, xgm = ship.mass, ship.xg * ship.mass
+    mass = np.array([[m + mx, 0.0, 0.0], [0.0, m + my, xgm],
+                     [0.0, xgm, ship.iz + ship.xg ** 2 * m + jz]])
+    rhs = np.column_stack([f[:, 0] + (m + my) * v * r + xgm * r * r,
+                           f[:, 1] - (m + mx) * u * r, f[:, 2] - xgm * u * r])
+    np.testing.assert_allclose(compiled, np.linalg.solve(mass, rhs.T).T, rtol=1e-10, atol=1e-14)
+    # the drift angle going ahead, astern and across
+    for uu, vv in ((1.2, -0.3), (1.2, 0.0), (-0.5, 0.2), (-0.5, -0.2), (0.0, 0.4), (0.0, 0.0)):
+        assert _drift(uu, vv) == pytest.approx(np.arctan2(-vv, uu), rel=1e-15, abs=1e-300)
 
 
 def test_positive_rudder_gives_negative_yaw_moment(ship, model):

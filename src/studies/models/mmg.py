@@ -55,16 +55,19 @@ Rudder (eq. 18-32)::
     v_R = U gamma_R beta_R,   beta_R = beta - l'_R r',   eta = D / H_R
     gamma_R = gamma_R- for beta_R < 0, gamma_R+ otherwise
 
-with ``x_R`` the rudder position and ``x_H = x'_H L``. :func:`module_forces`
-evaluates ``u_R`` in the equivalent form ``epsilon sqrt(eta (u_P + kappa
-(sqrt(u_P^2 + 8 T / (pi rho D^2)) - u_P))^2 + (1 - eta) u_P^2)`` with
-``u_P = u (1 - w_P)`` (no division by ``J_P``), and ``sin(alpha_R) U_R =
-u_R sin(delta_M) - v_R cos(delta_M)`` (no arctangent).
+with ``x_R`` the rudder position and ``x_H = x'_H L``.
+:func:`thrust_normal_force` evaluates ``u_R`` in the equivalent form
+``epsilon sqrt(eta (u_P + kappa (sqrt(u_P^2 + 8 T / (pi rho D^2)) - u_P))^2
++ (1 - eta) u_P^2)`` with ``u_P = u (1 - w_P)`` (no division by ``J_P``),
+and ``sin(alpha_R) U_R = u_R sin(delta_M) - v_R cos(delta_M)`` (no
+arctangent); :func:`module_gains` turns ``T`` and ``F_N`` into the forces.
 
-The functions :func:`hull_forces` and :func:`module_forces` are written with
-NumPy ufuncs only, so they take scalars or arrays: the regression evaluates
-them on a record's arrays, and :mod:`studies.simulate.mmg` compiles the same
-functions into its RK4 right-hand side (one definition of the physics).
+The functions :func:`hull_forces`, :func:`module_forces` and the two it is
+made of are written with NumPy ufuncs only, so they take scalars or arrays:
+the regression evaluates them on a record's arrays, and
+:mod:`studies.simulate.mmg` compiles :func:`hull_forces`,
+:func:`thrust_normal_force` and :func:`module_gains` into its RK4
+right-hand side (one definition of the physics).
 
 References
 ----------
@@ -84,7 +87,8 @@ from .terms import Term
 
 __all__ = ["MMGTerm", "MMGParameters", "HULL_TERMS", "KVLCC2_HULL", "KVLCC2_ADDED_MASS",
            "KVLCC2_KT_PUBLISHED", "mmg", "fit_kt", "hull_forces", "module_forces",
-           "rudder_propeller", "module_constants", "MODULE_CONSTANTS"]
+           "rudder_propeller", "thrust_normal_force", "module_gains", "module_constants",
+           "MODULE_CONSTANTS"]
 
 
 @dataclass(frozen=True)
@@ -275,32 +279,71 @@ def module_forces(u, v, r, delta, n, k):
 
 def rudder_propeller(u, v, r, sin_delta, cos_delta, n, k):
     """:func:`module_forces` with the rudder angle given by its sine and cosine
-    (contract sign), for a caller that rotates them instead of recomputing."""
+    (contract sign): :func:`thrust_normal_force` at the drift angle
+    ``atan2(-v, u)``, through :func:`module_gains`."""
+    speed = np.sqrt(u * u + v * v)
+    rp = r * k[0] * (1.0 / speed)
+    beta = np.arctan2(-v, u)
+    thrust, normal = thrust_normal_force(u, speed, beta, rp, sin_delta, cos_delta, n, k)
+    g_thrust, g_surge, g_sway, g_yaw = module_gains(k)
+    # MMG rudder sign is opposite to the contract's: sin(delta_M) = -sin(delta)
+    return (g_thrust * thrust + g_surge * normal * -sin_delta, g_sway * normal * cos_delta,
+            g_yaw * normal * cos_delta)
+
+
+def module_gains(k) -> tuple[float, float, float, float]:
+    """``(1 - t_P, -(1 - t_R), -(1 + a_H), -(x_R + a_H x_H))``: the module forces
+    from the thrust and the rudder normal force (:func:`thrust_normal_force`)::
+
+        X_P + X_R = (1 - t_P) T - (1 - t_R) F_N sin(delta_M)
+        Y_R = -(1 + a_H) F_N cos(delta_M),   N_R = -(x_R + a_H x_H) F_N cos(delta_M)
+    """
+    tP, tR, aH, xH, xR = k[10], k[15], k[16], k[17], k[7]
+    return 1.0 - tP, -(1.0 - tR), -(1.0 + aH), -(xR + aH * xH)
+
+
+def thrust_normal_force(u, speed, beta, rp, sin_delta, cos_delta, n, k):
+    """Propeller thrust ``T`` [N] and rudder normal force ``F_N`` [N].
+
+    The state comes in as the caller has it: ``u`` [m/s] surge, ``speed``
+    ``U`` [m/s], ``beta`` the drift angle ``atan2(-v, u)`` [rad] and ``rp``
+    the prime yaw rate ``r L / U``; the rudder angle as its sine and cosine
+    (contract sign), ``n`` [rps] and ``k`` as in :func:`module_forces`.
+    :func:`module_gains` turns them into the forces. Scalars or arrays.
+
+    The sums are arranged for the compiled simulator, where this is the
+    longest chain of dependent operations of each RK4 stage: the terms of the
+    propeller rate and the rudder's drift are ready before the wake's
+    exponential, and after it each step is one product-sum or a square root
+    (the slipstream's sum expanded in ``u_P`` instead of built from ``T``,
+    ``U_R^2`` summed beside ``u_R^2`` instead of from it).
+    """
     (L, rho, D, k0, k1, k2, xP, xR, q_rudder, eta, tP, wP0, C1, C2p, C2m, tR, aH, xH,
      gRm, gRp, lR, eps, kappa) = k
-    speed = np.sqrt(u * u + v * v)
-    rp = r * L * (1.0 / speed)
-    beta = np.arctan2(-v, u)
-    # propeller: wake changes with the drift at the propeller
+    # propeller inflow: the wake changes with the drift at the propeller,
+    # u_P = u (1 - w_P) = u (1 - w_P0) (C_2 - (C_2 - 1) exp(-C_1 |beta_P|))
     beta_p = beta - xP * rp
     c2 = C2m + (C2p - C2m) * (beta_p > 0.0)
-    u_p = u * (1.0 - wP0) * (1.0 + (1.0 - np.exp(-C1 * abs(beta_p))) * (c2 - 1.0))
-    nd = n * D
-    # T = rho n^2 D^4 K_T(J) = rho D^2 (k0 (nD)^2 + k1 u_P nD + k2 u_P^2); zero when stopped
-    thrust = rho * D * D * (k0 * nd * nd + k1 * u_p * nd + k2 * u_p * u_p) * (n > 0.0)
-    # rudder inflow: propeller slipstream and flow straightening
-    jet = u_p * u_p + thrust * (8.0 / (np.pi * rho * D * D))
-    slip = np.sqrt(jet * (jet > 0.0))
-    inflow = u_p + kappa * (slip - u_p)
-    u_r2 = eps * eps * (eta * inflow * inflow + (1.0 - eta) * u_p * u_p)
+    u_0 = u * (1.0 - wP0)
+    u_p = u_0 * c2 - u_0 * (c2 - 1.0) * np.exp(-C1 * abs(beta_p))
+    # T = rho n^2 D^4 K_T(J_P) = rho D^2 p, p = k0 (nD)^2 + k1 nD u_P + k2 u_P^2 (none when stopped)
+    on = n > 0.0
+    nd = n * D * on
+    p = k0 * nd * nd + u_p * (k1 * nd + k2 * on * u_p)
+    # slipstream sqrt(u_P^2 + 8 T / (pi rho D^2)) = sqrt(u_P^2 + (8 / pi) p), the sum expanded in
+    # u_P; the rudder's inflow in it, eps sqrt(eta) (u_P + kappa (slip - u_P))
+    c8 = 8.0 / np.pi
+    slip = np.sqrt(np.maximum(c8 * k0 * nd * nd + u_p * (c8 * k1 * nd + (1.0 + c8 * k2 * on) * u_p),
+                              0.0))
+    scale = eps * np.sqrt(eta)
+    inflow = (scale * (1.0 - kappa)) * u_p + (scale * kappa) * slip
+    # u_R^2 = inflow^2 + eps^2 (1 - eta) u_P^2 (the rudder's part outside the slipstream);
+    # v_R with the flow straightening; U_R^2 = u_R^2 + v_R^2
     beta_r = beta - lR * rp
     v_r = speed * (gRm + (gRp - gRm) * (beta_r >= 0.0)) * beta_r
-    # MMG rudder sign is opposite to the contract's
-    sd = -sin_delta
-    cd = cos_delta
-    # F_N = 0.5 rho A_R f_alpha U_R^2 sin(alpha_R), U_R sin(alpha_R) = u_R sin(dM) - v_R cos(dM)
-    f_n = q_rudder * np.sqrt(u_r2 + v_r * v_r) * (np.sqrt(u_r2) * sd - v_r * cd)
-    x = (1.0 - tP) * thrust - (1.0 - tR) * f_n * sd
-    y = -(1.0 + aH) * f_n * cd
-    moment = -(xR + aH * xH) * f_n * cd
-    return x, y, moment
+    outside = (eps * eps * (1.0 - eta)) * u_p * u_p
+    u_r = np.sqrt(inflow * inflow + outside)
+    speed_r = np.sqrt(inflow * inflow + (outside + v_r * v_r))
+    # F_N = 0.5 rho A_R f_alpha U_R^2 sin(alpha_R), U_R sin(alpha_R) = u_R sin(dM) - v_R cos(dM),
+    # with the MMG's rudder sign opposite to the contract's
+    return rho * D * D * p, q_rudder * speed_r * (u_r * -sin_delta - v_r * cos_delta)

@@ -1,11 +1,17 @@
 """Compiled RK4 simulator of the MMG model: hull terms, propeller and rudder.
 
 The equations and the forces are those of :mod:`studies.models.mmg`; its
-functions :func:`~studies.models.mmg.hull_forces` and
-:func:`~studies.models.mmg.rudder_propeller` (the body of
-:func:`~studies.models.mmg.module_forces`, with the rudder angle as its sine
-and cosine) are compiled here as they are (one definition of the physics for
-the simulator and the regression).
+functions :func:`~studies.models.mmg.hull_forces`,
+:func:`~studies.models.mmg.thrust_normal_force` and
+:func:`~studies.models.mmg.module_gains` (what
+:func:`~studies.models.mmg.module_forces` is made of) are compiled here as
+they are (one definition of the physics for the simulator and the
+regression). Two things are arranged for speed, the forces staying the
+same to rounding: the drift angle ``atan2(-v, u)`` is taken as
+``atan(-v / u)`` going ahead (:func:`_drift`), and the module gains are
+multiplied through the inverse mass matrix once per run
+(:func:`_module_accelerations`), so the rudder's normal force, the last
+value of a stage, is one product-sum away from the accelerations.
 The loop is scalar and allocation-free like
 :mod:`studies.simulate.integrator`, and shares its rudder logic
 (:func:`~studies.simulate.integrator._command`: zig-zag switching on heading,
@@ -26,11 +32,15 @@ forces yet.
 
 The heading's and the rudder's sine and cosine are computed once per step and
 rotated through the stages by their increments (exact to 1e-12 for
-increments below 0.1 rad: a rudder rate below 1 rad/s at a 0.1 s step).
+increments below 0.1 rad: a rudder rate below 1 rad/s at a 0.1 s step); a
+rudder at rest (held at its angle, most of a zig-zag or a turning circle)
+keeps them from step to step.
 
-Numba caches the compiled loop by this file's time stamp: after editing the
-force functions of :mod:`studies.models.mmg` (compiled inline here), touch
-this file or clear its ``__pycache__`` so the cache is rebuilt.
+Numba keys the cache of the compiled loop on this file alone (its content or,
+in older versions, its time stamp): after editing the force functions of
+:mod:`studies.models.mmg` (compiled inline here), clear this folder's
+``__pycache__`` so the cache is rebuilt; touching this file is not enough
+when the key is the content (numba 0.68).
 """
 
 from __future__ import annotations
@@ -45,7 +55,7 @@ from scipy.optimize import brentq
 from ..data.resample import resample
 from ..models.abkowitz import ManoeuvringModel
 from ..models.mmg import (HULL_TERMS, MMGParameters, hull_forces, module_constants, module_forces,
-                          rudder_propeller)
+                          module_gains, thrust_normal_force)
 from ..vessels.kvlcc2_mmg import MMGVessel
 from .integrator import DIVERGED_SPEED_FACTOR, N_STATES, _command, _small_rotation
 from .manoeuvres import Manoeuvre
@@ -57,29 +67,44 @@ __all__ = ["simulate_mmg", "replay_mmg", "rk4_mmg", "hull_vector", "mmg_inputs",
 _FAST = {"contract", "arcp", "nsz"}
 
 _hull = njit(cache=True, inline="always", fastmath=_FAST)(hull_forces)
-_rudder_propeller = njit(cache=True, inline="always", fastmath=_FAST)(rudder_propeller)
+_thrust_normal = njit(cache=True, inline="always", fastmath=_FAST)(thrust_normal_force)
 
 #: yaw sign of the contract: a positive rudder turns the ship to negative heading
 YAW_SIGN = -1.0
 
 
 @njit(cache=True, inline="always", fastmath=_FAST)
+def _drift(u, v):
+    """Drift angle ``beta = atan2(-v, u)`` [rad]; going ahead (``u > 0``) as
+    ``atan(-v / u)``, the same angle to a unit in the last place and a
+    shorter call than the two-argument arctangent."""
+    if u > 0.0:
+        return math.atan(-v / u)
+    return math.atan2(-v, u)
+
+
+@njit(cache=True, inline="always", fastmath=_FAST)
 def _derivatives(u, v, r, cpsi, spsi, delta, sdelta, cdelta, delta_c, prescribed_rate, prescribed,
-                 n, c, k, a):
+                 n, c, k, a, g):
     """State derivative at one RK4 stage; ``sdelta``, ``cdelta`` the sine and
     cosine of the rudder angle ``delta``, ``c`` hull coefficients, ``k`` the
-    module constants, ``a`` the rigid-body constants of :func:`_body_constants`."""
+    module constants, ``a`` the rigid-body constants of :func:`_body_constants`,
+    ``g`` the module gains through the inverse mass matrix
+    (:func:`_module_accelerations`)."""
     speed = math.sqrt(u * u + v * v)
     inv = 1.0 / speed
-    xh, yh, nh = _hull(v * inv, r * a[0] * inv, c)
-    xm, ym, nm = _rudder_propeller(u, v, r, sdelta, cdelta, n, k)
+    rp = r * a[0] * inv
+    xh, yh, nh = _hull(v * inv, rp, c)
+    thrust, normal = _thrust_normal(u, speed, _drift(u, v), rp, sdelta, cdelta, n, k)
     q = a[1] * speed * speed
-    fx = q * xh + xm + a[3] * v * r + a[4] * r * r
-    fy = q * yh + ym - a[2] * u * r
-    fn = q * a[0] * nh + nm - a[4] * u * r
-    u_dot = fx * a[5]
-    v_dot = a[6] * fy + a[7] * fn
-    r_dot = a[8] * fy + a[9] * fn
+    fx = q * xh + a[3] * v * r + a[4] * r * r
+    fy = q * yh - a[2] * u * r
+    fn = q * a[0] * nh - a[4] * u * r
+    # module forces through the inverse mass matrix; the rudder's normal force, the last
+    # value to be known, is added last
+    u_dot = fx * a[5] + g[0] * thrust - g[1] * sdelta * normal
+    v_dot = a[6] * fy + a[7] * fn + g[2] * cdelta * normal
+    r_dot = a[8] * fy + a[9] * fn + g[3] * cdelta * normal
     x_dot = cpsi * u - spsi * v
     y_dot = spsi * u + cpsi * v
     if prescribed:
@@ -88,6 +113,26 @@ def _derivatives(u, v, r, cpsi, spsi, delta, sdelta, cdelta, delta_c, prescribed
         dc = min(max(delta_c, -a[10]), a[10])
         delta_dot = min(max((dc - delta) * a[12], -a[11]), a[11])
     return u_dot, v_dot, r_dot, x_dot, y_dot, r, delta_dot
+
+
+@njit(cache=True, inline="always")
+def _turned(cosine, sine, angle):
+    """``(cos, sin)`` of an angle turned by a small ``angle`` [rad]; unchanged
+    when ``angle`` is zero (a rudder at rest)."""
+    if angle == 0.0:
+        return cosine, sine
+    ca, sa = _small_rotation(angle)
+    return cosine * ca - sine * sa, sine * ca + cosine * sa
+
+
+def _module_accelerations(k: tuple, a: tuple) -> tuple:
+    """The module gains (:func:`~studies.models.mmg.module_gains`) through the
+    inverse mass matrix of :func:`_body_constants`: ``(u_dot per T, u_dot per
+    F_N sin(delta_M), v_dot per F_N cos(delta_M), r_dot per F_N
+    cos(delta_M))`` [1/kg, 1/kg, 1/kg, 1/(kg m)], ``k`` the module constants."""
+    g_thrust, g_surge, g_sway, g_yaw = module_gains(k)
+    return (a[5] * g_thrust, a[5] * g_surge, a[6] * g_sway + a[7] * g_yaw,
+            a[8] * g_sway + a[9] * g_yaw)
 
 
 def _body_constants(vessel: MMGVessel) -> tuple:
@@ -106,7 +151,7 @@ def _body_constants(vessel: MMGVessel) -> tuple:
 
 
 @njit(cache=True, error_model="numpy", fastmath=_FAST)
-def _integrate(c, k, a, x0, dt, cmd, mode, params, rps, limit, out):
+def _integrate(c, k, a, g, x0, dt, cmd, mode, params, rps, limit, out):
     """RK4 over ``out.shape[0] - 1`` steps. Returns -1, or the first step that
     left the physical range (rows from there on are NaN)."""
     n = out.shape[0]
@@ -119,6 +164,9 @@ def _integrate(c, k, a, x0, dt, cmd, mode, params, rps, limit, out):
     prescribed = mode == 3
     h = 0.5 * dt
     sixth = dt / 6.0
+    # cr, sr: cosine and sine of the rudder angle `held`, kept while the rudder rests
+    held = np.nan
+    cr = sr = 0.0
     for i in range(n - 1):
         dc, memory = _command(mode, cmd[i], s5, s2, psi0, p0, p1, p2, memory)
         rate = 0.0
@@ -128,28 +176,30 @@ def _integrate(c, k, a, x0, dt, cmd, mode, params, rps, limit, out):
         n_a = rps[i]
         n_b = rps[i + 1]
         n_m = 0.5 * (n_a + n_b)
-        # one cosine/sine of the heading and of the rudder per step: the stages
-        # rotate them by their small increments (the rudder moves < 0.1 rad per step)
+        # one cosine/sine of the heading per step, and of the rudder when it has moved: the
+        # stages rotate them by their small increments (the rudder moves < 0.1 rad per step)
         cp = math.cos(s5)
         sp = math.sin(s5)
-        cr = math.cos(s6)
-        sr = math.sin(s6)
-        k1 = _derivatives(s0, s1, s2, cp, sp, s6, sr, cr, dc, rate, prescribed, n_a, c, k, a)
+        if s6 != held:
+            cr = math.cos(s6)
+            sr = math.sin(s6)
+            held = s6
+        k1 = _derivatives(s0, s1, s2, cp, sp, s6, sr, cr, dc, rate, prescribed, n_a, c, k, a, g)
         ca, sa = _small_rotation(h * k1[5])
-        cb, sb = _small_rotation(h * k1[6])
+        cb, sb = _turned(cr, sr, h * k1[6])
         k2 = _derivatives(s0 + h * k1[0], s1 + h * k1[1], s2 + h * k1[2], cp * ca - sp * sa,
-                          sp * ca + cp * sa, s6 + h * k1[6], sr * cb + cr * sb, cr * cb - sr * sb,
-                          dc, rate, prescribed, n_m, c, k, a)
+                          sp * ca + cp * sa, s6 + h * k1[6], sb, cb, dc, rate, prescribed, n_m,
+                          c, k, a, g)
         ca, sa = _small_rotation(h * k2[5])
-        cb, sb = _small_rotation(h * k2[6])
+        cb, sb = _turned(cr, sr, h * k2[6])
         k3 = _derivatives(s0 + h * k2[0], s1 + h * k2[1], s2 + h * k2[2], cp * ca - sp * sa,
-                          sp * ca + cp * sa, s6 + h * k2[6], sr * cb + cr * sb, cr * cb - sr * sb,
-                          dc, rate, prescribed, n_m, c, k, a)
+                          sp * ca + cp * sa, s6 + h * k2[6], sb, cb, dc, rate, prescribed, n_m,
+                          c, k, a, g)
         ca, sa = _small_rotation(dt * k3[5])
-        cb, sb = _small_rotation(dt * k3[6])
+        cb, sb = _turned(cr, sr, dt * k3[6])
         k4 = _derivatives(s0 + dt * k3[0], s1 + dt * k3[1], s2 + dt * k3[2], cp * ca - sp * sa,
-                          sp * ca + cp * sa, s6 + dt * k3[6], sr * cb + cr * sb, cr * cb - sr * sb,
-                          dc, rate, prescribed, n_b, c, k, a)
+                          sp * ca + cp * sa, s6 + dt * k3[6], sb, cb, dc, rate, prescribed, n_b,
+                          c, k, a, g)
         s0 += sixth * (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0])
         s1 += sixth * (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1])
         s2 += sixth * (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2])
@@ -207,7 +257,8 @@ def rk4_mmg(hull: tuple, k: tuple, a: tuple, x0, dt: float, cmd, mode: int, para
     cmd = np.array(cmd, dtype=float)
     rps = np.array(np.broadcast_to(np.asarray(rps, float), cmd.shape), dtype=float)
     out = np.empty((cmd.shape[0], N_STATES))
-    diverged = _integrate(tuple(float(x) for x in hull), k, a, np.asarray(x0, float), float(dt),
+    diverged = _integrate(tuple(float(x) for x in hull), k, a, _module_accelerations(k, a),
+                          np.asarray(x0, float), float(dt),
                           cmd, int(mode), np.asarray(params, float), rps,
                           DIVERGED_SPEED_FACTOR * float(speed0), out)
     return out, int(diverged)
