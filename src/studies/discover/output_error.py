@@ -41,7 +41,7 @@ from scipy.signal import savgol_filter
 
 from ..errors import ConfigError
 from ..identify.regression import prime_states
-from ..simulate.simulator import replay_many
+from ..simulate.simulator import ReplayPlan
 from .fitting import (CauseFit, Context, integrated_time, sample_intervals, smoothed,
                       smoothing_window)
 
@@ -181,6 +181,8 @@ class _Problem:
         self.nb, self.nt, self.nw = len(self.beta0), len(self.theta0), len(windows)
         self.prior = float(prior)
         self._setups = {}
+        # each window's replay prepared once per cause parameters and model (:class:`ReplayPlan`)
+        self._plans = {}
 
     # parameter vector: [coefficients (relative to beta_scale), theta (relative), states (noise units)]
     def split(self, x):
@@ -208,12 +210,18 @@ class _Problem:
     def _window(self, w: Window, betas: np.ndarray, theta, state, model=None) -> np.ndarray:
         """Residuals (noise units) of one window for every row of ``betas``
         (coefficients of ``model``, the fit's model by default)."""
-        setup = self._setup(theta)
-        rec = setup.sim_record(w.record)
-        env = setup.environment(w.record)
+        model = model or self.model
+        key = (id(w), tuple(np.round(theta, 15)), id(model))
+        if key not in self._plans:
+            if len(self._plans) > 64:
+                self._plans.clear()
+            setup = self._setup(theta)
+            self._plans[key] = ReplayPlan(model, self.ctx.vessel, setup.sim_record(w.record),
+                                          setup.environment(w.record), setup.external())
+        plan = self._plans[key]
+        env = plan.environment
         initial = {c: w.initial[c] + d for c, d in zip(("u", "v", "r"), state)}
-        states, _ = replay_many(model or self.model, betas, self.ctx.vessel, rec, env, setup.external(),
-                                initial)
+        states, _ = plan.run(betas, initial)
         rows = w.rows[w.rows < states.shape[1]]
         current = (env.current_speed, env.current_direction) if env.current_speed else None
         out = _outputs(states[:, rows], float(self.ctx.vessel.speed), current)

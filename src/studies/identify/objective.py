@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..models.abkowitz import ManoeuvringModel
-from ..simulate.simulator import DIVERGED_PENALTY, replay_many
+from ..simulate.simulator import DIVERGED_PENALTY, ReplayPlan
 from ..vessels.base import Vessel
 
 __all__ = ["TrajectoryObjective"]
@@ -44,6 +44,7 @@ class TrajectoryObjective:
         self.records = list(records)
         self.max_samples = max_samples
         self._targets = []
+        self._plans = None
         for rec in self.records:
             target = np.column_stack([rec["u"].to_numpy(float) - vessel.speed,
                                       rec["v"].to_numpy(float), rec["r"].to_numpy(float)])
@@ -56,8 +57,10 @@ class TrajectoryObjective:
     def residuals_many(self, vectors: np.ndarray) -> list[np.ndarray]:
         """Per record, simulated minus recorded (du, v, r): (n_sets, n_samples, 3)."""
         out = []
-        for rec, target in zip(self.records, self._targets):
-            states, _ = replay_many(self.model, vectors, self.vessel, rec)
+        if self._plans is None:       # each record's replay prepared once (rudder on the grid)
+            self._plans = [ReplayPlan(self.model, self.vessel, rec) for rec in self.records]
+        for plan, target in zip(self._plans, self._targets):
+            states, _ = plan.run(vectors)
             n = min(states.shape[1], target.shape[0])
             out.append(states[:, :n, :3] - target[None, :n, :])
         return out

@@ -25,7 +25,7 @@ from ..vessels.base import Vessel
 from .integrator import rk4_simulate, rk4_simulate_many
 from .manoeuvres import Manoeuvre
 
-__all__ = ["simulate", "simulate_many", "replay", "replay_many", "SimulationInputs",
+__all__ = ["simulate", "simulate_many", "replay", "replay_many", "ReplayPlan", "SimulationInputs",
            "DIVERGED_PENALTY"]
 
 #: finite fitness (thesis eq. 3.43, SI units) given to a simulation that left
@@ -74,17 +74,25 @@ def prepare(model: ManoeuvringModel, vessel: Vessel, manoeuvre: Manoeuvre,
     ext = np.zeros((0, 6)) if external is None else np.asarray(external, float)
     if external is not None and ext.shape[0] < n_steps:
         raise ValueError(f"external forces cover {ext.shape[0]} steps, need {n_steps}")
-    x0 = np.zeros(7)
-    if initial:
-        x0[0] = initial.get("u", vessel.speed) - vessel.speed
-        for key, idx in (("v", 1), ("r", 2), ("x0", 3), ("y0", 4), ("psi", 5), ("delta", 6)):
-            x0[idx] = initial.get(key, 0.0)
+    x0 = _state_vector(initial, float(vessel.speed))
     wind = vessel.wind.as_array() if vessel.wind is not None else np.zeros(0)
     return SimulationInputs(model.powers_array(), model.dof_array(), vessel.mass_matrix(),
                             float(vessel.length), float(vessel.speed), x0, manoeuvre.step,
                             np.ascontiguousarray(cmd, float), mode, params, environment.as_array(),
                             wind, float(vessel.rho), np.ascontiguousarray(ext), _servo(vessel),
                             manoeuvre.substeps)
+
+
+def _state_vector(initial: dict | None, speed0: float) -> np.ndarray:
+    """The integrator's initial state (du, v, r, x0, y0, psi, delta) from
+    ``initial`` (total ``u`` [m/s] through the water, ...; missing: straight
+    at ``speed0``)."""
+    x0 = np.zeros(7)
+    if initial:
+        x0[0] = initial.get("u", speed0) - speed0
+        for key, idx in (("v", 1), ("r", 2), ("x0", 3), ("y0", 4), ("psi", 5), ("delta", 6)):
+            x0[idx] = initial.get(key, 0.0)
+    return x0
 
 
 def _to_record(states: np.ndarray, inputs: SimulationInputs, environment: Environment) -> pd.DataFrame:
@@ -179,11 +187,7 @@ def _replay_inputs(model: ManoeuvringModel, vessel: Vessel, record: pd.DataFrame
     rudder = pd.DataFrame({"t": t - t[0], "delta": record["delta"].to_numpy(float)})
     delta = resample(rudder, grid, ["delta"])["delta"].to_numpy()
     environment = environment or Environment()
-    first = record.iloc[0]
-    initial = {**{k: float(first[k]) for k in ("u", "v", "r", "x0", "y0", "psi", "delta")}, **(initial or {})}
-    if environment.current_speed:
-        initial["u"] -= environment.current_speed * np.cos(environment.current_direction - initial["psi"])
-        initial["v"] -= environment.current_speed * np.sin(environment.current_direction - initial["psi"])
+    initial = _replay_initial(record, environment, initial)
     ext = None
     if external is not None:
         ext = np.asarray(external, float)
@@ -191,6 +195,41 @@ def _replay_inputs(model: ManoeuvringModel, vessel: Vessel, record: pd.DataFrame
             ext = np.repeat(ext[None, :], len(grid) - 1, axis=0)
     inputs = prepare(model, vessel, man, environment, ext, yaw_sign, initial)
     return SimulationInputs(**{**inputs.__dict__, "mode": 3, "cmd": np.ascontiguousarray(delta)})
+
+
+def _replay_initial(record: pd.DataFrame, environment: Environment, initial: dict | None) -> dict:
+    """A replay's initial state: the record's first row (over ground), overridden by
+    ``initial``, turned into velocities through the water in ``environment``'s current."""
+    first = record.iloc[0]
+    out = {**{k: float(first[k]) for k in ("u", "v", "r", "x0", "y0", "psi", "delta")}, **(initial or {})}
+    if environment.current_speed:
+        out["u"] -= environment.current_speed * np.cos(environment.current_direction - out["psi"])
+        out["v"] -= environment.current_speed * np.sin(environment.current_direction - out["psi"])
+    return out
+
+
+class ReplayPlan:
+    """A record's replay prepared once (rudder on the integration grid,
+    environment, external forces) for many coefficient sets and initial
+    states: what :func:`replay_many` does, without preparing the record again
+    on every call (an output-error fit replays the same windows hundreds of
+    times).
+    """
+
+    def __init__(self, model: ManoeuvringModel, vessel: Vessel, record: pd.DataFrame,
+                 environment: Environment | None = None, external=None):
+        self.environment = environment or record_environment(record)
+        self.record = record
+        self.inputs = _replay_inputs(model, vessel, record, self.environment, -1.0, external)
+
+    def run(self, vectors: np.ndarray, initial: dict | None = None):
+        """``(states, diverged)`` as :func:`replay_many` returns them."""
+        inputs = self.inputs
+        if initial:
+            x0 = _state_vector(_replay_initial(self.record, self.environment, initial), inputs.speed0)
+            inputs = SimulationInputs(**{**inputs.__dict__, "x0": x0})
+        states, diverged = rk4_simulate_many(np.atleast_2d(vectors), *inputs.args())
+        return states[:, :: inputs.substeps], diverged
 
 
 def record_environment(record: pd.DataFrame) -> Environment:
@@ -240,7 +279,4 @@ def replay_many(model: ManoeuvringModel, vectors: np.ndarray, vessel: Vessel,
     delta; velocities through the water), and the first diverged step per
     set (-1 when bounded).
     """
-    environment = environment or record_environment(record)
-    inputs = _replay_inputs(model, vessel, record, environment, -1.0, external, initial)
-    states, diverged = rk4_simulate_many(np.atleast_2d(vectors), *inputs.args())
-    return states[:, :: inputs.substeps], diverged
+    return ReplayPlan(model, vessel, record, environment, external).run(vectors, initial)
