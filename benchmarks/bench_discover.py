@@ -8,6 +8,29 @@ right cause with the parameter within 20 % (angles within 0.2 rad). Set
 "0,0.05") to choose the effort; the runs use all cores. Roll decays
 (``roll_quadratic_damping``, ``roll_cubic_damping``) are scored the same way
 at 1 % and 5 % noise (``STUDIES_BENCH_ROLL_SEEDS``, default 10; 0 leaves them out).
+
+Noise families: ``STUDIES_BENCH_FAMILIES`` (default "li2023", comma-separated
+names of :data:`studies.environment.sensor_noise.NOISE_FAMILIES`) adds the
+measurement-noise models the discovery was not developed on. Figures per
+cause, noise level and family:
+
+- ``discover_hit_rate/<cause>/noise=<n>/<family>``; for ``li2023`` the key
+  has no family suffix (today's names, so older results compare), and at
+  noise 0 the families coincide (no noise at all) and run once, under the
+  suffix-free key;
+- ``discover_confusion``: ``{"noise=<n>[/<family>]": {true cause: {named
+  cause: count}}}``;
+- ``discover_second_cause_rate``: over the runs with one cause hidden (not
+  ``none``) whose first cause is right, the fraction that also name a
+  second cause (a non-null ``second_cause`` in discovery.json: spurious,
+  since only one was hidden); ``discover_second_cause_rate/noise=<n>[/<family>]``
+  per setting. ``None`` when no run qualifies.
+
+Seeds: development uses seeds 100, 101, ... (the tests use smaller seeds).
+``STUDIES_BENCH_HELDOUT=1`` draws seeds 1000, 1001, ... instead (manoeuvring
+and roll causes alike): held-out seeds that development never looks at, to
+check hit rates without tuning to the development seeds. Report them only
+as a final check; ``discover_seed_base`` in the output says which range ran.
 """
 
 import os
@@ -22,13 +45,20 @@ from joblib import Parallel, delayed
 from studies.config import compose_settings
 from studies.discover.hidden import (HIDDEN_CAUSES, HIDDEN_ROLL_CAUSES, hidden_records,
                                      hidden_roll_decays, parameters_match, write_records)
+from studies.environment.sensor_noise import check_sensor_noise
 from studies.vessels import get_vessel
 from studies.workflows.kinds import execute_discover, prepare_discover
 
 
-def _one(cause, seed, noise):
+#: first seed of the development runs and of the held-out runs (STUDIES_BENCH_HELDOUT=1)
+DEVELOPMENT_SEED, HELDOUT_SEED = 100, 1000
+
+
+def _one(cause, seed, noise, family="li2023"):
+    """One discovery on hidden records: a dict of the setting, the hit, the named first and
+    second causes and the discovery's wall time [s]."""
     vessel = get_vessel("mariner")
-    records, truth = hidden_records(vessel, cause, seed=seed, noise=noise)
+    records, truth = hidden_records(vessel, cause, seed=seed, noise=noise, noise_family=family)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         paths = write_records(records, tmp)
@@ -41,7 +71,48 @@ def _one(cause, seed, noise):
         d, _ = execute_discover(prepare_discover(cfg, tmp), tmp / "out")
         elapsed = time.perf_counter() - t0
     hit = d["cause"] == cause and parameters_match(cause, d["parameters"], truth)
-    return cause, noise, seed, hit, elapsed
+    return {"cause": cause, "noise": noise, "family": family, "seed": seed, "hit": bool(hit),
+            "named": d["cause"], "second": (d.get("second_cause") or {}).get("cause"), "elapsed": elapsed}
+
+
+def _setting(noise, family) -> str:
+    """Key suffix of a noise level and family: ``noise=<n>``, with ``/<family>`` unless li2023 or noise 0."""
+    return f"noise={noise:g}" if family == "li2023" or noise == 0 else f"noise={noise:g}/{family}"
+
+
+def _jobs(causes, noises, families, seeds, base) -> list[tuple]:
+    """(cause, seed, noise, family) per run; noise 0 once (every family leaves the records clean)."""
+    settings = list(dict.fromkeys((n, "li2023" if n == 0 else f) for n in noises for f in families))
+    return [(c, base + s, n, f) for c in causes for n, f in settings for s in range(seeds)]
+
+
+def _confusion(results) -> dict:
+    """{setting: {true cause: {named cause: count}}}."""
+    out = {}
+    for r in results:
+        row = out.setdefault(_setting(r["noise"], r["family"]), {}).setdefault(r["cause"], {})
+        row[r["named"]] = row.get(r["named"], 0) + 1
+    return out
+
+
+def _second_cause_rate(results):
+    """Fraction of runs with one cause hidden and named first that name a second cause (None: no run)."""
+    right = [r for r in results if r["cause"] != "none" and r["named"] == r["cause"]]
+    return float(np.mean([r["second"] is not None for r in right])) if right else None
+
+
+def _manoeuvring_figures(results) -> dict:
+    out = {"discover_one_600s_records_s_median": float(np.median([r["elapsed"] for r in results])),
+           "discover_confusion": _confusion(results),
+           "discover_second_cause_rate": _second_cause_rate(results)}
+    settings = list(dict.fromkeys(_setting(r["noise"], r["family"]) for r in results))
+    for setting in settings:
+        runs = [r for r in results if _setting(r["noise"], r["family"]) == setting]
+        out[f"discover_second_cause_rate/{setting}"] = _second_cause_rate(runs)
+        for cause in dict.fromkeys(r["cause"] for r in runs):
+            out[f"discover_hit_rate/{cause}/{setting}"] = float(np.mean([r["hit"] for r in runs
+                                                                         if r["cause"] == cause]))
+    return out
 
 
 def _one_roll(cause, seed, noise):
@@ -58,19 +129,18 @@ def _one_roll(cause, seed, noise):
 def run() -> dict:
     seeds = int(os.environ.get("STUDIES_BENCH_SEEDS", "2"))
     noises = [float(x) for x in os.environ.get("STUDIES_BENCH_NOISE", "0,0.05").split(",")]
-    jobs = [(c, s, n) for c in HIDDEN_CAUSES for n in noises for s in range(seeds)]
-    out = {"discover_seeds_per_cause": seeds}
+    families = [f.strip() for f in os.environ.get("STUDIES_BENCH_FAMILIES", "li2023").split(",") if f.strip()]
+    for family in families:
+        check_sensor_noise(family, 0.0)
+    base = HELDOUT_SEED if os.environ.get("STUDIES_BENCH_HELDOUT", "0") == "1" else DEVELOPMENT_SEED
+    jobs = _jobs(HIDDEN_CAUSES, noises, families, seeds, base)
+    out = {"discover_seeds_per_cause": seeds, "discover_seed_base": base, "discover_noise_families": families}
     if jobs:        # STUDIES_BENCH_SEEDS=0 leaves the manoeuvring causes out
-        results = Parallel(n_jobs=-1)(delayed(_one)(c, 100 + s, n) for c, s, n in jobs)
-        out["discover_one_600s_records_s_median"] = float(np.median([r[4] for r in results]))
-        for cause in HIDDEN_CAUSES:
-            for n in noises:
-                hits = [r[3] for r in results if r[0] == cause and r[1] == n]
-                out[f"discover_hit_rate/{cause}/noise={n:g}"] = float(np.mean(hits))
+        out.update(_manoeuvring_figures(Parallel(n_jobs=-1)(delayed(_one)(*job) for job in jobs)))
     roll_seeds = int(os.environ.get("STUDIES_BENCH_ROLL_SEEDS", "10"))
     if roll_seeds < 1:
         return out
-    roll = Parallel(n_jobs=-1)(delayed(_one_roll)(c, 100 + s, n) for c in HIDDEN_ROLL_CAUSES
+    roll = Parallel(n_jobs=-1)(delayed(_one_roll)(c, base + s, n) for c in HIDDEN_ROLL_CAUSES
                                for n in (0.01, 0.05) for s in range(roll_seeds))
     for cause in HIDDEN_ROLL_CAUSES:
         for n in (0.01, 0.05):

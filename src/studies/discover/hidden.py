@@ -2,7 +2,8 @@
 
 The effect's magnitude is drawn (seeded) from a physically sensible range;
 the records are what a sensor would give (measured rudder, over-ground
-velocities, the recorded wind), optionally with measurement noise (Li et
+velocities, the recorded wind), optionally with measurement noise of one of
+the families of :mod:`studies.environment.sensor_noise` (by default Li et
 al. 2023 eq. 22). Used by the tests and the hit-rate benchmark.
 """
 
@@ -13,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..environment.conditions import Environment
-from ..environment.noise import add_measurement_noise
+from ..environment.sensor_noise import add_sensor_noise, check_sensor_noise
 from ..models.abkowitz import abkowitz
 from ..models.registry import symmetric
 from ..models.terms import candidate_terms
@@ -74,7 +75,7 @@ def turning_to_starboard(amplitude: float = 35.0, duration: float = 600.0, dt: f
 
 
 def hidden_records(vessel, cause: str, seed: int = 0, noise: float = 0.0,
-                   manoeuvres=None) -> tuple[list, dict]:
+                   manoeuvres=None, noise_family: str = "li2023") -> tuple[list, dict]:
     """Records of the vessel's reference model with ``cause`` hidden in them.
 
     Returns ``(records, truth)``: records named after their manoeuvre
@@ -82,8 +83,12 @@ def hidden_records(vessel, cause: str, seed: int = 0, noise: float = 0.0,
     zig-zag 10/10 to validate; 600 s each at 0.1 s; for ``propeller_asymmetry``
     35 deg turning circles to port and to starboard for training, the
     symmetric model's coefficients with the side force added: discover it
-    with ``model=symmetric``) and the drawn parameters.
+    with ``model=symmetric``) and the drawn parameters. ``noise`` is the
+    level (a fraction, 0.05 = 5 %) of the measurement noise of
+    ``noise_family`` (:data:`studies.environment.sensor_noise.NOISE_FAMILIES`),
+    drawn from the same seeded generator after the cause's parameters.
     """
+    check_sensor_noise(noise_family, noise)
     rng = np.random.default_rng(seed)
     truth = _draw(cause, rng)
     model, values = abkowitz(), dict(vessel.coefficients)
@@ -124,7 +129,7 @@ def hidden_records(vessel, cause: str, seed: int = 0, noise: float = 0.0,
             rec = rec.drop(columns=["wind_speed", "wind_direction"])
         if cause == "wind_speed_bias":
             rec["wind_speed"] = rec["wind_speed"] * (1.0 + truth["k"])
-        rec = add_measurement_noise(rec, noise, vessel.speed, rng)
+        rec = add_sensor_noise(rec, noise_family, noise, vessel.speed, rng)
         rec.attrs["name"] = man.name
         records.append(rec)
     return records, truth
