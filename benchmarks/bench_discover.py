@@ -26,6 +26,14 @@ cause, noise level and family:
   since only one was hidden); ``discover_second_cause_rate/noise=<n>[/<family>]``
   per setting. ``None`` when no run qualifies.
 
+Hidden effects beyond the development cases: ``STUDIES_BENCH_MISSING=any``
+hides, for ``missing_term``, a term drawn from the whole extended library
+(any DOF, 5-15 % of its DOF's force, either sign) instead of the cubic yaw
+damping ``Nrrr``; ``STUDIES_BENCH_PAIRS=1`` adds every pair of causes that
+can act together (:func:`studies.discover.hidden.hidden_pairs`; or a
+comma-separated list ``a+b,c+d``): a pair is a hit when the verdict names
+both with both parameters right.
+
 Seeds: development uses seeds 100, 101, ... (the tests use smaller seeds).
 ``STUDIES_BENCH_HELDOUT=1`` draws seeds 1000, 1001, ... instead (manoeuvring
 and roll causes alike): held-out seeds that development never looks at, to
@@ -43,7 +51,7 @@ from hydra import initialize_config_module
 from joblib import Parallel, delayed
 
 from studies.config import compose_settings
-from studies.discover.hidden import (HIDDEN_CAUSES, HIDDEN_ROLL_CAUSES, hidden_records,
+from studies.discover.hidden import (HIDDEN_CAUSES, HIDDEN_ROLL_CAUSES, hidden_pairs, hidden_records,
                                      hidden_roll_decays, parameters_match, write_records)
 from studies.environment.sensor_noise import check_sensor_noise
 from studies.vessels import get_vessel
@@ -54,25 +62,34 @@ from studies.workflows.kinds import execute_discover, prepare_discover
 DEVELOPMENT_SEED, HELDOUT_SEED = 100, 1000
 
 
-def _one(cause, seed, noise, family="li2023"):
+def _one(cause, seed, noise, family="li2023", missing="Nrrr"):
     """One discovery on hidden records: a dict of the setting, the hit, the named first and
-    second causes and the discovery's wall time [s]."""
+    second causes and the discovery's wall time [s]. ``cause`` may be a pair ``"a+b"``: a
+    hit names both (the pair as the verdict, in either order) with both parameters right."""
     vessel = get_vessel("mariner")
-    records, truth = hidden_records(vessel, cause, seed=seed, noise=noise, noise_family=family)
+    records, truth = hidden_records(vessel, cause, seed=seed, noise=noise, noise_family=family,
+                                    missing=missing)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         paths = write_records(records, tmp)
         with initialize_config_module("studies.conf", version_base="1.3"):
             # a propeller's side force is judged against the symmetric baseline
-            model = ["model=symmetric"] if cause == "propeller_asymmetry" else []
+            model = ["model=symmetric"] if "propeller_asymmetry" in cause.split("+") else []
             cfg = compose_settings("discover", overrides=[f"data.path=[{paths[0]},{paths[1]}]",
                                                  f"validate.path=[{paths[2]}]", f"seed={seed}", *model])
         t0 = time.perf_counter()
         d, _ = execute_discover(prepare_discover(cfg, tmp), tmp / "out")
         elapsed = time.perf_counter() - t0
-    hit = d["cause"] == cause and parameters_match(cause, d["parameters"], truth)
+    second = d.get("second_cause") or {}
+    if "+" in cause:
+        named = second.get("cause", d["cause"])
+        hit = (set(named.split("+")) == set(cause.split("+"))
+               and parameters_match(cause, second.get("parameters", {}), truth))
+    else:
+        named = d["cause"]
+        hit = d["cause"] == cause and parameters_match(cause, d["parameters"], truth)
     return {"cause": cause, "noise": noise, "family": family, "seed": seed, "hit": bool(hit),
-            "named": d["cause"], "second": (d.get("second_cause") or {}).get("cause"), "elapsed": elapsed}
+            "named": named, "second": second.get("cause"), "elapsed": elapsed}
 
 
 def _setting(noise, family) -> str:
@@ -80,10 +97,10 @@ def _setting(noise, family) -> str:
     return f"noise={noise:g}" if family == "li2023" or noise == 0 else f"noise={noise:g}/{family}"
 
 
-def _jobs(causes, noises, families, seeds, base) -> list[tuple]:
-    """(cause, seed, noise, family) per run; noise 0 once (every family leaves the records clean)."""
+def _jobs(causes, noises, families, seeds, base, missing="Nrrr") -> list[tuple]:
+    """(cause, seed, noise, family, missing) per run; noise 0 once (every family leaves the records clean)."""
     settings = list(dict.fromkeys((n, "li2023" if n == 0 else f) for n in noises for f in families))
-    return [(c, base + s, n, f) for c in causes for n, f in settings for s in range(seeds)]
+    return [(c, base + s, n, f, missing) for c in causes for n, f in settings for s in range(seeds)]
 
 
 def _confusion(results) -> dict:
@@ -97,7 +114,7 @@ def _confusion(results) -> dict:
 
 def _second_cause_rate(results):
     """Fraction of runs with one cause hidden and named first that name a second cause (None: no run)."""
-    right = [r for r in results if r["cause"] != "none" and r["named"] == r["cause"]]
+    right = [r for r in results if r["cause"] != "none" and "+" not in r["cause"] and r["named"] == r["cause"]]
     return float(np.mean([r["second"] is not None for r in right])) if right else None
 
 
@@ -133,8 +150,13 @@ def run() -> dict:
     for family in families:
         check_sensor_noise(family, 0.0)
     base = HELDOUT_SEED if os.environ.get("STUDIES_BENCH_HELDOUT", "0") == "1" else DEVELOPMENT_SEED
-    jobs = _jobs(HIDDEN_CAUSES, noises, families, seeds, base)
-    out = {"discover_seeds_per_cause": seeds, "discover_seed_base": base, "discover_noise_families": families}
+    missing = os.environ.get("STUDIES_BENCH_MISSING", "Nrrr")
+    pairs = os.environ.get("STUDIES_BENCH_PAIRS", "0")
+    causes = list(HIDDEN_CAUSES) + (hidden_pairs() if pairs == "1" else
+                                    [p for p in pairs.split(",") if "+" in p])
+    jobs = _jobs(causes, noises, families, seeds, base, missing)
+    out = {"discover_seeds_per_cause": seeds, "discover_seed_base": base, "discover_noise_families": families,
+           "discover_missing_term": missing}
     if jobs:        # STUDIES_BENCH_SEEDS=0 leaves the manoeuvring causes out
         out.update(_manoeuvring_figures(Parallel(n_jobs=-1)(delayed(_one)(*job) for job in jobs)))
     roll_seeds = int(os.environ.get("STUDIES_BENCH_ROLL_SEEDS", "10"))

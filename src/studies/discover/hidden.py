@@ -15,6 +15,7 @@ import numpy as np
 
 from ..environment.conditions import Environment
 from ..environment.sensor_noise import add_sensor_noise, check_sensor_noise
+from ..errors import ConfigError
 from ..models.abkowitz import abkowitz
 from ..models.registry import symmetric
 from ..models.terms import candidate_terms
@@ -74,8 +75,36 @@ def turning_to_starboard(amplitude: float = 35.0, duration: float = 600.0, dt: f
                      heading=0.0, first_sign=-1)
 
 
+#: pairs of hidden causes that cannot act together (both are the wind)
+EXCLUSIVE = {frozenset({"wind_speed_bias", "wind_unmodelled"})}
+
+
+def hidden_pairs() -> list[str]:
+    """Every pair of :data:`HIDDEN_CAUSES` (not ``none``) that can act together, as ``"a+b"``."""
+    single = [c for c in HIDDEN_CAUSES if c != "none"]
+    return [f"{a}+{b}" for i, a in enumerate(single) for b in single[i + 1:]
+            if frozenset({a, b}) not in EXCLUSIVE]
+
+
+def _any_missing_term(vessel, model, values, rng, clean) -> dict:
+    """A term drawn from the extended library of ``model`` (any DOF, up to third
+    order), its prime value set so that it changes its DOF's hydrodynamic force
+    by 5-15 % (RMS over the clean record ``clean``), with either sign."""
+    from ..identify.regression import prime_states
+    from .causes.missing_term import extended_library
+
+    primes = prime_states(clean["u"], clean["v"], clean["r"], clean["delta"], vessel)
+    library = extended_library(model, 3)
+    term = library[int(rng.integers(len(library)))]
+    force = sum(values[t.name] * t.feature(primes) for t in model.terms_of(term.dof))
+    feature = term.feature(primes)
+    scale = np.sqrt(np.mean(force ** 2)) / max(np.sqrt(np.mean(feature ** 2)), 1e-12)
+    return {term.name: float(rng.choice([-1.0, 1.0]) * rng.uniform(0.05, 0.15) * scale)}
+
+
 def hidden_records(vessel, cause: str, seed: int = 0, noise: float = 0.0,
-                   manoeuvres=None, noise_family: str = "li2023") -> tuple[list, dict]:
+                   manoeuvres=None, noise_family: str = "li2023",
+                   missing: str = "Nrrr") -> tuple[list, dict]:
     """Records of the vessel's reference model with ``cause`` hidden in them.
 
     Returns ``(records, truth)``: records named after their manoeuvre
@@ -87,52 +116,75 @@ def hidden_records(vessel, cause: str, seed: int = 0, noise: float = 0.0,
     level (a fraction, 0.05 = 5 %) of the measurement noise of
     ``noise_family`` (:data:`studies.environment.sensor_noise.NOISE_FAMILIES`),
     drawn from the same seeded generator after the cause's parameters.
+
+    ``cause`` may be a pair ``"a+b"`` (:func:`hidden_pairs`): both act, drawn
+    in that order, and ``truth`` is ``{a: {...}, b: {...}}``. ``missing``
+    chooses the hidden term of ``missing_term``: ``"Nrrr"`` (a cubic yaw
+    damping, the development case) or ``"any"`` (:func:`_any_missing_term`:
+    any term of the extended library, any DOF, 5-15 % of its DOF's force).
     """
     check_sensor_noise(noise_family, noise)
+    parts = cause.split("+")
+    if len(parts) > 2 or any(p not in HIDDEN_CAUSES for p in parts) or (len(parts) == 2 and (
+            "none" in parts or parts[0] == parts[1] or frozenset(parts) in EXCLUSIVE)):
+        raise ConfigError(f"hidden cause {cause!r}: one of {', '.join(HIDDEN_CAUSES)} or a pair "
+                          "of two others that can act together")
+    if missing not in ("Nrrr", "any"):
+        raise ConfigError(f"hidden missing term {missing!r}: 'Nrrr' or 'any'")
     rng = np.random.default_rng(seed)
-    truth = _draw(cause, rng)
     model, values = abkowitz(), dict(vessel.coefficients)
-    env, external = Environment(), None
-    if cause == "current":
-        env = Environment(current_speed=truth["speed"], current_direction=truth["direction"])
-    elif cause in ("wind_speed_bias",):
-        env = Environment(truth["wind_speed"], truth["wind_direction"])
-    elif cause == "wind_unmodelled":
-        env = Environment(truth["speed"], truth["direction"])
-    elif cause == "propeller_asymmetry":
+    if "propeller_asymmetry" in parts:
         # the Mariner's own port-starboard terms (Y0 ... N0uu) replaced by the propeller's force:
         # discover it against the symmetric baseline (model=symmetric)
         model = symmetric()
         values = {t.name: values[t.name] for t in model.terms}
-    elif cause == "missing_term":
-        model = model.extended([t for t in candidate_terms("N", 3) if t.name == "Nrrr"])
-        values["Nrrr"] = truth["Nrrr"]
-    if manoeuvres is None and cause == "propeller_asymmetry":
+    if manoeuvres is None and "propeller_asymmetry" in parts:
         # an asymmetry shows in turns to both sides
         manoeuvres = [turning(35, pullout=0.0, duration=600.0), turning_to_starboard(35, duration=600.0),
                       zigzag(10, 10, duration=600.0)]
     manoeuvres = manoeuvres or [zigzag(20, 20, duration=600.0), turning(35, pullout=0.0, duration=600.0),
                                 zigzag(10, 10, duration=600.0)]
+    truths = {}
+    for part in parts:
+        if part == "missing_term" and missing == "any":
+            clean = simulate(model, values, vessel, manoeuvres[0])
+            truths[part] = _any_missing_term(vessel, model, values, rng, clean)
+        else:
+            truths[part] = _draw(part, rng)
+    wind = current = (0.0, 0.0)
+    body = np.zeros(9)
+    for part, truth in truths.items():
+        if part == "current":
+            current = (truth["speed"], truth["direction"])
+        elif part == "wind_speed_bias":
+            wind = (truth["wind_speed"], truth["wind_direction"])
+        elif part == "wind_unmodelled":
+            wind = (truth["speed"], truth["direction"])
+        elif part == "environmental_bias":
+            body[:3] = [truth["bx"], truth["by"], truth["bn"]]
+        elif part == "propeller_asymmetry":
+            # a body-fixed force of constant magnitude (prime at the approach speed)
+            body[7:] = [truth["Yp0"], truth["Np0"]]
+        elif part == "missing_term":
+            names = set(truth)
+            model = model.extended([t for dof in ("X", "Y", "N") for t in candidate_terms(dof, 3)
+                                    if t.name in names])
+            values.update(truth)
+    env = Environment(wind[0], wind[1], current[0], current[1])
     records = []
     for man in manoeuvres:
-        if cause == "environmental_bias":
-            n = len(man.step_times()) - 1
-            external = np.tile([truth["bx"], truth["by"], truth["bn"], 0, 0, 0], (n, 1))
-        if cause == "propeller_asymmetry":
-            # a body-fixed force of constant magnitude (prime at the approach speed)
-            n = len(man.step_times()) - 1
-            external = np.tile([0, 0, 0, 0, 0, 0, 0, truth["Yp0"], truth["Np0"]], (n, 1))
+        external = np.tile(body, (len(man.step_times()) - 1, 1)) if body.any() else None
         rec = simulate(model, values, vessel, man, env, external)
-        if cause == "rudder_offset":
-            rec["delta"] = rec["delta"] + truth["delta0"]
-        if cause == "wind_unmodelled":
+        if "rudder_offset" in truths:
+            rec["delta"] = rec["delta"] + truths["rudder_offset"]["delta0"]
+        if "wind_unmodelled" in truths:
             rec = rec.drop(columns=["wind_speed", "wind_direction"])
-        if cause == "wind_speed_bias":
-            rec["wind_speed"] = rec["wind_speed"] * (1.0 + truth["k"])
+        if "wind_speed_bias" in truths:
+            rec["wind_speed"] = rec["wind_speed"] * (1.0 + truths["wind_speed_bias"]["k"])
         rec = add_sensor_noise(rec, noise_family, noise, vessel.speed, rng)
         rec.attrs["name"] = man.name
         records.append(rec)
-    return records, truth
+    return records, (truths[parts[0]] if len(parts) == 1 else truths)
 
 
 def hidden_roll_decays(cause: str, folder, seed: int = 0, noise: float = 0.01) -> tuple[list, dict]:
@@ -216,7 +268,11 @@ def write_records(records, folder) -> list[str]:
 def parameters_match(cause: str, parameters: dict, truth: dict, rel: float = 0.2,
                      angle: float = 0.2) -> bool:
     """Whether a discovery's parameters are within ``rel`` of the hidden ones
-    (angles within ``angle`` rad; the horizontal bias as a vector)."""
+    (angles within ``angle`` rad; the horizontal bias as a vector). For a
+    pair ``"a+b"``, ``parameters`` and ``truth`` hold both by cause id."""
+    if "+" in cause:
+        return all(part in parameters and parameters_match(part, parameters[part], truth[part], rel, angle)
+                   for part in cause.split("+"))
     def close(a, b):
         return abs(a - b) <= rel * abs(b)
 
@@ -236,7 +292,7 @@ def parameters_match(cause: str, parameters: dict, truth: dict, rel: float = 0.2
         return bool(np.hypot(p["bx"] - truth["bx"], p["by"] - truth["by"])
                     <= rel * np.hypot(truth["bx"], truth["by"]))
     if cause == "missing_term":
-        return "Nrrr" in p["terms"] and close(p["terms"]["Nrrr"], truth["Nrrr"])
+        return all(name in p["terms"] and close(p["terms"][name], value) for name, value in truth.items())
     if cause in HIDDEN_ROLL_CAUSES:
         term = HIDDEN_ROLL_CAUSES[cause][0]
         return p.get(term) is not None and close(p[term], truth[term])
