@@ -436,8 +436,9 @@ def test_propeller_asymmetry_is_not_named_from_a_turn_to_one_side(tmp_path, vess
     note = [n for n in d["notes"] if n.startswith("propeller_asymmetry")]
     assert note and "a turning circle to starboard would decide it" in note[0], d["notes"]
     assert "a turning circle to starboard would decide it" in (tmp_path / "out" / "report.md").read_text()
-    assert d["undecided"] == [d["cause"], "propeller_asymmetry"]
-    assert d["next_manoeuvre"] == "a turning circle to starboard"
+    assert d["undecided"][:2] == [d["cause"], "propeller_asymmetry"]
+    assert 0.0 <= d["confidence"] <= 1.0
+    assert d["next_manoeuvre"].startswith("a turning circle to starboard")
 
 
 def test_turning_sides_reads_steady_turns(vessel):

@@ -177,10 +177,13 @@ def write_report(out_dir: Path, discovery: dict, explanation: str, sections: lis
         others = ", ".join(f"**{c}**" for c in d["indistinguishable_from"])
         verdict.append(f"\nThe training data do not tell it apart from {others} (scores within "
                        f"{INDISTINGUISHABLE:g}): the choice between them is not established by these records.")
+    if d.get("confidence") is not None and np.isfinite(d["confidence"]):
+        verdict.append(f"\nConfidence in **{d['cause']}**: {d['confidence']:.2f} "
+                       f"({d.get('confidence_basis', 'posterior probability from the scores')}).")
     if d.get("next_manoeuvre"):
         rivals = ", ".join(f"**{c}**" for c in d.get("undecided", [])[1:])
         verdict.append(f"\nThese records cannot decide between **{d['cause']}** and {rivals}: "
-                       f"{d['next_manoeuvre']} would (see the notes).")
+                       f"{d['next_manoeuvre']} would.")
     if d.get("splits"):
         named = Counter(row["cause"] for row in d["splits"])
         agree = named.get(d["cause"], 0)

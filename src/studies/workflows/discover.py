@@ -27,7 +27,8 @@ from ..discover.diagnostics import explains
 from ..discover.fitting import Context, regression_fit, training_error
 from ..discover.report import (indistinguishable, plot_predictions, plot_ranking, plot_residuals,
                                write_discovery, write_report)
-from ..discover.search import EVIDENCE, breaks_down, named_on_held_out, not_named, search
+from ..discover.confidence import certainty
+from ..discover.search import EVIDENCE, breaks_down, held_out_evidence, named_on_held_out, not_named, search
 from ..errors import ConfigError
 from ..identify.kalman import ekf_derivatives
 from ..vessels import get_vessel
@@ -259,6 +260,7 @@ def execute_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
     if open_:
         discovery["undecided"] = [discovery["cause"]] + [f.cause.id for f in open_]
         discovery["next_manoeuvre"] = "; ".join(f.undecidable[1] for f in open_)
+    certainty(discovery, held_out_evidence(best, baseline)[2] if best.cause.replaces_dynamics else None)
     other = [on_record_time(study.simulation, rec) if study.simulation is not None else None
              for rec in ctx.validation]
     if study.simulation is not None and all(o is None for o in other):

@@ -24,6 +24,7 @@ import pandas as pd
 
 from ..config import DiscoverConfig
 from ..discover.diagnostics import explains
+from ..discover.confidence import certainty
 from ..discover.report import indistinguishable, write_discovery, write_report
 from ..discover.roll import PARAMETER_UNITS, peak_decay, roll_interval, roll_search
 from ..errors import ConfigError
@@ -255,6 +256,7 @@ def execute_roll_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, d
             f"the training decays are at {len(trained_at)} speeds ({', '.join(f'{u:g}' for u in sorted(trained_at))} "
             "m/s): the cause's parameters are one value for all of them; the damping against speed is below")
     discovery["indistinguishable_from"] = indistinguishable(discovery["ranking"], discovery["cause"])
+    certainty(discovery)
     discovery["notes"].append(f"vessel {vessel}, from the {vessel_source}" if vessel else
                               f"vessel not known from the data: {vessel_source}")
     figures = _figures(out_dir, records, predicted, study, models)
