@@ -38,10 +38,15 @@ Self-propulsion: with these particulars and the published ``R'_0 = 0.022``
 the surge forces balance at 1.179 m/s with the propeller at 12.1 rps (1.79
 rps at full scale); at the 10.33 rps (1.528 rps full scale) of the MARIN
 runs the effective thrust is 68 % of the resistance, so a simulation at the
-measured rate slows down on a straight course (to about 1.01 m/s). A
-constant towing force of about 15 N at model scale closes the gap, the size
-of the usual skin-friction correction between model and ship; the MARIN
-records do not say whether one was applied.
+measured rate slows down on a straight course (to about 1.01 m/s). The
+captive tests point to the resistance rather than to a towing force: their
+straight run (beta = delta = 0, 1.17 m/s, 9.9 rps) is nearly self-propelled
+(total X' = -8e-5 with a thrust TX' = 1.22e-3, both over 0.5 rho L^2 U^2),
+which with ``t_P`` = 0.22 is a hull resistance ``R'_0`` of about 0.016 in
+the MMG's scaling, not 0.022, and a self-propulsion rate within 4 % of the
+MARIN runs'. The hull regression identifies ``R0`` from the records (0.0136
+from the MARIN zig-zags), so only the published reference simulator carries
+the higher value; it is kept as published.
 """
 
 from __future__ import annotations
