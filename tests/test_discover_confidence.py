@@ -37,9 +37,8 @@ def test_rivals_within_the_margin_are_undecided_with_the_manoeuvre_that_separate
 
 def test_a_cause_the_records_cannot_decide_for_is_kept_with_new_rivals():
     d = {"cause": "missing_term", "ranking": _ranking(missing_term=0.0, rudder_offset=1.5, none=50.0),
-         "indistinguishable_from": ["rudder_offset"], "undecided": ["missing_term", "propeller_asymmetry"],
-         "next_manoeuvre": "a turning circle to starboard"}
-    certainty(d)
+         "indistinguishable_from": ["rudder_offset"]}
+    certainty(d, undecidable=[("propeller_asymmetry", "a turning circle to starboard")])
     assert d["undecided"] == ["missing_term", "propeller_asymmetry", "rudder_offset"]
     assert d["next_manoeuvre"].startswith("a turning circle to starboard; a zig-zag started to the other side")
 

@@ -90,21 +90,27 @@ def separating_manoeuvre(cause: str, rivals) -> str:
     return "; ".join(dict.fromkeys(found)) if found else DEFAULT_SEPARATING
 
 
-def certainty(discovery: dict, held_out_p: float | None = None) -> None:
-    """Add to ``discovery`` its ``confidence`` (:func:`confidence`) and, when it
-    has ``indistinguishable_from`` rivals, ``undecided`` (the named cause and
-    them) and ``next_manoeuvre`` (:func:`separating_manoeuvre`); rivals already
-    listed under ``undecided`` (a cause the records cannot decide for) are kept."""
+def certainty(discovery: dict, held_out_p: float | None = None, undecidable=()) -> None:
+    """Add to ``discovery`` its ``confidence`` (:func:`confidence`) and, when
+    the records cannot settle the verdict, ``undecided`` (the named cause, then
+    its rivals) and ``next_manoeuvre`` (what would separate them).
+
+    The rivals are, first, the causes that explain the training records better
+    but that these records cannot decide for, ``undecidable`` as ``(cause id,
+    manoeuvre)`` pairs (:meth:`studies.discover.causes.base.Cause.undecidable`),
+    then the ``indistinguishable_from`` causes (scores within the margin),
+    with :func:`separating_manoeuvre`."""
     cause = discovery["cause"]
     discovery["confidence"] = confidence(discovery["ranking"], cause, held_out_p)
     discovery["confidence_basis"] = ("1 - p of the held-out test" if cause not in
                                      posterior_probabilities(discovery["ranking"]) else
                                      "posterior probability from the scores")
-    rivals = [c for c in discovery.get("indistinguishable_from", [])
-              if c not in discovery.get("undecided", [])]
+    rivals = [c for c, _ in undecidable]
+    manoeuvres = [m for _, m in undecidable]
+    close = [c for c in discovery.get("indistinguishable_from", []) if c not in rivals]
+    if close:
+        rivals += close
+        manoeuvres.append(separating_manoeuvre(cause, close))
     if rivals:
-        undecided = discovery.get("undecided") or [cause]
-        discovery["undecided"] = undecided + rivals
-        manoeuvre = separating_manoeuvre(cause, rivals)
-        known = discovery.get("next_manoeuvre")
-        discovery["next_manoeuvre"] = f"{known}; {manoeuvre}" if known else manoeuvre
+        discovery["undecided"] = [cause] + rivals
+        discovery["next_manoeuvre"] = "; ".join(manoeuvres)

@@ -102,8 +102,8 @@ def regression_fit(ctx: Context, setup: Setup):
                 p.y = p.y - bn
     if setup.body is not None:
         for k, dof in enumerate(("X", "Y", "N")):
-            st = problems[dof].states
-            problems[dof].y = problems[dof].y - setup.body[k] * ctx.vessel.speed ** 2 / (st["u"] ** 2 + st["v"] ** 2)
+            p, speed0 = problems[dof], ctx.vessel.speed
+            p.y = p.y - setup.body[k] * speed0 ** 2 / (p.states["u"] ** 2 + p.states["v"] ** 2)
     ls = LeastSquares()
     params = dict(setup.fixed)
     residuals = []

@@ -216,9 +216,10 @@ class _Problem:
             if len(self._plans) > 64:
                 self._plans.clear()
             setup = self._setup(theta)
-            self._plans[key] = ReplayPlan(model, self.ctx.vessel, setup.sim_record(w.record),
-                                          setup.environment(w.record), setup.external())
-        plan = self._plans[key]
+            # the entry holds its model, so the id in the key cannot be reused while it is cached
+            self._plans[key] = (model, ReplayPlan(model, self.ctx.vessel, setup.sim_record(w.record),
+                                                  setup.environment(w.record), setup.external()))
+        plan = self._plans[key][1]
         env = plan.environment
         initial = {c: w.initial[c] + d for c, d in zip(("u", "v", "r"), state)}
         states, _ = plan.run(betas, initial)

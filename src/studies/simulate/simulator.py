@@ -177,7 +177,7 @@ def simulate_many(model: ManoeuvringModel, vectors: np.ndarray, vessel: Vessel,
 
 def _replay_inputs(model: ManoeuvringModel, vessel: Vessel, record: pd.DataFrame,
                    environment: Environment | None, yaw_sign: float,
-                   external=None, initial: dict | None = None) -> SimulationInputs:
+                   external=None) -> SimulationInputs:
     t = record["t"].to_numpy(float)
     dt = float(np.median(np.diff(t)))
     duration = dt * (len(t) - 1)
@@ -187,7 +187,7 @@ def _replay_inputs(model: ManoeuvringModel, vessel: Vessel, record: pd.DataFrame
     rudder = pd.DataFrame({"t": t - t[0], "delta": record["delta"].to_numpy(float)})
     delta = resample(rudder, grid, ["delta"])["delta"].to_numpy()
     environment = environment or Environment()
-    initial = _replay_initial(record, environment, initial)
+    initial = _replay_initial(record, environment, None)
     ext = None
     if external is not None:
         ext = np.asarray(external, float)

@@ -254,13 +254,11 @@ def execute_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
                                 + [not_named(f, baseline) for f in ranked if f is not best] if note],
     }
     discovery["indistinguishable_from"] = indistinguishable(discovery["ranking"], discovery["cause"])
-    # a cause that explains the training records better but that they cannot decide for:
-    # the rivals and the manoeuvre that would separate them (DESIGN.md)
-    open_ = [f for f in ranked if f.undecidable and f is not best and f.score < baseline.score - EVIDENCE]
-    if open_:
-        discovery["undecided"] = [discovery["cause"]] + [f.cause.id for f in open_]
-        discovery["next_manoeuvre"] = "; ".join(f.undecidable[1] for f in open_)
-    certainty(discovery, held_out_evidence(best, baseline)[2] if best.cause.replaces_dynamics else None)
+    # causes that explain the training records better but that they cannot decide for
+    undecidable = [(f.cause.id, f.undecidable[1]) for f in ranked
+                   if f.undecidable and f is not best and f.score < baseline.score - EVIDENCE]
+    certainty(discovery, held_out_evidence(best, baseline)[2] if best.cause.replaces_dynamics else None,
+              undecidable)
     other = [on_record_time(study.simulation, rec) if study.simulation is not None else None
              for rec in ctx.validation]
     if study.simulation is not None and all(o is None for o in other):
