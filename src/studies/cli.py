@@ -193,7 +193,7 @@ def _resumable(settings, params: dict, root):
 def _study(cfg, root: Path, out_dir: Path, on_create) -> dict:
     """One `studies run` job: check, (skip,) prepare, open the run, execute, log."""
     from .runtime import tracking
-    from .workflows.kinds import study_for
+    from .workflows.kinds import logged_params, study_for
     from .workflows.settings import check_output_paths
 
     settings = _settings(cfg)
@@ -208,8 +208,8 @@ def _study(cfg, root: Path, out_dir: Path, on_create) -> dict:
     tags["config_hash"] = digest
     tags.update(tracking.source_tags(root, "studies run"))
     tags.update(tracking.sweep_tags())
-    with tracking.start_run(settings.tracking.experiment, name, settings.tracking.uri, root, params,
-                            tags, on_create=on_create) as run:
+    with tracking.start_run(settings.tracking.experiment, name, settings.tracking.uri, root,
+                            logged_params(settings, params), tags, on_create=on_create) as run:
         run.log_records(prepared.inputs)
         metrics = prepared.execute(out_dir)
         run.log_outputs(metrics, out_dir)
@@ -264,7 +264,7 @@ def _simplify_task(cfg):
 def _discover(cfg, root: Path, out_dir: Path, on_create) -> dict:
     """One `studies discover` job: load and check inputs, then one tracked run."""
     from .runtime import tracking
-    from .workflows.kinds import execute_discover, prepare_discover
+    from .workflows.kinds import execute_discover, logged_params, prepare_discover
     from .workflows.settings import as_path_list, check_output_paths
 
     settings = _settings(cfg)
@@ -277,8 +277,8 @@ def _discover(cfg, root: Path, out_dir: Path, on_create) -> dict:
     vessel = settings.vessel.name if study.vessel is not None else "unknown"
     tags = {"kind": "discovery", "model": settings.model.name, "vessel": vessel,
             "data": "measured", **tracking.source_tags(root, "studies discover"), **tracking.sweep_tags()}
-    with tracking.start_run(settings.tracking.experiment, name, settings.tracking.uri, root, params,
-                            tags, on_create=on_create) as run:
+    with tracking.start_run(settings.tracking.experiment, name, settings.tracking.uri, root,
+                            logged_params(settings, params), tags, on_create=on_create) as run:
         run.log_records(study.inputs)
         discovery, metrics = execute_discover(study, out_dir)
         run.log_outputs(metrics, out_dir)

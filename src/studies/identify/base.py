@@ -27,6 +27,11 @@ class Identification:
         ``{file name: callable(path)}`` for figures or tables the method
         produces (e.g. corner plots); the run writes them into its directory
         and logs them as artifacts.
+    history : dict
+        ``{metric name: [(step, value), ...]}``: diagnostics recorded while
+        the method ran (GA best fitness per generation, emcee acceptance per
+        iteration); the run logs them as step metrics. The last value of a
+        name that is also in ``metrics`` equals it.
     """
 
     params: dict = field(default_factory=dict)
@@ -35,6 +40,7 @@ class Identification:
     samples: dict = field(default_factory=dict)
     metrics: dict = field(default_factory=dict)
     writers: dict = field(default_factory=dict)
+    history: dict = field(default_factory=dict)
 
     def update(self, other: "Identification") -> None:
         self.params.update(other.params)
@@ -43,6 +49,7 @@ class Identification:
         self.samples.update(other.samples)
         self.metrics.update(other.metrics)
         self.writers.update(other.writers)
+        self.history.update(other.history)
 
 
 def _unit_columns(theta: np.ndarray) -> np.ndarray:

@@ -13,7 +13,11 @@
    whole population in one compiled, parallel simulator call.
 
 The refined solution is the best ever evaluated, so it is never worse than
-the identified starting solution on the training fitness.
+the identified starting solution on the training fitness. Its history is
+returned per generation (:attr:`Identification.history`, step = generations
+completed, 0 = the starting solution): ``ga/best_fitness``, the best ever
+evaluated (non-increasing), and ``ga/population_best_fitness``, the best of
+the current population.
 
 References
 ----------
@@ -39,7 +43,7 @@ from .ls import LeastSquares
 from .sensitivity import least_sensitive
 from .svm import SupportVectorRegression
 
-__all__ = ["GeneticRefinement", "gene_bounds", "BASE_METHODS"]
+__all__ = ["GeneticRefinement", "gene_bounds", "fitness_history", "BASE_METHODS"]
 
 #: regressions that give the GA its starting solution (``base=``)
 BASE_METHODS = {"ls": LeastSquares, "svm": SupportVectorRegression}
@@ -147,7 +151,8 @@ class GeneticRefinement:
         gene_idx = np.array([model.names.index(g) for g in genes])
         low, high = gene_bounds(start[gene_idx], self.spread)
         best = {"fitness": np.inf, "vector": start.copy(), "evaluations": 0}
-        history = []
+        history = []            # best fitness after each generation
+        population_best = []    # (generation, best fitness of its population)
 
         def full(solutions: np.ndarray) -> np.ndarray:
             vectors = np.repeat(start[None, :], len(solutions), axis=0)
@@ -168,6 +173,8 @@ class GeneticRefinement:
 
         def on_generation(ga):
             history.append(best["fitness"])
+            population_best.append((int(ga.generations_completed),
+                                    float(-np.max(ga.last_generation_fitness))))
             if ga.generations_completed % 20 == 0 or ga.generations_completed == self.generations:
                 log.info("GA generation %d/%d: best fitness %.4g (start %.4g)",
                          ga.generations_completed, self.generations, best["fitness"], initial_fitness)
@@ -220,7 +227,28 @@ class GeneticRefinement:
             result.writers["sobol_indices.csv"] = lambda path: table.to_csv(path)
         if history:
             result.writers["ga_fitness.png"] = lambda path: _plot_history(history, path)
+        result.history.update(fitness_history(initial_fitness, history, population_best))
         return result
+
+
+def fitness_history(initial: float, best: list, population_best: list) -> dict:
+    """The GA's step metrics: ``ga/best_fitness`` (thesis eq. 3.43, lower is
+    better) at generation 0 (the starting solution) and after each generation,
+    and ``ga/population_best_fitness`` of each generation's population.
+
+    Parameters
+    ----------
+    initial : float
+        Fitness of the starting solution.
+    best : list of float
+        Best fitness ever evaluated after generations 1, 2, ...
+    population_best : list of (int, float)
+        ``(generation, best fitness of its population)``.
+    """
+    out = {"ga/best_fitness": [(0, float(initial))] + [(g, float(f)) for g, f in enumerate(best, 1)]}
+    if population_best:
+        out["ga/population_best_fitness"] = [(0, float(initial))] + list(population_best)
+    return out
 
 
 def _plot_history(history, path) -> None:

@@ -19,6 +19,10 @@ hands them to :func:`build_report`. The page holds:
   the two extreme conditions (Figs 4.4-4.12), redrawn from the runs'
   ``validation_<manoeuvre>.csv`` artifacts;
 - which method wins where (Table 5.1 style), generated from the numbers.
+
+``index.md`` is the page; ``index.html`` is the same Markdown rendered
+(CommonMark with tables, raw HTML from the store shown as text), with every
+run linked to its page in the MLflow UI.
 """
 
 from __future__ import annotations
@@ -31,12 +35,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from jinja2 import Environment, select_autoescape
+from markdown_it import MarkdownIt
 
 from ..analysis.metrics import DIVERGED_PENALTY
 from ..plotting import pyplot
-from .tables import (condition_label, condition_number_table, deviation_table, divergence_table,
-                     fitness_table, mae_display, mae_table, markdown_table, method_label, speed_mae_cells,
-                     winners)
+from .tables import (condition_label, condition_number_table, condition_order, deviation_table,
+                     divergence_table, fitness_table, mae_display, mae_table, markdown_table, method_label,
+                     speed_mae_cells, winners)
 
 __all__ = ["build_report"]
 
@@ -250,13 +255,7 @@ def build_report(name: str, runs, report_dir, condition: str | None = None) -> P
     key = next((i["condition_key"] for i in items if i["condition_key"]), None)
     sections = []
 
-    run_rows = pd.DataFrame([{
-        "run": i["run"].name, "method": method_label(i["method"]),
-        "condition": condition_label(key, i["condition"]),
-        "status": i["status"] if i["status"] == "FINISHED" else f"**{STATUS_NOTE.get(i['status'], i['status'])}**",
-        "error": _note(i),
-    } for i in items]).set_index("run")
-    sections.append(("Runs", markdown_table(run_rows, "run"), run_rows))
+    sections.append(("Runs", markdown_table(_run_rows(items, key), "run")))
 
     scratch = Path(tempfile.mkdtemp(prefix="studies-report-"))
     try:
@@ -274,7 +273,7 @@ def build_report(name: str, runs, report_dir, condition: str | None = None) -> P
             dev = deviation_table(entries)
             dev.columns = pd.MultiIndex.from_tuples([(c, method_label(m)) for c, m in dev.columns])
             sections.append(("Deviation of the identified coefficients [%] (100 (identified - true) / true)",
-                             markdown_table(dev, "coefficient"), dev))
+                             markdown_table(dev, "coefficient")))
         with_bounds = [e for e in entries if e["table"]["lower"].notna().any()]
         if with_bounds:
             rows = []
@@ -286,7 +285,7 @@ def build_report(name: str, runs, report_dir, condition: str | None = None) -> P
                                  "95 %": r["upper"], "true": r["true"],
                                  "covered": bool(r["lower"] <= r["true"] <= r["upper"]) if np.isfinite(r["true"]) else ""})
             post = pd.DataFrame(rows).set_index("coefficient")
-            sections.append(("Posterior intervals (5 % - 95 %)", markdown_table(post, "coefficient"), post))
+            sections.append(("Posterior intervals (5 % - 95 %)", markdown_table(post, "coefficient")))
 
         manoeuvres = sorted({k.split("/")[0] for i in finished for k in i["metrics"]
                              if k.endswith("/fitness") and not k.startswith(("training", "ga/"))})
@@ -317,7 +316,7 @@ def build_report(name: str, runs, report_dir, condition: str | None = None) -> P
                 shown = table.rename(index=lambda c: condition_label(key, c), columns=method_label)
                 sections.append((f"Validation fitness, {man} (thesis eq. 3.43)",
                                  markdown_table(shown, "condition") + _divergence_note(counts, key)
-                                 + f"\n![fitness {man}]({path.name})\n", shown))
+                                 + f"\n![fitness {man}]({path.name})\n"))
         mae = speed_mae_cells(finished)
         if mae:
             table, counts, validated = mae_table(mae)
@@ -326,17 +325,18 @@ def build_report(name: str, runs, report_dir, condition: str | None = None) -> P
             shown = mae_display(table, counts, validated).rename(index=lambda c: condition_label(key, c))
             sections.append(("Validation MAE of speeds on the other manoeuvres [m/s] (mean over the bounded "
                              "predictions of all seeds; diverged predictions counted, not averaged)",
-                             markdown_table(shown, "condition") + "\n![mae](mae_speed.png)\n", shown))
+                             markdown_table(shown, "condition") + "\n![mae](mae_speed.png)\n"))
             conditioning = condition_number_table(finished)
             if not conditioning.empty:
                 shown = conditioning.rename(index=lambda c: condition_label(key, c))
                 sections.append(("Condition number of the regression per DOF (median over seeds)",
-                                 markdown_table(shown, "condition"), shown))
+                                 markdown_table(shown, "condition")))
         win = winners(tables)
         if not win.empty:
             shown = win.rename(index=lambda c: condition_label(key, c))
             text = "\n".join(f"- {s}" for s in _summary_sentences(win, key))
-            sections.append(("Which method wins where", markdown_table(shown, "condition") + "\n" + text + "\n", shown))
+            sections.append(("Which method wins where",
+                             markdown_table(shown, "condition") + "\n" + text + "\n"))
 
         conditions = sorted({i["condition"] for i in finished}, key=lambda c: (_as_float(c), str(c)))
         extremes = [conditions[0], conditions[-1]] if len(conditions) > 1 else conditions
@@ -351,28 +351,70 @@ def build_report(name: str, runs, report_dir, condition: str | None = None) -> P
                             runs_here[i["method"]] = pd.read_csv(local)
                 if runs_here:
                     fname = f"overlay_{_slug(cond)}_{man}.png"
-                    _plot_overlays(runs_here, f"{man} at {condition_label(key, cond)}", out / fname)
+                    title = _overlay_title(man, key, cond, len(conditions))
+                    _plot_overlays(runs_here, title, out / fname)
                     figures.append(fname)
-                    overlay_md.append(f"![{man} at {condition_label(key, cond)}]({fname})")
+                    overlay_md.append(f"![{title}]({fname})")
         if overlay_md:
             sections.append(("Trajectories and velocities at the extreme conditions",
-                             "\n\n".join(overlay_md) + "\n", None))
+                             "\n\n".join(overlay_md) + "\n"))
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
 
     header = (f"# {name}\n\n{len(items)} runs ({len(finished)} finished) from the MLflow store; "
-              f"condition: `{key or 'none'}`.\n")
-    md = header + "\n".join(f"\n## {title}\n\n{body}" for title, body, _ in sections)
+              f"condition: `{key or 'none'}`. Each run links to its page in the MLflow UI "
+              f"(for a local store, start it with `studies ui`).\n")
+    md = header + "\n".join(f"\n## {title}\n\n{body}" for title, body in sections)
     (out / "index.md").write_text(md)
-    _write_html(out / "index.html", name, header, sections)
+    _write_html(out / "index.html", name, md)
     return out / "index.md"
+
+
+def _run_rows(items: list[dict], key: str | None) -> pd.DataFrame:
+    """One row per run in condition order (then method): its name linked to
+    its page in the MLflow UI, method, condition, status, error, run id."""
+    rows = [{
+        "run": _run_link(i["run"]), "method": method_label(i["method"]),
+        "condition": condition_label(key, i["condition"]), "status": _status(i["status"]),
+        "error": _note(i), "run id": f"`{i['run'].run_id}`",
+    } for i in items]
+    rows.sort(key=lambda r: (condition_order(r["condition"]), r["method"]))
+    return pd.DataFrame(rows).set_index("run")
+
+
+def _status(status: str) -> str:
+    """``FINISHED``, or the other statuses in bold words (``**failed**``)."""
+    return status if status == "FINISHED" else f"**{STATUS_NOTE.get(status, status)}**"
+
+
+def _run_link(run) -> str:
+    """``[name](url)`` of a run's page in the MLflow UI (its name alone without one)."""
+    name = _table_text(run.name)
+    url = getattr(run, "url", None)
+    return f"[{name.replace('[', '(').replace(']', ')')}]({url})" if url else name
+
+
+def _table_text(text) -> str:
+    """Text from the store made safe for one cell of a Markdown table."""
+    return str(text).replace("|", "/").replace("\n", " ")
+
+
+def _overlay_title(manoeuvre: str, key: str | None, condition, n_conditions: int) -> str:
+    """Title of an overlay figure: the validation manoeuvre at the condition;
+    without a swept key the condition is the training manoeuvre, named only
+    when the runs differ in it."""
+    if key is not None:
+        return f"{manoeuvre} at {condition_label(key, condition)}"
+    if n_conditions > 1 and condition != "all":
+        return f"{manoeuvre}, trained on {condition}"
+    return manoeuvre
 
 
 def _note(item) -> str:
     """The run's error, or which predictions diverged (counted in the tables, left out of their means)."""
     error = item["run"].tags.get("error", "")
     if error:
-        return error.replace("|", "/").replace("\n", " ")
+        return _table_text(error)
     diverged = sorted(k.rsplit("/", 1)[0] for k, v in item["metrics"].items()
                       if k.endswith("/diverged") and k != "validation/diverged" and v)
     if diverged:
@@ -405,23 +447,12 @@ def _slug(text) -> str:
     return "".join(ch if ch.isalnum() or ch in "-." else "_" for ch in str(text))
 
 
-def _write_html(path: Path, name: str, header: str, sections) -> None:
-    env = Environment(autoescape=select_autoescape(["html"]))
-    template = env.from_string(HTML)
-    blocks = []
-    for title, body, table in sections:
-        if table is not None:
-            html = table.to_html(float_format=lambda x: f"{x:.4g}" if np.isfinite(x) else "-",
-                                 na_rep="-", escape=True)
-            images = [line for line in body.splitlines() if line.startswith("![")]
-            text = [line[2:] for line in body.splitlines() if line.startswith("- ")]
-        else:
-            html = ""
-            images = [line for line in body.split("\n\n") if line.startswith("![")]
-            text = []
-        imgs = [(img[2:img.index("]")], img[img.index("(") + 1:img.rindex(")")]) for img in images]
-        blocks.append({"title": title, "table": html, "images": imgs, "text": text})
-    path.write_text(template.render(name=name, header=header.lstrip("# ").split("\n", 1)[-1], blocks=blocks))
+def _write_html(path: Path, name: str, md: str) -> None:
+    """``index.html``: the Markdown page rendered (CommonMark with tables; raw
+    HTML in the Markdown, e.g. from an error message, is shown as text)."""
+    body = MarkdownIt("commonmark", {"html": False}).enable("table").render(md)
+    template = Environment(autoescape=select_autoescape(["html"])).from_string(HTML)
+    path.write_text(template.render(name=name, body=body))
 
 
 HTML = """<!doctype html>
@@ -430,16 +461,11 @@ HTML = """<!doctype html>
 body { font-family: sans-serif; margin: 2em; max-width: 1400px; }
 table { border-collapse: collapse; font-size: 0.85em; margin-bottom: 1em; }
 th, td { border: 1px solid #ccc; padding: 2px 6px; text-align: right; }
+th:first-child, td:first-child { text-align: left; }
+code { font-size: 0.9em; }
 img { max-width: 100%; }
 </style></head>
 <body>
-<h1>{{ name }}</h1>
-<p>{{ header }}</p>
-{% for b in blocks %}
-<h2>{{ b.title }}</h2>
-{{ b.table | safe }}
-{% for line in b.text %}<p>{{ line }}</p>{% endfor %}
-{% for alt, src in b.images %}<p><img src="{{ src }}" alt="{{ alt }}"></p>{% endfor %}
-{% endfor %}
+{{ body | safe }}
 </body></html>
 """

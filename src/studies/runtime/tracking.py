@@ -285,6 +285,25 @@ def _one_line(text: str, limit: int = 5000) -> str:
     return out[:limit]
 
 
+#: a run directory's step metrics: ``{name: [[step, value], ...]}`` (GA generations, emcee iterations)
+METRIC_HISTORY = "metric_history.json"
+
+
+def history_metrics(path: str | os.PathLike) -> list:
+    """The finite step metrics of a ``metric_history.json`` file as MLflow
+    metrics (none when the file does not exist)."""
+    import json
+
+    import mlflow
+
+    path = Path(path)
+    if not path.is_file():
+        return []
+    return [mlflow.entities.Metric(key, float(value), 0, int(step))
+            for key, points in json.loads(path.read_text()).items()
+            for step, value in points if math.isfinite(float(value))]
+
+
 class RunLogger:
     """Writes one run's results to the store under the store lock."""
 
@@ -299,12 +318,18 @@ class RunLogger:
         every file of ``directory`` (plus its ``.hydra/`` config) as artifacts;
         an empty log file (Hydra's job log when nothing was logged) is left out.
         ``coefficients.csv`` is also logged as an MLflow table
-        (``coefficients_table.json``)."""
+        (``coefficients_table.json``), and the step metrics of
+        ``metric_history.json`` (:func:`history_metrics`) with their steps: a
+        metric with a history is logged at each of its steps instead of once
+        at step 0 (its last step holds the value of ``metrics``)."""
         import mlflow
 
-        finite = [mlflow.entities.Metric(k, float(v), 0, 0) for k, v in metrics.items()
-                  if isinstance(v, (int, float)) and math.isfinite(float(v))]
         directory = Path(directory)
+        stepped = history_metrics(directory / METRIC_HISTORY)
+        named = {m.key for m in stepped}
+        finite = [mlflow.entities.Metric(k, float(v), 0, 0) for k, v in metrics.items()
+                  if isinstance(v, (int, float)) and math.isfinite(float(v)) and k not in named]
+        finite += stepped
         with store_lock(self.uri):
             for i in range(0, len(finite), 200):
                 self.client.log_batch(self.run_id, metrics=finite[i:i + 200])
@@ -365,12 +390,25 @@ class RunLogger:
         self.ended = True
 
 
-class StoredRun:
-    """One run as read back from the store (plain Python values)."""
+#: where ``studies ui`` serves a local store (its default host and port)
+LOCAL_UI = "http://127.0.0.1:5000"
 
-    def __init__(self, run, client):
+
+def ui_address(uri: str) -> str:
+    """The MLflow UI of store ``uri``: the tracking server itself for an
+    ``http(s)`` URI, else where ``studies ui`` serves it by default."""
+    return uri.rstrip("/") if uri.startswith(("http://", "https://")) else LOCAL_UI
+
+
+class StoredRun:
+    """One run as read back from the store (plain Python values); ``url`` is
+    its page in the MLflow UI at ``ui`` (:func:`ui_address`)."""
+
+    def __init__(self, run, client, ui: str = LOCAL_UI):
         self._client = client
         self.run_id = run.info.run_id
+        self.experiment_id = run.info.experiment_id
+        self.url = f"{ui}/#/experiments/{self.experiment_id}/runs/{self.run_id}"
         self.name = run.info.run_name or run.data.tags.get("mlflow.runName", self.run_id)
         self.status = run.info.status
         self.start_time = run.info.start_time or 0
@@ -499,7 +537,7 @@ def read_experiment(uri: str | None, root, name: str | None = None):
             exp_id = runs[0].info.experiment_id
             name = next(e.name for e in chosen if e.experiment_id == exp_id)
             runs = [r for r in runs if r.info.experiment_id == exp_id]
-        return name, [StoredRun(r, client) for r in runs]
+        return name, [StoredRun(r, client, ui_address(uri)) for r in runs]
 
 
 def find_finished_run(uri: str | None, root, experiment: str, config_hash: str) -> str | None:

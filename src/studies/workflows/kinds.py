@@ -11,7 +11,9 @@ roll_decay     roll                               :mod:`studies.workflows.roll_r
 =============  =================================  ==========================================
 
 A new kind is a class with the methods of
-:class:`studies.workflows.study.Study` and one entry in :data:`STUDIES`.
+:class:`studies.workflows.study.Study` and one entry in :data:`STUDIES`,
+and names the settings its runs depend on in :data:`PARAM_GROUPS` (the
+run's MLflow params, :func:`logged_params`).
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ from .settings import as_path_list
 from .study import DiscoverStudy, PreparedRun, Recorder, Study
 
 __all__ = ["ManoeuvringStudy", "RollDecayStudy", "STUDIES", "study_for", "prepare_discover",
-           "execute_discover"]
+           "execute_discover", "PARAM_GROUPS", "logged_params"]
 
 
 class ManoeuvringStudy:
@@ -92,6 +94,57 @@ def study_for(cfg: RunConfig) -> Study:
     except KeyError:
         raise ConfigError(f"model.study: unknown kind of study '{cfg.model.study}'; "
                           f"known: {', '.join(sorted(STUDIES))}") from None
+
+
+#: the top-level settings that decide what a run of each kind computes (its MLflow params)
+PARAM_GROUPS = {
+    "manoeuvring": ("seed", "preset", "vessel", "model", "method", "manoeuvre", "train", "wind",
+                    "current", "noise", "disturbance", "data", "validate"),
+    "roll_decay": ("seed", "preset", "model", "method", "data", "validate", "simulation"),
+}
+#: settings used only with records given in ``data.path`` (the measured-data pipeline)
+MEASURED_GROUPS = ("identify", "kalman")
+#: a discovery's own settings, besides those of its kind
+DISCOVER_GROUPS = ("discover", "simulation")
+#: report settings a run carries for ``studies report`` (presets set them) and
+#: their defaults: logged only when a preset or the user changed them
+REPORT_DEFAULTS = {"condition": None, "series": "method.name"}
+
+
+def logged_params(cfg: RunConfig, params: dict) -> dict:
+    """The part of a job's resolved configuration that its run logs as params.
+
+    Parameters
+    ----------
+    cfg : RunConfig or DiscoverConfig
+        The job's typed settings.
+    params : dict
+        The same configuration as nested plain containers.
+
+    Returns
+    -------
+    dict
+        The groups of :data:`PARAM_GROUPS` for the kind of study, plus
+        :data:`MEASURED_GROUPS` when ``data.path`` is given, ``simplify``
+        for ``model=simplified`` (its definition is derived with those
+        settings), :data:`DISCOVER_GROUPS` for a discovery, and
+        ``report.condition``/``report.series`` when they differ from their
+        defaults. Bookkeeping (``verbose``, ``resume``, ``run_name``,
+        ``tracking``) and the settings of other commands are left out.
+    """
+    groups = list(PARAM_GROUPS.get(cfg.model.study, PARAM_GROUPS["manoeuvring"]))
+    if cfg.data.path:
+        groups += MEASURED_GROUPS
+    if str(cfg.model.name) == "simplified":
+        groups.append("simplify")
+    if isinstance(cfg, DiscoverConfig):
+        groups += DISCOVER_GROUPS
+    out = {key: params[key] for key in dict.fromkeys(groups) if key in params}
+    report = {k: v for k, v in (params.get("report") or {}).items()
+              if k in REPORT_DEFAULTS and v != REPORT_DEFAULTS[k]}
+    if report:
+        out["report"] = report
+    return out
 
 
 def prepare_discover(cfg: DiscoverConfig, root: Path, record: Recorder | None = None) -> DiscoverStudy:

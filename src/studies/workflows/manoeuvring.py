@@ -595,6 +595,18 @@ def speed_mae_summary(metrics: dict, training: set) -> dict:
     return out
 
 
+#: the file of the identification's step metrics (the run logs them with their steps)
+METRIC_HISTORY = "metric_history.json"
+
+
+def write_metric_history(history: dict, path: Path) -> None:
+    """Write ``{name: [(step, value), ...]}`` (:attr:`Identification.history`)
+    as JSON ``{name: [[step, value], ...]}``; nothing when it is empty."""
+    if history:
+        path.write_text(json.dumps({k: [[int(step), float(value)] for step, value in v]
+                                    for k, v in sorted(history.items())}, indent=1))
+
+
 def execute(study: Study, out_dir: Path) -> dict:
     """Identify, validate and write the run's files into ``out_dir``.
 
@@ -629,6 +641,7 @@ def execute(study: Study, out_dir: Path) -> dict:
     table.to_csv(out_dir / "coefficients.csv", index=False)
     for filename, writer in result.writers.items():
         writer(out_dir / filename)
+    write_metric_history(result.history, out_dir / METRIC_HISTORY)
     if study.truth:
         dev = table["deviation_pct"].abs()
         metrics["deviation/median_abs_pct"] = float(dev.median())

@@ -357,6 +357,7 @@ def execute_mmg(run: MMGRun, out_dir: Path) -> dict:
     (out_dir / "mmg.md").write_text(_scale_note(run))
     for filename, writer in result.writers.items():
         writer(out_dir / filename)
+    _manoeuvring.write_metric_history(result.history, out_dir / _manoeuvring.METRIC_HISTORY)
     metrics["training/samples"] = float(sum(len(r) for r in run.records))
     if run.truth:
         dev = table["deviation_pct"].abs()

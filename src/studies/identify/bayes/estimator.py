@@ -168,6 +168,7 @@ class BayesianRegression:
         prefix = f"bayes/{dof}"
         result.metrics.update(regression_diagnostics(problem, q50))
         result.metrics.update(diag.metrics(prefix))
+        result.history.update(diag.history_metrics(prefix))
         result.metrics.update({
             f"{prefix}/n_eff_rows": post.n_eff,
             f"{prefix}/rows": float(n),
@@ -299,6 +300,7 @@ class BayesianRegression:
         result.samples["trajectory"] = {"names": terms, "values": coef}
         at_edge = prior.edge_fraction(chain)
         result.metrics.update(diag.metrics("bayes/trajectory"))
+        result.history.update(diag.history_metrics("bayes/trajectory"))
         result.metrics.update({
             "bayes/trajectory/n_terms": float(ndim),
             "bayes/trajectory/walkers": float(walkers),

@@ -24,7 +24,7 @@ from emcee.state import State
 
 from ... import interrupt
 from ...errors import ConfigError
-from .diagnostics import ChainDiagnostics, diagnose
+from .diagnostics import ChainDiagnostics, ChainHistory, diagnose
 from .likelihood import RegressionPosterior, TrajectoryLikelihood
 
 __all__ = ["ensemble_moves", "run_with_progress", "ensemble_sampler", "sample_regression_chain",
@@ -84,10 +84,13 @@ def ensemble_moves(kind: str, n_walkers: int, ndim: int):
     raise ConfigError(f"method.moves must be 'de' or 'stretch', got {kind!r}")
 
 
-def run_with_progress(sampler, start, steps: int, label: str | None = None):
+def run_with_progress(sampler, start, steps: int, label: str | None = None,
+                      history: ChainHistory | None = None):
     """``sampler.run_mcmc`` that logs its progress five times when given a
-    ``label``, and stops on SIGINT/SIGTERM between steps: inside emcee a
-    signal would be caught and printed as a traceback.
+    ``label``, records its acceptance and autocorrelation time at the
+    checkpoints of ``history`` when given one, and stops on SIGINT/SIGTERM
+    between steps: inside emcee a signal would be caught and printed as a
+    traceback.
 
     Returns
     -------
@@ -99,6 +102,8 @@ def run_with_progress(sampler, start, steps: int, label: str | None = None):
     with interrupt.deferred():
         for i, state in enumerate(sampler.sample(start, iterations=steps), 1):
             interrupt.checkpoint()
+            if history is not None:
+                history.record(sampler, i)
             if label and (i % every == 0 or i == steps):
                 logger.info("%s: emcee step %d/%d, mean acceptance %.2f", label, i, steps,
                             float(np.mean(sampler.acceptance_fraction)))
@@ -150,8 +155,9 @@ def sample_regression_chain(post: RegressionPosterior, n_walkers: int, n_samples
     steps = thin * kept
     sampler = ensemble_sampler(post.log_prob, n_walkers, ndim,
                                ensemble_moves(moves, n_walkers, ndim), seed)
-    run_with_progress(sampler, x0, burn_in + steps, f"bayes {label}")
-    diag = diagnose(sampler, burn_in, steps, label)
+    history = ChainHistory(burn_in + steps, burn_in)
+    run_with_progress(sampler, x0, burn_in + steps, f"bayes {label}", history)
+    diag = diagnose(sampler, burn_in, steps, label, history)
     chain = sampler.get_chain(discard=burn_in, thin=thin, flat=True)[-n_samples:]
     return chain, diag
 
@@ -193,7 +199,8 @@ def sample_trajectory_chain(likelihood: TrajectoryLikelihood, x0: np.ndarray, x_
     move = ensemble_moves(moves, n_walkers, ndim)  # one move object for both stages
     first = burn_in // 2
     sampler = ensemble_sampler(likelihood.log_prob, n_walkers, ndim, move, seed)
-    state = run_with_progress(sampler, x0, first) if first else None
+    history = ChainHistory(first, burn_in=first)          # the first stage is all burn-in
+    state = run_with_progress(sampler, x0, first, history=history) if first else None
     coords = state.coords if state is not None else x0
     if autocorr_correction:
         best = coords[np.argmax(state.log_prob)] if state is not None else x_start
@@ -201,7 +208,10 @@ def sample_trajectory_chain(likelihood: TrajectoryLikelihood, x0: np.ndarray, x_
     # second sampler: the target changed (kappa), so restart from the walkers
     sampler = ensemble_sampler(likelihood.log_prob, n_walkers, ndim, move, seed + 1)
     rest = burn_in - first
-    run_with_progress(sampler, coords, rest + steps, "bayes trajectory")
-    diag = diagnose(sampler, rest, steps, "trajectory")
+    second = ChainHistory(rest + steps, rest, offset=first)
+    run_with_progress(sampler, coords, rest + steps, "bayes trajectory", second)
+    diag = diagnose(sampler, rest, steps, "trajectory", second)
+    history.extend(second)
+    diag.history = history
     chain = sampler.get_chain(discard=rest, thin=thin, flat=True)
     return chain, diag
