@@ -45,7 +45,7 @@ __all__ = [
     "register", "SCHEMAS", "known_manoeuvres", "manoeuvre_config", "explain_validation_error",
     "CONF_DIR", "compose_settings", "DERIVATIVES", "WEIGHTINGS", "STUDIES", "ROLL_TERMS", "ROLL_DAMPING_TERMS",
     "MANOEUVRE_KINDS",
-    "SVM_LOSSES", "SINDY_LIBRARIES", "BAYES_MOVES",
+    "SVM_LOSSES", "SINDY_LIBRARIES", "BAYES_MOVES", "BAYES_DISCREPANCIES",
 ]
 
 #: the packaged config folder (``studies/conf``)
@@ -69,6 +69,8 @@ SVM_LOSSES = ("squared_epsilon_insensitive", "epsilon_insensitive")
 SINDY_LIBRARIES = ("model", "extended")
 #: ``method.moves`` of the Bayesian regression
 BAYES_MOVES = ("de", "stretch")
+#: ``method.discrepancy`` of the Bayesian regression (:mod:`studies.identify.discrepancy`)
+BAYES_DISCREPANCIES = ("none", "process_noise")
 
 
 # ------------------------------------------------------------------ value checks
@@ -896,6 +898,16 @@ class BayesMethod(MethodConfig):
         Initial ball relative to ``|c_reg|``, > 0.
     trajectory_autocorr_correction : bool
         Effective-sample-size correction of the trajectory likelihood.
+    discrepancy : str
+        One of :data:`BAYES_DISCREPANCIES`: ``process_noise`` estimates a model
+        discrepancy (AR(1) accelerations in surge, sway and yaw) from the
+        training records and puts it into the predictive bands; ``none``
+        takes the model as exact.
+    discrepancy_step : float or None
+        Records thinned to about this step [s] for its Kalman filter, > 0;
+        None: as sampled.
+    discrepancy_evaluations : int
+        Most likelihood evaluations of its estimate, >= 1.
     """
 
     n_walkers: Optional[int] = None
@@ -917,8 +929,21 @@ class BayesMethod(MethodConfig):
     trajectory_prior_width: float = 1.0
     trajectory_init_scale: float = 0.01
     trajectory_autocorr_correction: bool = True
+    discrepancy: str = "none"
+    discrepancy_step: Optional[float] = 0.5
+    discrepancy_evaluations: int = 300
 
     def __post_init__(self):
+        self.discrepancy = _choice("method.discrepancy", self.discrepancy, BAYES_DISCREPANCIES)
+        self.discrepancy_step = _optional_number("method.discrepancy_step", self.discrepancy_step)
+        if self.discrepancy_step is not None and self.discrepancy_step <= 0:
+            raise ConfigError("method.discrepancy_step must be positive [s] or null, "
+                              f"got {self.discrepancy_step}")
+        self.discrepancy_evaluations = _integer("method.discrepancy_evaluations",
+                                                self.discrepancy_evaluations)
+        if self.discrepancy_evaluations < 1:
+            raise ConfigError("method.discrepancy_evaluations must be >= 1, "
+                              f"got {self.discrepancy_evaluations}")
         for key, low in (("n_samples", 1), ("burn_in", 0), ("thin", 1), ("trajectory_steps", 1),
                          ("trajectory_burn_in", 0), ("trajectory_thin", 1),
                          ("trajectory_max_samples", 10)):

@@ -8,5 +8,8 @@
 - :mod:`~studies.analysis.correlation`: Spearman correlation groups of
   repeated estimates (Li et al. 2023);
 - :mod:`~studies.analysis.pawn`: PAWN sensitivity of the trajectory to each
-  coefficient (SALib).
+  coefficient (SALib);
+- :mod:`~studies.analysis.bands`: posterior predictive bands of a replayed
+  record (coefficient draws and model discrepancy) and their calibration
+  (coverage per nominal level, width, interval score, CRPS).
 """

@@ -85,7 +85,7 @@ from ..data.resample import uniform_step
 from ..errors import ConfigError
 from ..simulate.monomials import dense_coefficients, scaled_forces
 
-__all__ = ["KalmanSettings", "KalmanResult", "kalman_smooth", "ekf_derivatives",
+__all__ = ["KalmanSettings", "KalmanResult", "kalman_smooth", "ekf_derivatives", "innovation_loglik",
            "estimate_derivatives", "measurement_variance", "smoothed_record", "MEASURABLE",
            "STATE_NAMES", "EKF_METHODS"]
 
@@ -257,7 +257,8 @@ def measurement_variance(record: pd.DataFrame, channels, window: float = 10.0,
 def _model_acc(u, v, r, delta, c, k):
     """Accelerations (u_dot, v_dot, r_dot) of the manoeuvring model.
 
-    ``k``: speed0, length, 1/m11, m33/det, -m23/det, -m32/det, m22/det.
+    ``k``: speed0, length, 1/m11, m33/det, -m23/det, -m32/det, m22/det (and 1/tau of
+    the discrepancy, unused here).
     """
     speed0 = k[0]
     length = k[1]
@@ -290,6 +291,10 @@ def _f(x, delta, mode, c, k, out):
         out[3] = au + x[6]
         out[4] = av + x[7]
         out[5] = ar + x[8]
+        # AR(1) discrepancy (Ornstein-Uhlenbeck) when k[7] = 1 / tau > 0, else a random walk
+        out[6] = -k[7] * x[6]
+        out[7] = -k[7] * x[7]
+        out[8] = -k[7] * x[8]
     else:
         out[3] = x[6]
         out[4] = x[7]
@@ -315,6 +320,8 @@ def _jacobian(x, delta, mode, c, k, J):
     J[4, 7] = 1.0
     J[5, 8] = 1.0
     if mode == 1:
+        for j in range(3):
+            J[6 + j, 6 + j] = -k[7]
         for j in range(3):
             base = x[3 + j]
             h = 1e-6 * max(abs(base), 1.0) if j < 2 else 1e-7
@@ -441,11 +448,13 @@ def _model_rates(states, delta, c, k):
 
 # --------------------------------------------------------------- python API
 
-def _model_constants(vessel) -> np.ndarray:
+def _model_constants(vessel, tau: float | None = None) -> np.ndarray:
+    """Constants of the compiled model: speed, length, the inverse mass matrix
+    and ``1 / tau`` of the discrepancy states (0: random walks)."""
     M = vessel.mass_matrix()
     det = M[1, 1] * M[2, 2] - M[1, 2] * M[2, 1]
     return np.array([vessel.speed, vessel.length, 1.0 / M[0, 0], M[2, 2] / det, -M[1, 2] / det,
-                     -M[2, 1] / det, M[1, 1] / det])
+                     -M[2, 1] / det, M[1, 1] / det, 0.0 if not tau else 1.0 / float(tau)])
 
 
 def _default_qc(record: pd.DataFrame, dt: float) -> np.ndarray:
@@ -514,7 +523,8 @@ def _run(record, settings: KalmanSettings, mode: int, c: np.ndarray, k: np.ndarr
     qc = np.zeros(N_STATE)
     for j in range(3):
         qc[6 + j] = qa[j]
-        P0[6 + j, 6 + j] = qa[j] * 100.0
+        # a random walk starts loose; an Ornstein-Uhlenbeck state at its stationary variance
+        P0[6 + j, 6 + j] = qa[j] * 100.0 if mode == 0 or k[7] == 0.0 else 0.5 * qa[j] / k[7]
     prior = _bias_prior(record, settings)
     for name, idx in BIAS_INDEX.items():
         if name in biased:
@@ -558,7 +568,7 @@ def kalman_smooth(record: pd.DataFrame, settings: KalmanSettings | None = None, 
     else:
         mode = 0
         c = np.zeros(105)
-        k = np.zeros(7)
+        k = np.zeros(8)
         k[1] = 1.0
     likelihoods = {}
     if settings.process_scale is not None:
@@ -580,6 +590,29 @@ def kalman_smooth(record: pd.DataFrame, settings: KalmanSettings | None = None, 
     return KalmanResult(t, states, np.sqrt(np.maximum(var, 0.0)), rates,
                         record["delta"].to_numpy(float), float(loglik), scale,
                         "model" if mode == 1 else "kinematic", mstd, likelihoods)
+
+
+def innovation_loglik(record: pd.DataFrame, model, values: dict, vessel, sigma, tau: float,
+                      settings: KalmanSettings | None = None, smooth: bool = False):
+    """Innovation log-likelihood of a record under the ship model with an
+    Ornstein-Uhlenbeck (continuous AR(1)) model discrepancy.
+
+    The filter's acceleration states become ``a_dot = -a / tau + w`` with
+    ``w`` white of spectral density ``2 sigma^2 / tau``: stationary standard
+    deviations ``sigma`` (3,) [m/s^2, m/s^2, rad/s^2] of the surge, sway and
+    yaw accelerations the model misses, correlation time ``tau`` [s]. The
+    prediction-error (maximum-likelihood) estimate of ``sigma, tau``
+    maximises the sum of this over the training records
+    (:mod:`studies.identify.discrepancy`). The sensor biases and the
+    measurement noise are as in :func:`kalman_smooth`. With ``smooth`` the
+    RTS-smoothed states (n, 12) (:data:`STATE_NAMES`) are returned too.
+    """
+    settings = settings or KalmanSettings()
+    sigma = np.asarray(sigma, float)
+    c = dense_coefficients(model.vector(values), model.powers_array(), model.dof_array())[0].ravel()
+    k = _model_constants(vessel, tau)
+    states, _, loglik, _ = _run(record, settings, 1, c, k, 2.0 * sigma ** 2 / float(tau), smooth)
+    return (float(loglik), states) if smooth else float(loglik)
 
 
 def smoothed_record(result: KalmanResult, record: pd.DataFrame) -> pd.DataFrame:

@@ -222,6 +222,32 @@ class ReplayPlan:
         self.record = record
         self.inputs = _replay_inputs(model, vessel, record, self.environment, -1.0, external)
 
+    @property
+    def steps(self) -> int:
+        """Integration steps of the replay (external forces need one row per step)."""
+        return int(self.inputs.cmd.shape[0] - 1)
+
+    @property
+    def step(self) -> float:
+        """Integration step [s]."""
+        return float(self.inputs.step)
+
+    def run_one(self, vector: np.ndarray, external=None, initial: dict | None = None):
+        """One coefficient vector with its own external forces (one row per
+        step, 6 or 9 columns as for :func:`simulate`) and initial state;
+        ``(states (n_samples, 7), diverged_at)`` at the record's samples."""
+        inputs = self.inputs
+        changes = {}
+        if initial:
+            changes["x0"] = _state_vector(_replay_initial(self.record, self.environment, initial),
+                                          inputs.speed0)
+        if external is not None:
+            changes["ext"] = np.ascontiguousarray(external, float)
+        if changes:
+            inputs = SimulationInputs(**{**inputs.__dict__, **changes})
+        states, diverged = rk4_simulate(np.asarray(vector, float), *inputs.args())
+        return states[:: inputs.substeps], int(diverged)
+
     def run(self, vectors: np.ndarray, initial: dict | None = None):
         """``(states, diverged)`` as :func:`replay_many` returns them."""
         inputs = self.inputs

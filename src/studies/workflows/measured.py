@@ -28,8 +28,12 @@ States and accelerations (``data.derivative``)
 Validation
     each record of ``validate.path`` is replayed with its measured rudder
     from its measured initial state; with a posterior (``method=bayes``)
-    ``band_draws`` coefficient sets drawn from it are replayed as well and
-    the 5-95 % band of ``x0, y0, psi`` is compared with the measurement.
+    ``band_draws`` coefficient sets drawn from it are replayed as well (with
+    ``method.discrepancy=process_noise`` each with its own realisation of the
+    model discrepancy estimated on the training records) and the 5-95 % band
+    of ``x0, y0, psi`` is compared with the measurement, with its
+    calibration at 50/80/90/95 %, width, interval score and CRPS
+    (:mod:`studies.analysis.bands`).
 
 References
 ----------
@@ -59,6 +63,7 @@ from ..identify.ls import LeastSquares
 from ..identify.regression import assemble_problems, prime_states
 from ..models.abkowitz import ManoeuvringModel
 from ..models.terms import DOFS
+from ..analysis.bands import band_statistics, predictive_draws
 from ..plotting import pyplot
 from ..simulate.simulator import replay_many
 from ..vessels.base import Vessel
@@ -361,7 +366,8 @@ def posterior_vectors(model: ManoeuvringModel, result: Identification, n_draws: 
 
 
 def posterior_band(model: ManoeuvringModel, vectors: np.ndarray, vessel: Vessel,
-                   record: pd.DataFrame, quantiles=(0.05, 0.5, 0.95), noise: bool = True) -> dict:
+                   record: pd.DataFrame, quantiles=(0.05, 0.5, 0.95), noise: bool = True,
+                   discrepancy=None, seed: int = 0, settings: KalmanSettings | None = None) -> dict:
     """Replay ``record`` with every vector; quantiles of ``x0, y0, psi`` per sample.
 
     Returns ``{"t", "x0", "y0", "psi"}`` (each channel an array (3, n):
@@ -372,57 +378,20 @@ def posterior_band(model: ManoeuvringModel, vectors: np.ndarray, vessel: Vessel,
     samples inside the band), ``coverage_xy`` (``x0`` and ``y0`` both
     inside) and ``coverage_all``, and ``covered_until_s`` (time from the
     start until the measured position first stays outside the band for
-    more than 10 s). A posterior
+    more than 10 s); also the calibration at 50/80/90/95 %, the band widths,
+    the interval score and the CRPS
+    (:func:`studies.analysis.bands.band_statistics`). A posterior
     predictive band of a *measurement* includes the sensor noise: with
     ``noise`` the band is widened by 1.645 times the measurement noise of
     the channel (:func:`studies.identify.kalman.measurement_variance`), which
     matters at the start where every replay begins at the measured state.
+    With a ``discrepancy`` (:class:`studies.identify.discrepancy.Discrepancy`)
+    every replay also carries a realisation of it and an initial state
+    drawn from the sensor's uncertainty
+    (:func:`studies.analysis.bands.predictive_draws`, seeded by ``seed``).
     """
-    states, diverged = replay_many(model, vectors, vessel, record)
-    n = min(states.shape[1], len(record))
-    out = {"t": record["t"].to_numpy(float)[:n], "diverged": float(np.mean(diverged >= 0))}
-    widen = {ch: np.zeros(n) for ch in ("x0", "y0", "psi")}
-    if noise:
-        var = measurement_variance(record.iloc[:n], ("x0", "y0", "psi"))
-        for j, ch in enumerate(("x0", "y0", "psi")):
-            widen[ch] = 1.645 * np.sqrt(var[:, j])
-    inside = {}
-    for ch, j in (("x0", 3), ("y0", 4), ("psi", 5)):
-        values = states[:, :n, j]
-        ok = np.isfinite(values).all(axis=1)
-        if ok.any():
-            q = np.quantile(values[ok], quantiles, axis=0)
-        else:
-            q = np.full((len(quantiles), n), np.nan)
-        q[0] = q[0] - widen[ch]
-        q[-1] = q[-1] + widen[ch]
-        out[ch] = q
-        meas = record[ch].to_numpy(float)[:n]
-        inside[ch] = (meas >= q[0]) & (meas <= q[-1])
-        out[f"coverage_{ch}"] = float(np.mean(inside[ch]))
-    step = max(1, n // 500)
-    out["paths"] = states[:, :n:step, 3:5]
-    both = inside["x0"] & inside["y0"]
-    out["coverage_xy"] = float(np.mean(both))
-    out["coverage_all"] = float(np.mean(both & inside["psi"]))
-    out["covered_until_s"] = _covered_until(out["t"], both)
-    return out
-
-
-def _covered_until(t: np.ndarray, inside: np.ndarray, grace: float = 10.0) -> float:
-    """Time from the start until the measurement first stays outside the band
-    for longer than ``grace`` seconds (the whole record when it never does)."""
-    outside = ~inside
-    start = None
-    for i in range(len(t)):
-        if outside[i]:
-            if start is None:
-                start = i
-            if t[i] - t[start] >= grace:
-                return float(t[start] - t[0])
-        else:
-            start = None
-    return float(t[-1] - t[0])
+    states, diverged = predictive_draws(model, vectors, vessel, record, discrepancy, seed, settings)
+    return band_statistics(states, diverged, record, noise, quantiles, seed=seed)
 
 
 def plot_band(record: pd.DataFrame, prediction: pd.DataFrame, band: dict, path, title: str) -> None:

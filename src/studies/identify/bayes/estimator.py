@@ -16,6 +16,7 @@ import numpy as np
 
 from ...errors import ConfigError
 from ..base import Identification
+from ..discrepancy import DISCREPANCIES, estimate_process_noise
 from ..ls import regression_diagnostics
 from ..objective import TrajectoryObjective
 from ..regression import RegressionProblem
@@ -82,6 +83,19 @@ class BayesianRegression:
         Radius of the initial ball of (b), relative to ``|c_reg|``.
     trajectory_autocorr_correction : bool
         Effective-sample-size correction of the trajectory likelihood.
+    discrepancy : {"none", "process_noise"}
+        Model discrepancy for the predictive bands
+        (:mod:`studies.identify.discrepancy`): ``process_noise`` estimates an
+        Ornstein-Uhlenbeck acceleration per DOF by the prediction-error
+        method on the training records, at the posterior medians; kept in
+        ``samples["discrepancy"]``, its figures in ``discrepancy/...``.
+        ``none``: the model is taken as exact (bands from the coefficients
+        alone).
+    discrepancy_step : float or None
+        The training records are thinned to about this step [s] for the
+        discrepancy's Kalman filter; None: as sampled.
+    discrepancy_evaluations : int
+        Most likelihood evaluations of its search (Powell's method).
 
     References
     ----------
@@ -98,7 +112,9 @@ class BayesianRegression:
                  trajectory_steps: int = 300, trajectory_burn_in: int = 200,
                  trajectory_thin: int = 1, trajectory_max_samples: int = 300,
                  trajectory_duration: float | None = 600.0, trajectory_prior_width: float = 1.0,
-                 trajectory_init_scale: float = 0.01, trajectory_autocorr_correction: bool = True):
+                 trajectory_init_scale: float = 0.01, trajectory_autocorr_correction: bool = True,
+                 discrepancy: str = "none", discrepancy_step: float | None = 0.5,
+                 discrepancy_evaluations: int = 300):
         for key, value, low in (("n_samples", n_samples, 1), ("burn_in", burn_in, 0),
                                 ("thin", thin, 1), ("trajectory_steps", trajectory_steps, 1),
                                 ("trajectory_burn_in", trajectory_burn_in, 0),
@@ -138,6 +154,18 @@ class BayesianRegression:
         self.trajectory_prior_width = float(trajectory_prior_width)
         self.trajectory_init_scale = float(trajectory_init_scale)
         self.trajectory_autocorr_correction = bool(trajectory_autocorr_correction)
+        if discrepancy not in DISCREPANCIES:
+            raise ConfigError(f"method.discrepancy must be one of {', '.join(DISCREPANCIES)}, "
+                              f"got {discrepancy!r}")
+        if discrepancy_step is not None and not discrepancy_step > 0:
+            raise ConfigError("method.discrepancy_step must be positive [s] or null, "
+                              f"got {discrepancy_step!r}")
+        if int(discrepancy_evaluations) != discrepancy_evaluations or discrepancy_evaluations < 1:
+            raise ConfigError("method.discrepancy_evaluations must be an integer >= 1, "
+                              f"got {discrepancy_evaluations!r}")
+        self.discrepancy = str(discrepancy)
+        self.discrepancy_step = None if discrepancy_step is None else float(discrepancy_step)
+        self.discrepancy_evaluations = int(discrepancy_evaluations)
 
     # ------------------------------------------------------------------ (a)
     def fit_one(self, problem: RegressionProblem, seed: int | None = None) -> Identification:
@@ -220,7 +248,27 @@ class BayesianRegression:
             traj = self.sample_trajectory(objective, result.params, terms)
             result.update(traj)
         result.metrics["bayes/runtime_s"] = time.perf_counter() - started
+        if self.discrepancy != "none":
+            result.update(self.estimate_discrepancy(objective, result.params))
         return result
+
+    def estimate_discrepancy(self, objective, params: dict) -> Identification:
+        """The model discrepancy of ``discrepancy`` on the objective's training
+        records at ``params`` (:mod:`studies.identify.discrepancy`)."""
+        if objective is None:
+            raise ValueError("bayes: method.discrepancy needs the training records "
+                             "(fit(problems, objective=...))")
+        model = objective.model
+        values = {name: params.get(name, 0.0) for name in model.names}
+        found = estimate_process_noise(model, values, objective.vessel, objective.records,
+                                       step=self.discrepancy_step,
+                                       max_evaluations=self.discrepancy_evaluations)
+        logger.info("bayes: model discrepancy (%s) sigma = %.3g m/s^2, %.3g m/s^2, %.3g rad/s^2, "
+                    "tau = %.1f s", found.kind, *found.sigma, found.tau)
+        out = Identification()
+        out.samples["discrepancy"] = found.as_sample()
+        out.metrics.update(found.metrics(objective.vessel))
+        return out
 
     # ------------------------------------------------------------------ (b)
     def trajectory_names(self, problems: dict, params: dict) -> list:

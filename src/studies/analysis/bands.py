@@ -1,0 +1,304 @@
+"""Posterior predictive bands of a replayed record, and how well they are calibrated.
+
+A band is built from replays of a validation record's measured rudder from
+its measured initial state (:func:`predictive_draws`): each replay takes one
+coefficient set drawn from the posterior and, with a model discrepancy
+(:class:`studies.identify.discrepancy.Discrepancy`), its own realisation of
+the missing accelerations and an initial state drawn from the sensor's
+uncertainty (its noise, and the size of the sensor biases found on the
+training records). Quantiles of the replayed ``x0, y0, psi`` per sample, widened
+by the measurement noise of each channel, are the bands
+(:func:`band_statistics`). Their calibration is judged on the measurement:
+
+coverage
+    fraction of the samples where the measurement lies inside the band, for
+    the nominal levels of :data:`LEVELS` (``coverage_xy_<level>``: ``x0``
+    and ``y0`` both inside the band of that level); a calibrated 90 % band
+    covers about 90 % (serial correlation makes one record's coverage
+    noisy).
+width
+    mean band width [m] of ``x0`` and ``y0`` (``width_xy_m``: their mean),
+    compared with the extent of the manoeuvre (the larger range of the
+    measured ``x0`` and ``y0``): a band as wide as the manoeuvre says nothing.
+interval score
+    of the 90 % band (Gneiting & Raftery 2007, eq. 43), mean over the
+    samples [m]: ``(u - l) + (2 / alpha) (l - y) 1{y < l} + (2 / alpha)
+    (y - u) 1{y > u}`` with ``alpha = 0.1``; lower is better, and it
+    punishes both width and misses.
+CRPS
+    continuous ranked probability score of the ensemble of replays (with
+    measurement noise) for ``x0`` and ``y0``, mean over the samples [m];
+    lower is better.
+
+:func:`trust_verdict` turns these into one sentence: the bands are trusted
+on a record when the 90 % band covers between :data:`TRUSTED_COVERAGE` of
+it, is narrower than the manoeuvre and fewer than 10 % of the replays
+diverged.
+
+References
+----------
+Gneiting, T., Raftery, A.E. (2007). Strictly proper scoring rules,
+prediction, and estimation. J. Am. Stat. Assoc. 102(477), 359-378.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from ..identify.kalman import KalmanSettings, measurement_variance
+from ..identify.regression import prime_states
+from ..plotting import pyplot
+from ..simulate.simulator import ReplayPlan, replay_many
+
+__all__ = ["LEVELS", "Z_SCORES", "TRUSTED_COVERAGE", "interval_score", "crps_ensemble",
+           "predictive_draws", "band_statistics", "training_envelope", "outside_fraction",
+           "trust_verdict", "plot_calibration"]
+
+#: nominal levels of the calibration check
+LEVELS = (0.5, 0.8, 0.9, 0.95)
+#: standard normal quantile of each central level (the measurement-noise widening)
+Z_SCORES = {0.5: 0.674, 0.8: 1.282, 0.9: 1.645, 0.95: 1.960}
+#: 90 % band coverage taken as calibrated on a held-out record
+TRUSTED_COVERAGE = (0.8, 0.97)
+#: integrator columns of x0, y0, psi
+_COLUMNS = (("x0", 3), ("y0", 4), ("psi", 5))
+
+
+def interval_score(lower, upper, y, alpha: float = 0.1) -> np.ndarray:
+    """Interval score of central ``(1 - alpha)`` intervals (Gneiting & Raftery 2007, eq. 43)."""
+    lower, upper, y = (np.asarray(a, float) for a in (lower, upper, y))
+    return ((upper - lower) + (2.0 / alpha) * np.maximum(lower - y, 0.0)
+            + (2.0 / alpha) * np.maximum(y - upper, 0.0))
+
+
+def crps_ensemble(samples, y) -> np.ndarray:
+    """CRPS of an ensemble ``samples`` (m, n) for observations ``y`` (n,).
+
+    ``E|X - y| - E|X - X'| / 2`` of the ensemble's empirical distribution,
+    the second term from the sorted members in O(m log m).
+    """
+    x = np.sort(np.asarray(samples, float), axis=0)
+    y = np.asarray(y, float)
+    m = x.shape[0]
+    first = np.mean(np.abs(x - y[None, :]), axis=0)
+    weights = (2.0 * np.arange(1, m + 1) - m - 1.0)[:, None]
+    second = 2.0 * np.sum(weights * x, axis=0) / (m * m)
+    return first - 0.5 * second
+
+
+def _initial_spread(record: pd.DataFrame, settings: KalmanSettings, bias_sd) -> dict:
+    """Standard deviations of the initial ``u, v, r``: measurement noise at the
+    first sample and the sensor biases ``bias_sd`` (3,) found on the training records."""
+    head = record.iloc[: min(len(record), 2000)]
+    var = measurement_variance(head, ("u", "v", "r"), settings.noise_window, settings.noise_span)[0]
+    return {ch: float(np.sqrt(var[j] + float(bias_sd[j]) ** 2)) for j, ch in enumerate(("u", "v", "r"))}
+
+
+def predictive_draws(model, vectors: np.ndarray, vessel, record: pd.DataFrame, discrepancy=None,
+                     seed: int = 0, settings: KalmanSettings | None = None):
+    """Replays of ``record`` for the posterior predictive band.
+
+    Without a ``discrepancy`` every coefficient vector is replayed from the
+    measured initial state (:func:`~studies.simulate.simulator.replay_many`).
+    With one, each replay also takes a realisation of the discrepancy
+    accelerations and an initial ``u, v, r`` drawn around the measured one
+    (:func:`_initial_spread`: the sensor noise and the sensor biases found
+    on the training records). Returns ``(states (n_draws, n, 7), diverged
+    (n_draws,))`` as :func:`~studies.simulate.simulator.replay_many`.
+    """
+    vectors = np.atleast_2d(vectors)
+    if discrepancy is None:
+        return replay_many(model, vectors, vessel, record)
+    settings = settings or KalmanSettings()
+    rng = np.random.default_rng(seed)
+    plan = ReplayPlan(model, vessel, record)
+    spread = _initial_spread(record, settings, discrepancy.initial_sd)
+    first = record.iloc[0]
+    states, diverged = [], []
+    for vector in vectors:
+        ext = discrepancy.external(discrepancy.realise(plan.steps, plan.step, rng), vessel)
+        initial = {ch: float(first[ch]) + spread[ch] * rng.standard_normal() for ch in ("u", "v", "r")}
+        s, d = plan.run_one(vector, ext, initial)
+        states.append(s)
+        diverged.append(d)
+    return np.asarray(states), np.asarray(diverged)
+
+
+def band_statistics(states: np.ndarray, diverged: np.ndarray, record: pd.DataFrame, noise: bool = True,
+                    quantiles=(0.05, 0.5, 0.95), levels=LEVELS, seed: int = 0) -> dict:
+    """Bands of ``x0, y0, psi`` from replays, and their calibration on the measurement.
+
+    Returns ``{"t", "x0", "y0", "psi"}`` (each channel (len(quantiles), n):
+    lower, ..., upper of the main band), ``"paths"`` (``x0, y0`` of every
+    replay, thinned to at most 500 samples), ``"diverged"`` (share of the
+    replays that left the physical range; their rows are ignored) and the
+    numbers of the module docstring: ``coverage_<ch>``, ``coverage_xy``,
+    ``coverage_all``, ``covered_until_s`` of the main band,
+    ``coverage_xy_<level>`` per level, ``width_x0_m``, ``width_y0_m``,
+    ``width_xy_m``, ``width_psi_deg``, ``extent_m``, ``width_over_extent``,
+    ``interval_score_{x0,y0,xy}_m``, ``crps_{x0,y0,xy}_m``. With ``noise``
+    the bands are widened by the standard normal quantile of their level
+    times the measurement noise of the channel
+    (:func:`~studies.identify.kalman.measurement_variance`), which matters
+    at the start where every replay begins at the measured state.
+    """
+    n = min(states.shape[1], len(record))
+    out = {"t": record["t"].to_numpy(float)[:n], "diverged": float(np.mean(diverged >= 0))}
+    sd = {ch: np.zeros(n) for ch, _ in _COLUMNS}
+    if noise:
+        var = measurement_variance(record.iloc[:n], ("x0", "y0", "psi"))
+        for j, (ch, _) in enumerate(_COLUMNS):
+            sd[ch] = np.sqrt(var[:, j])
+    values, measured, inside = {}, {}, {}
+    for ch, j in _COLUMNS:
+        vals = states[:, :n, j]
+        ok = np.isfinite(vals).all(axis=1)
+        values[ch] = vals[ok]
+        measured[ch] = record[ch].to_numpy(float)[:n]
+        if ok.any():
+            q = np.quantile(values[ch], quantiles, axis=0)
+        else:
+            q = np.full((len(quantiles), n), np.nan)
+        q[0] = q[0] - 1.645 * sd[ch]
+        q[-1] = q[-1] + 1.645 * sd[ch]
+        out[ch] = q
+        inside[ch] = (measured[ch] >= q[0]) & (measured[ch] <= q[-1])
+        out[f"coverage_{ch}"] = float(np.mean(inside[ch]))
+    step = max(1, n // 500)
+    out["paths"] = states[:, :n:step, 3:5]
+    both = inside["x0"] & inside["y0"]
+    out["coverage_xy"] = float(np.mean(both))
+    out["coverage_all"] = float(np.mean(both & inside["psi"]))
+    out["covered_until_s"] = covered_until(out["t"], both)
+    # calibration: the band of every nominal level
+    for level in levels:
+        hit = np.ones(n, bool)
+        for ch in ("x0", "y0"):
+            if len(values[ch]):
+                lo, hi = np.quantile(values[ch], (0.5 - level / 2, 0.5 + level / 2), axis=0)
+            else:
+                lo = hi = np.full(n, np.nan)
+            z = Z_SCORES.get(level, 1.645)
+            hit &= (measured[ch] >= lo - z * sd[ch]) & (measured[ch] <= hi + z * sd[ch])
+        out[f"coverage_xy_{int(round(100 * level))}"] = float(np.mean(hit))
+    width = {ch: out[ch][-1] - out[ch][0] for ch in ("x0", "y0", "psi")}
+    out["width_x0_m"] = float(np.nanmean(width["x0"]))
+    out["width_y0_m"] = float(np.nanmean(width["y0"]))
+    out["width_xy_m"] = 0.5 * (out["width_x0_m"] + out["width_y0_m"])
+    out["width_psi_deg"] = float(np.rad2deg(np.nanmean(width["psi"])))
+    out["extent_m"] = float(max(np.ptp(measured["x0"]), np.ptp(measured["y0"])))
+    out["width_over_extent"] = out["width_xy_m"] / max(out["extent_m"], 1e-9)
+    rng = np.random.default_rng(seed)
+    for ch in ("x0", "y0"):
+        score = interval_score(out[ch][0], out[ch][-1], measured[ch], 0.1)
+        out[f"interval_score_{ch}_m"] = float(np.nanmean(score))
+        if len(values[ch]):
+            noisy = values[ch] + sd[ch][None, :] * rng.standard_normal(values[ch].shape)
+            out[f"crps_{ch}_m"] = float(np.mean(crps_ensemble(noisy, measured[ch])))
+        else:
+            out[f"crps_{ch}_m"] = float("nan")
+    out["interval_score_xy_m"] = 0.5 * (out["interval_score_x0_m"] + out["interval_score_y0_m"])
+    out["crps_xy_m"] = 0.5 * (out["crps_x0_m"] + out["crps_y0_m"])
+    return out
+
+
+def covered_until(t: np.ndarray, inside: np.ndarray, grace: float = 10.0) -> float:
+    """Time from the start until the measurement first stays outside the band
+    for longer than ``grace`` seconds (the whole record when it never does)."""
+    outside = ~inside
+    start = None
+    for i in range(len(t)):
+        if outside[i]:
+            if start is None:
+                start = i
+            if t[i] - t[start] >= grace:
+                return float(t[start] - t[0])
+        else:
+            start = None
+    return float(t[-1] - t[0])
+
+
+#: prime states whose training range is compared
+ENVELOPE_STATES = ("u'", "v'", "r'")
+
+
+def training_envelope(records, vessel) -> dict:
+    """Range ``{state: (low, high)}`` of the prime ``u', v', r'`` over the training records."""
+    primes = np.vstack([prime_states(r["u"], r["v"], r["r"], r["delta"], vessel)[:, :3] for r in records])
+    return {name: (float(np.min(primes[:, j])), float(np.max(primes[:, j])))
+            for j, name in enumerate(ENVELOPE_STATES)}
+
+
+def outside_fraction(record: pd.DataFrame, envelope: dict, vessel) -> tuple[float, dict]:
+    """Share of the record's samples whose prime ``u', v', r'`` leave the
+    training envelope, and the record's own range ``{state: (low, high)}``."""
+    primes = prime_states(record["u"], record["v"], record["r"], record["delta"], vessel)[:, :3]
+    out = np.zeros(len(primes), bool)
+    ranges = {}
+    for j, name in enumerate(ENVELOPE_STATES):
+        lo, hi = envelope[name]
+        span = hi - lo
+        out |= (primes[:, j] < lo - 0.05 * span) | (primes[:, j] > hi + 0.05 * span)
+        ranges[name] = (float(np.min(primes[:, j])), float(np.max(primes[:, j])))
+    return float(np.mean(out)), ranges
+
+
+def trust_verdict(name: str, stats: dict, outside: float | None = None, ranges: dict | None = None,
+                  envelope: dict | None = None) -> tuple[bool, str]:
+    """Whether the bands can be trusted on a record, and one sentence saying why."""
+    cov = stats["coverage_xy"]
+    low, high = TRUSTED_COVERAGE
+    wide = stats["width_over_extent"] >= 1.0
+    diverged = stats["diverged"] >= 0.1
+    trusted = low <= cov <= high and not wide and not diverged
+    text = (f"{name}: the 90 % band holds the measured track (x0 and y0) {100 * cov:.0f} % of the "
+            f"time (50/80/95 % bands: {100 * stats['coverage_xy_50']:.0f}/"
+            f"{100 * stats['coverage_xy_80']:.0f}/{100 * stats['coverage_xy_95']:.0f} %), mean width "
+            f"{stats['width_xy_m']:.0f} m ({100 * stats['width_over_extent']:.0f} % of the manoeuvre's "
+            f"{stats['extent_m']:.0f} m), first lost after {stats['covered_until_s']:.0f} s; ")
+    if trusted:
+        text += (f"the bands can be trusted on this record (90 % coverage within "
+                 f"{100 * low:.0f}-{100 * high:.0f} %).")
+    else:
+        why = []
+        if cov < low:
+            why.append("overconfident (the measurement leaves the band more often than nominal)")
+        if cov > high:
+            why.append("wider than needed")
+        if wide:
+            why.append("as wide as the manoeuvre itself")
+        if diverged:
+            why.append(f"{100 * stats['diverged']:.0f} % of the replays diverged")
+        text += "the bands cannot be trusted on this record: " + ", ".join(why) + "."
+    if outside and ranges and envelope:
+        worst = max(ENVELOPE_STATES, key=lambda s: max(envelope[s][0] - ranges[s][0],
+                                                       ranges[s][1] - envelope[s][1]))
+        text += (f" {100 * outside:.0f} % of the record lies outside the states of the training "
+                 f"records ({worst} in [{ranges[worst][0]:.2f}, {ranges[worst][1]:.2f}] against "
+                 f"[{envelope[worst][0]:.2f}, {envelope[worst][1]:.2f}] in training): there the model "
+                 "extrapolates and the discrepancy estimated on the training records may not hold.")
+    return trusted, text
+
+
+def plot_calibration(stats: dict, path, title: str) -> None:
+    """Coverage of the measured track against the nominal level (50/80/90/95 %)."""
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(5.5, 5.0))
+    levels = [lv for lv in LEVELS if f"coverage_xy_{int(round(100 * lv))}" in stats]
+    cover = [stats[f"coverage_xy_{int(round(100 * lv))}"] for lv in levels]
+    ax.plot([0, 1], [0, 1], color="0.6", lw=1, ls="--", label="calibrated")
+    ax.plot([0.9, 0.9], TRUSTED_COVERAGE, color="tab:green", lw=8, alpha=0.3, solid_capstyle="butt",
+            label="accepted at 90 %")
+    ax.plot(levels, cover, "o-", color="tab:orange", label="x0 and y0 inside")
+    for lv, c in zip(levels, cover):
+        ax.annotate(f"{100 * c:.0f} %", (lv, c), textcoords="offset points", xytext=(4, -12), fontsize=8)
+    ax.set_xlim(0.4, 1.0)
+    ax.set_ylim(0.0, 1.02)
+    ax.set_xlabel("nominal level of the band")
+    ax.set_ylabel("share of the record inside the band")
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=8, loc="upper left")
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
