@@ -1,6 +1,7 @@
 """The ``studies`` command: sub-commands that are Hydra apps.
 
 ``studies run [overrides]``      one study (``-m`` for a sweep)
+``studies simulate [overrides]`` a manoeuvre of a logged/registered model (``model_uri=``)
 ``studies bench``                performance figures as JSON
 
 Bad input (an unknown key or option, an unparsable override, an impossible
@@ -45,6 +46,7 @@ commands:
   discover show what a model gets wrong on measured data, name the cause, extend, measure the gain
   simplify derive the simplified model (correlation + PAWN, Li et al. 2023) and log how
   report   write reports/<experiment>/index.md and index.html from the MLflow runs
+  simulate simulate a manoeuvre with a logged or registered model (model_uri=...), as a run validates
   ui       start the MLflow UI on the project's store (127.0.0.1:5000)
   bench    print the performance figures as JSON
 
@@ -53,10 +55,12 @@ Options are Hydra overrides, e.g.
   studies run data.path=my_zigzag.csv vessel=mariner
   studies run -m wind.speed=4,8,12,16
   studies run -m wind.speed=4,8,12,16 resume=true   # after an interruption: run the rest
+  studies run tracking.register=mariner_ls           # also register the identified model
+  studies simulate model_uri=models:/mariner_ls/1 manoeuvre=turning_35
 
 studies --version prints the version; studies ui --help the UI's options; every
-option of run/discover/report is declared with its unit in studies/config.py and
-listed by `studies run --cfg job`.
+option of run/discover/report/simulate is declared with its unit in studies/config.py
+and listed by `studies <command> --help`.
 """
 
 
@@ -193,6 +197,7 @@ def _resumable(settings, params: dict, root):
 def _study(cfg, root: Path, out_dir: Path, on_create) -> dict:
     """One `studies run` job: check, (skip,) prepare, open the run, execute, log."""
     from .runtime import tracking
+    from .workflows.identified_model import IDENTIFIED_MODEL_FILE
     from .workflows.kinds import logged_params, study_for
     from .workflows.settings import check_output_paths
 
@@ -212,11 +217,17 @@ def _study(cfg, root: Path, out_dir: Path, on_create) -> dict:
                             logged_params(settings, params), tags, on_create=on_create) as run:
         run.log_records(prepared.inputs)
         metrics = prepared.execute(out_dir)
+        summary = {k: v for k, v in metrics.items()
+                   if k.startswith(("deviation/", "runtime/", "validation/", "simulation/"))
+                   or k.endswith(("/fitness", "/rmse_deg", "cpu_s"))}
+        model = out_dir / IDENTIFIED_MODEL_FILE        # manoeuvring models; not roll decays
+        linked = {k: v for k, v in summary.items() if not k.startswith("runtime/")}
+        logged = run.log_model(model, settings.tracking.register, linked) if model.is_file() else None
         run.log_outputs(metrics, out_dir)
-    summary = {k: v for k, v in metrics.items()
-               if k.startswith(("deviation/", "runtime/", "validation/", "simulation/"))
-               or k.endswith(("/fitness", "/rmse_deg", "cpu_s"))}
     print(f"run '{name}' ({run.run_id}) -> {out_dir}")
+    if logged:
+        print(f"model {logged['uri']}" + (f", registered as {logged['registered']}"
+                                          if logged["registered"] else ""))
     print(_console(summary))
     return {"status": "finished", "run_id": run.run_id, "config_hash": digest}
 
@@ -295,6 +306,37 @@ def _discover(cfg, root: Path, out_dir: Path, on_create) -> dict:
 
 def _discover_task(cfg):
     return _run_job(cfg, _discover)
+
+
+def _simulate(cfg, root: Path, out_dir: Path, on_create) -> dict:
+    """One `studies simulate` job: a manoeuvre of a logged, registered or
+    published model, with the files and figures of a run's validation."""
+    from dataclasses import asdict
+
+    from .runtime import tracking
+    from .workflows.identified_model import published_model
+    from .workflows.model_simulation import simulate_model
+    from .workflows.settings import named_manoeuvre
+
+    settings = _settings(cfg)
+    tracking.check_store(settings.tracking.uri, root)
+    given = {k: v for k, v in asdict(settings.manoeuvre).items() if k != "name" and v is not None}
+    manoeuvre = named_manoeuvre(settings.manoeuvre.name, given)
+    if settings.model_uri:
+        identified = tracking.load_model(settings.model_uri, settings.tracking.uri, root)
+        label = settings.model_uri
+    else:
+        identified = published_model(settings.vessel.name)
+        label = f"published {settings.vessel.name}"
+    metrics = simulate_model(identified, manoeuvre, out_dir, label,
+                             against_reference=bool(settings.model_uri))
+    print(f"simulated {manoeuvre.name} with {label} -> {out_dir}")
+    print(_console(metrics))
+    return {"status": "finished"}
+
+
+def _simulate_task(cfg):
+    return _run_job(cfg, _simulate)
 
 
 def _report_task(cfg) -> None:
@@ -536,7 +578,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     command, rest = argv[0], argv[1:]
     apps = {"run": (_run_task, "config"), "simplify": (_simplify_task, "config"),
-            "discover": (_discover_task, "discover"), "report": (_report_task, "report")}
+            "discover": (_discover_task, "discover"), "report": (_report_task, "report"),
+            "simulate": (_simulate_task, "simulate")}
     if command in apps and any(a in ("-h", "--help") for a in rest):
         from .cli_help import command_help
 

@@ -1,4 +1,4 @@
-"""``studies run --help`` (and ``discover``, ``report``): every option with its
+"""``studies run --help`` (and ``discover``, ``report``, ``simulate``): every option with its
 default, unit and meaning, read from the typed settings of :mod:`studies.config`.
 
 The text of each option is the ``Attributes`` entry of its dataclass's
@@ -24,13 +24,19 @@ PURPOSE = {
                 "catalogue, extend the model and measure the gain",
     "simplify": "derive the simplified model (correlation + PAWN, Li et al. 2023) and log how",
     "report": "write reports/<experiment>/index.md and index.html from the MLflow runs",
+    "simulate": "simulate a manoeuvre with a logged or registered model (model_uri=runs:/<run id>/model "
+                "or models:/<name>/<version>) or a vessel's published model, and write the files "
+                "and figures of a run's validation",
 }
 
 SCHEMAS = {"run": config.RunConfig, "simplify": config.RunConfig,
-           "discover": config.DiscoverConfig, "report": config.ReportCommandConfig}
+           "discover": config.DiscoverConfig, "report": config.ReportCommandConfig,
+           "simulate": config.SimulateCommandConfig}
 
 #: config groups chosen by name, and where their options are packaged
 GROUPS = ("vessel", "model", "method", "manoeuvre", "experiment")
+#: the groups of a command, where not all of :data:`GROUPS`
+COMMAND_GROUPS = {"report": (), "simulate": ("vessel", "manoeuvre")}
 
 
 def _attributes(cls) -> dict:
@@ -83,7 +89,7 @@ def _options(cls, prefix: str = "") -> list[tuple[str, object, str]]:
     out = []
     for field in fields(cls):
         key = f"{prefix}{field.name}"
-        if field.name in GROUPS:
+        if not prefix and field.name in GROUPS:
             continue
         value = _default(field)
         if is_dataclass(value):
@@ -93,17 +99,18 @@ def _options(cls, prefix: str = "") -> list[tuple[str, object, str]]:
     return out
 
 
-def _group_options() -> dict:
+def _group_options(groups=GROUPS) -> dict:
     return {group: sorted(p.stem for p in (config.CONF_DIR / group).glob("*.yaml"))
-            for group in GROUPS if (config.CONF_DIR / group).is_dir()}
+            for group in groups if (config.CONF_DIR / group).is_dir()}
 
 
 def command_help(command: str) -> str:
     """The help text of ``studies <command>``."""
     lines = [f"usage: studies {command} [-m] [key=value ...]", "", PURPOSE.get(command, ""), ""]
-    if command != "report":
+    groups = COMMAND_GROUPS.get(command, GROUPS)
+    if groups:
         lines.append("config groups (key=option):")
-        for group, names in _group_options().items():
+        for group, names in _group_options(groups).items():
             lines.append(f"  {group + '=':12s}{', '.join(names)}")
         lines += ["  each option's own settings are listed by `studies " + command +
                   " <group>=<option> --cfg job`", ""]

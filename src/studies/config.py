@@ -38,10 +38,11 @@ from .errors import ConfigError
 
 __all__ = [
     "Wind", "Current", "Noise", "Disturbance", "Train", "Data", "Identify", "Kalman",
-    "ValidationWind", "Validate", "Simplify", "ReportOptions", "Tracking",
+    "ValidationWind", "Validate", "Simplify", "ReportOptions", "Tracking", "TrackingStore",
     "VesselConfig", "ModelConfig", "SimplifiedModelConfig", "RollSynthetic", "RollModelConfig",
     "MethodConfig", "SvmMethod", "GaMethod", "BayesMethod", "SindyMethod", "ManoeuvreConfig",
     "RunConfig", "DiscoverOptions", "SimulationInput", "DiscoverConfig", "ReportCommandConfig",
+    "SimulateCommandConfig",
     "register", "SCHEMAS", "known_manoeuvres", "manoeuvre_config", "explain_validation_error",
     "CONF_DIR", "compose_settings", "DERIVATIVES", "WEIGHTINGS", "STUDIES", "ROLL_TERMS", "ROLL_DAMPING_TERMS",
     "MANOEUVRE_KINDS",
@@ -531,6 +532,21 @@ class ReportOptions:
 
 
 @dataclass
+class TrackingStore:
+    """The MLflow store a command reads (``tracking`` of ``studies simulate``).
+
+    Attributes
+    ----------
+    uri : str or None
+        Tracking URI (sqlite file, PostgreSQL database or MLflow server);
+        None: the ``MLFLOW_TRACKING_URI`` environment variable when set,
+        else the sqlite store ``mlruns/mlflow.db`` in the working directory.
+    """
+
+    uri: Optional[str] = None
+
+
+@dataclass
 class Tracking:
     """MLflow tracking (``tracking``).
 
@@ -542,10 +558,24 @@ class Tracking:
         else the sqlite store ``mlruns/mlflow.db`` in the working directory.
     experiment : str
         MLflow experiment name (presets set their own).
+    register : str or None
+        Model Registry name: the run's identified model (its MLflow model
+        ``runs:/<run id>/model``) becomes a new version of it,
+        ``models:/<name>/<version>``; None: logged, not registered.
     """
 
     uri: Optional[str] = None
     experiment: str = "studies"
+    register: Optional[str] = None
+
+    def __post_init__(self):
+        if self.register is None:
+            return
+        name = str(self.register).strip()
+        if not name or name in (".", "..") or any(c in name for c in "/:"):
+            raise ConfigError(f"tracking.register: '{self.register}' is not a model name (a name "
+                              "without '/' or ':', e.g. mariner_ls)")
+        self.register = name
 
 
 # ------------------------------------------------------------------ config groups
@@ -1133,6 +1163,10 @@ class RunConfig:
             raise ConfigError(f"seed must be non-negative, got {self.seed}")
         self.verbose = _flag("verbose", self.verbose)
         self.resume = _flag("resume", self.resume)
+        study = getattr(self.model, "study", "manoeuvring")
+        if self.tracking.register and study != "manoeuvring":
+            raise ConfigError(f"tracking.register: a {study} run logs no MLflow model to register "
+                              "(only manoeuvring models are logged as MLflow models)")
 
 
 @dataclass
@@ -1196,6 +1230,12 @@ class DiscoverConfig(RunConfig):
     tracking: Tracking = field(default_factory=lambda: Tracking(experiment="discover"))
     discover: DiscoverOptions = field(default_factory=DiscoverOptions)
 
+    def __post_init__(self):
+        super().__post_init__()
+        if self.tracking.register:
+            raise ConfigError("tracking.register: studies discover logs no model to register; "
+                              "a studies run of the extended model does")
+
 
 @dataclass
 class ReportCommandConfig:
@@ -1217,6 +1257,41 @@ class ReportCommandConfig:
 
     def __post_init__(self):
         self.verbose = _flag("verbose", self.verbose)
+
+
+@dataclass
+class SimulateCommandConfig:
+    """``studies simulate`` (``conf/simulate.yaml``).
+
+    Attributes
+    ----------
+    verbose : bool
+        Show tracebacks instead of one-line errors.
+    model_uri : str or None
+        The model to simulate: ``runs:/<run id>/model`` (logged by ``studies
+        run``), ``models:/<name>/<version>`` (registered with
+        ``tracking.register``) or a local MLflow model folder; None: the
+        published model of ``vessel`` (its Abkowitz coefficients, or its MMG
+        model when it has none).
+    tracking : TrackingStore
+        The store the URI is looked up in (``tracking.uri``).
+    vessel, manoeuvre
+        The vessel of the published model (without ``model_uri``), and the
+        manoeuvre to simulate (``manoeuvre.duration=`` and
+        ``manoeuvre.dt=`` [s] replace its own).
+    """
+
+    verbose: bool = False
+    model_uri: Optional[str] = None
+    tracking: TrackingStore = field(default_factory=TrackingStore)
+    vessel: VesselConfig = MISSING
+    manoeuvre: ManoeuvreConfig = MISSING
+
+    def __post_init__(self):
+        self.verbose = _flag("verbose", self.verbose)
+        if self.manoeuvre.kind == "decay":
+            raise ConfigError(f"manoeuvre: '{self.manoeuvre.name}' is a roll decay; studies simulate "
+                              "simulates manoeuvring models (zig-zag, turning, course, rudder)")
 
 
 # ------------------------------------------------------------------ Hydra
@@ -1243,6 +1318,7 @@ SCHEMAS = (
     (None, "run_schema", RunConfig),
     (None, "discover_schema", lambda: _extension(DiscoverConfig, RunConfig)),
     (None, "report_schema", ReportCommandConfig),
+    (None, "simulate_schema", SimulateCommandConfig),
     ("vessel", "vessel_schema", VesselConfig),
     ("model", "model_schema", ModelConfig),
     ("model", "simplified_schema", SimplifiedModelConfig),
@@ -1338,8 +1414,8 @@ def explain_validation_error(error: BaseException) -> Optional[ConfigError]:
 def compose_settings(config_name: str = "config", overrides=()) -> "RunConfig":
     """The typed settings of a command, composed as the command line would.
 
-    ``config_name`` is ``config`` (``studies run``), ``discover`` or
-    ``report``; ``overrides`` are Hydra overrides (``["wind.speed=12",
+    ``config_name`` is ``config`` (``studies run``), ``discover``,
+    ``report`` or ``simulate``; ``overrides`` are Hydra overrides (``["wind.speed=12",
     "method=svm"]``). For scripts and tests; works inside an initialised
     Hydra context or alone. Raises Hydra's composition errors, or
     :class:`ConfigError` from the dataclasses' checks.

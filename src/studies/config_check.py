@@ -305,7 +305,12 @@ def _check_report(cfg, root: Path) -> None:
     check_output_paths(_typed(cfg), root)
 
 
-CHECKS = {"config": _check_run, "discover": _check_run, "report": _check_report}
+def _check_simulate(cfg, root: Path) -> None:
+    _typed(cfg)
+
+
+CHECKS = {"config": _check_run, "discover": _check_run, "report": _check_report,
+          "simulate": _check_simulate}
 
 
 def check_arguments(config_name: str, args: list[str], root: Path, command: str = "run"):

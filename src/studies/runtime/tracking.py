@@ -1,4 +1,5 @@
-"""MLflow tracking: the only module of `studies` that imports mlflow.
+"""MLflow tracking: with :mod:`~studies.runtime.model_logging` (the run's
+MLflow model), the only module of `studies` that imports mlflow.
 
 Default store (DESIGN.md): ``mlruns/mlflow.db`` (sqlite) with artifacts under
 ``mlruns/artifacts/`` at the project root (the directory `studies` is run
@@ -40,7 +41,7 @@ from .. import interrupt
 from ..errors import ConfigError
 
 __all__ = ["start_sweep", "end_sweep", "experiment_of", "sweep_tags", "select_sweep", "file_digest", "source_tags", "default_uri", "resolve_uri", "check_store", "configure", "start_run", "RunLogger", "store_lock", "flatten",
-           "StoredRun", "read_experiment", "find_finished_run", "close_if_running"]
+           "StoredRun", "read_experiment", "find_finished_run", "close_if_running", "load_model"]
 
 os.environ.setdefault("MLFLOW_DISABLE_TELEMETRY", "true")
 
@@ -372,6 +373,18 @@ class RunLogger:
             with store_lock(self.uri):
                 self.client.log_inputs(self.run_id, datasets=datasets)
 
+    def log_model(self, path: str | os.PathLike, register: str | None = None,
+                  metrics: dict | None = None) -> dict:
+        """Log the run's ``identified_model.json`` (``path``) as its MLflow model
+        ``model`` with a few summary ``metrics`` and, with ``register``,
+        register it under that name
+        (:func:`studies.runtime.model_logging.log_identified_model`; call it
+        before :meth:`log_outputs`); returns ``{"model_id", "uri", "registered"}``."""
+        from .model_logging import log_identified_model
+
+        with store_lock(self.uri):
+            return log_identified_model(self.client, self.run_id, path, register, metrics)
+
     def set_tags(self, tags: dict) -> None:
         """Add tags to the run (e.g. the cause a discovery named)."""
         with store_lock(self.uri):
@@ -538,6 +551,18 @@ def read_experiment(uri: str | None, root, name: str | None = None):
             name = next(e.name for e in chosen if e.experiment_id == exp_id)
             runs = [r for r in runs if r.info.experiment_id == exp_id]
         return name, [StoredRun(r, client, ui_address(uri)) for r in runs]
+
+
+def load_model(model_uri: str, uri: str | None, root):
+    """The identified model an MLflow model URI names in the store
+    (``runs:/<run id>/model``, ``models:/<name>/<version>``), as
+    :class:`~studies.workflows.identified_model.IdentifiedModel`; a URI that
+    names nothing loadable is a :class:`~studies.errors.ConfigError`."""
+    from .model_logging import load_identified_model
+
+    uri = configure(uri, root)
+    with store_lock(uri):
+        return load_identified_model(model_uri)
 
 
 def find_finished_run(uri: str | None, root, experiment: str, config_hash: str) -> str | None:

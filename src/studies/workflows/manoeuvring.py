@@ -45,6 +45,7 @@ from ..analysis.metrics import error_metrics
 from ..data import load_manoeuvres
 from ..data.derivatives import STATE_COLUMNS, noise_ratio
 from ..errors import ConfigError
+from ..environment.conditions import Environment
 from ..environment.noise import add_measurement_noise, disturbance_forces, record_wind
 from ..identify import build_problems, make_identifier
 from ..identify.discrepancy import Discrepancy
@@ -59,11 +60,13 @@ from ..simulate import replay, simulate, zigzag
 from ..vessels import get_vessel
 from ..vessels.base import Vessel
 from . import measured as _measured
+from .identified_model import IDENTIFIED_MODEL_FILE, IdentifiedModel
 from .settings import Settings, named_manoeuvre, read_settings
 from .simplify import ensure_definition
 from .study import Recorder
 
-__all__ = ["Study", "prepare", "execute", "simulate_training", "coefficient_table", "run_name"]
+__all__ = ["Study", "prepare", "execute", "simulate_training", "coefficient_table", "run_name",
+           "identified_model", "compare_simulated", "validation_manoeuvre"]
 
 MIN_SAMPLES_PER_COEFFICIENT = 3
 
@@ -111,6 +114,23 @@ class Study:
     def simulate_manoeuvre(self, params: dict, manoeuvre, initial: dict | None = None) -> pd.DataFrame:
         """A manoeuvre simulated by the model (calm water) from ``initial``."""
         return simulate(self.model, params, self.vessel, manoeuvre, initial=initial)
+
+
+def identified_model(study: Study, params: dict, modules=None,
+                     environment: Environment | None = None) -> IdentifiedModel:
+    """What the run identified, with what its simulations need (the run's
+    ``identified_model.json`` and MLflow model): the model, ``params``, the
+    vessel, the validation environment (``environment`` replaces it), the
+    MMG ``modules`` and the validation manoeuvres."""
+    simulated = not study.validation_records and bool(study.vessel.coefficients)
+    return IdentifiedModel(
+        study.model, dict(params), study.vessel,
+        study.settings.validation_environment if environment is None else environment, modules,
+        tuple(study.settings.validate_manoeuvres) if simulated else (),
+        float(study.cfg.validate.duration) if study.cfg.validate.duration else None,
+        {"method": study.method, "vessel": str(study.cfg.vessel.name), "model": study.model.name,
+         "data": "measured" if study.settings.data_paths else "simulated",
+         "training": [str(r.attrs.get("name", "record")) for r in study.records]})
 
 
 def simulate_training(vessel: Vessel, model: ManoeuvringModel, truth: dict, manoeuvre,
@@ -277,29 +297,60 @@ def _validate_simulated(study: Study, params: dict, out_dir: Path) -> dict:
         return metrics
     full, ref_values = reference_model(study.vessel)
     env = study.settings.validation_environment
-    duration = study.cfg.validate.duration
     for name in study.settings.validate_manoeuvres:
-        man = named_manoeuvre(name, {"duration": float(duration)} if duration else None)
+        man = validation_manoeuvre(name, study.cfg.validate.duration)
         ref = simulate(full, ref_values, study.vessel, man, env)
         pred = simulate(study.model, params, study.vessel, man, env)
-        metrics.update(error_metrics(pred, ref, name))
-        heading = np.deg2rad(man.heading) if man.kind == "zigzag" else None
-        kind = man.kind if man.kind in ("zigzag", "turning") else None
-        metrics.update(_characteristic_errors(pred, ref, name, kind, heading))
-        plot_overlay({"reference": ref, "identified": pred}, out_dir / f"validation_{name}.png",
-                     f"{name}: identified ({study.method}) vs reference model")
+        metrics.update(compare_simulated(name, man, pred, ref, out_dir,
+                                         f"{name}: identified ({study.method}) vs reference model"))
+    return metrics
+
+
+def validation_manoeuvre(name: str, duration: float | None = None):
+    """The named validation manoeuvre, ``duration`` [s] (``validate.duration``) replacing its own."""
+    return named_manoeuvre(name, {"duration": float(duration)} if duration else None)
+
+
+def compare_simulated(name: str, manoeuvre, pred: pd.DataFrame, ref: pd.DataFrame | None,
+                      out_dir: Path, title: str, table: bool = True) -> dict:
+    """One simulated validation manoeuvre: metrics and files of a run.
+
+    ``pred`` is the identified model's simulation of ``manoeuvre`` and
+    ``ref`` the reference model's (None when there is none). Returns the
+    flat metrics ``<name>/...``: errors against the reference (fitness,
+    ``rmse_u|v|r``, ``mae_*``, ``diverged``) and the characteristics
+    (``advance_m``, ``tactical_diameter_m``, ``overshoot1_deg``, ...) with
+    the reference's (``..._reference``) and the errors (``..._error_pct``,
+    ``..._error_deg``); without a reference, ``diverged`` and the
+    characteristics alone. Writes ``validation_<name>.png`` (trajectory and
+    time series) and, with ``table``, ``validation_<name>.csv`` (the
+    overlay's time series, reference beside prediction).
+    """
+    heading = np.deg2rad(manoeuvre.heading) if manoeuvre.kind == "zigzag" else None
+    kind = manoeuvre.kind if manoeuvre.kind in ("zigzag", "turning") else None
+    if ref is None:
+        diverged = "diverged_at" in pred.attrs or not np.all(np.isfinite(pred[["u", "v", "r"]].to_numpy()))
+        metrics = {f"{name}/diverged": float(diverged)}
+        metrics.update(_characteristic_errors(pred, None, name, kind, heading))
+        plot_overlay({"identified": pred}, out_dir / f"validation_{name}.png", title)
+        return metrics
+    metrics = error_metrics(pred, ref, name)
+    metrics.update(_characteristic_errors(pred, ref, name, kind, heading))
+    plot_overlay({"reference": ref, "identified": pred}, out_dir / f"validation_{name}.png", title)
+    if table:
         write_overlay_table(ref, pred, out_dir / f"validation_{name}.csv")
     return metrics
 
 
 def _characteristic_errors(pred, ref, name: str, kind, heading, measured: bool = False) -> dict:
     """Characteristics of ``pred``, those of ``ref`` (``..._reference``; also
-    ``..._measured`` when ``ref`` is a measurement) and the errors."""
+    ``..._measured`` when ``ref`` is a measurement) and the errors (``ref``
+    None: those of ``pred`` alone)."""
     out = {}
     if "diverged_at" in pred.attrs:
         return out
     c_pred = characteristics(pred, kind, heading)
-    c_ref = characteristics(ref, kind, heading)
+    c_ref = characteristics(ref, kind, heading) if ref is not None else {}
     for key, value in c_pred.items():
         if key in ("execute_heading_deg", "turn_direction"):
             continue
@@ -689,6 +740,7 @@ def execute(study: Study, out_dir: Path) -> dict:
     params = {name: result.params[name] for name in study.model.names}
     table = coefficient_table(study.model, params, result.lower, result.upper, study.truth)
     table.to_csv(out_dir / "coefficients.csv", index=False)
+    identified_model(study, params).write(out_dir / IDENTIFIED_MODEL_FILE)
     for filename, writer in result.writers.items():
         writer(out_dir / filename)
     write_metric_history(result.history, out_dir / METRIC_HISTORY)

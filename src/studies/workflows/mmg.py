@@ -47,9 +47,9 @@ import numpy as np
 import pandas as pd
 
 from ..analysis.captive import captive_comparison, plot_captive
-from ..analysis.metrics import error_metrics
 from ..config import MethodConfig, MMGModelConfig, RunConfig
 from ..data.captive import read_captive
+from ..environment.conditions import Environment
 from ..environment.noise import add_measurement_noise
 from ..errors import ConfigError, DataError
 from ..identify import make_identifier
@@ -57,13 +57,13 @@ from ..identify.ls import LeastSquares
 from ..identify.mmg_output_error import MMGObjective, refine_modules
 from ..identify.mmg_regression import mmg_problems
 from ..models.registry import get_model
-from ..report.figures import plot_overlay
 from ..simulate.mmg import replay_mmg, simulate_mmg
 from ..vessels import get_mmg_vessel, get_vessel, mmg_vessel_at_speed
 from ..vessels.kvlcc2_mmg import MMGVessel
 from . import manoeuvring as _manoeuvring
 from . import measured as _measured
-from .settings import named_manoeuvre, read_settings
+from .identified_model import IDENTIFIED_MODEL_FILE
+from .settings import read_settings
 
 __all__ = ["MMGRun", "is_mmg", "prepare_mmg", "execute_mmg", "choose_scale"]
 
@@ -244,17 +244,13 @@ def _validate_simulated(run: MMGRun, params: dict, out_dir: Path) -> dict:
     """Validation manoeuvres simulated with the identified and the published coefficients."""
     metrics = {}
     reference = {name: run.vessel.coefficients[name] for name in run.model.names}
-    duration = run.cfg.validate.duration
     for name in run.settings.validate_manoeuvres:
-        man = named_manoeuvre(name, {"duration": float(duration)} if duration else None)
+        man = _manoeuvring.validation_manoeuvre(name, run.cfg.validate.duration)
         ref = simulate_mmg(run.model, reference, run.vessel, man)
         pred = simulate_mmg(run.model, params, run.vessel, man, run.modules)
-        metrics.update(error_metrics(pred, ref, name))
-        heading = np.deg2rad(man.heading) if man.kind == "zigzag" else None
-        kind = man.kind if man.kind in ("zigzag", "turning") else None
-        metrics.update(_manoeuvring._characteristic_errors(pred, ref, name, kind, heading))
-        plot_overlay({"reference": ref, "identified": pred}, out_dir / f"validation_{name}.png",
-                     f"{name}: identified MMG ({run.method}) vs published MMG")
+        metrics.update(_manoeuvring.compare_simulated(
+            name, man, pred, ref, out_dir, f"{name}: identified MMG ({run.method}) vs published MMG",
+            table=False))
     return metrics
 
 
@@ -354,6 +350,7 @@ def execute_mmg(run: MMGRun, out_dir: Path) -> dict:
     table = _manoeuvring.coefficient_table(run.model, params, result.lower, result.upper, run.truth)
     table.to_csv(out_dir / "coefficients.csv", index=False)
     _factor_table(run, modules).to_csv(out_dir / "interaction_factors.csv", index=False)
+    _manoeuvring.identified_model(run, params, modules, Environment()).write(out_dir / IDENTIFIED_MODEL_FILE)
     (out_dir / "mmg.md").write_text(_scale_note(run))
     for filename, writer in result.writers.items():
         writer(out_dir / filename)
