@@ -44,6 +44,7 @@ from ..identify.regression import prime_states
 from ..simulate.simulator import ReplayPlan
 from .fitting import (CauseFit, Context, integrated_time, sample_intervals, smoothed,
                       smoothing_window)
+from .kinematics import coloured_velocity_noise, kinematic_noise_levels
 
 __all__ = ["Window", "training_windows", "noise_levels", "relative_noise", "refinement_setting",
            "needs_refinement", "refine", "output_error_scores", "score_terms", "refined_posterior"]
@@ -76,7 +77,14 @@ def _smooth(x: np.ndarray, n: int) -> np.ndarray:
 def noise_levels(ctx: Context, records) -> np.ndarray:
     """Noise standard deviation per channel of :data:`CHANNELS`: the record
     minus its smoothing (window by the discrepancy principle), pooled over the
-    records, floored at 1e-4 of the natural unit (L, 1 rad, U0, U0/L)."""
+    records, floored at 1e-4 of the natural unit (L, 1 rad, U0, U0/L).
+
+    Noise correlated over seconds looks like signal to the smoothing; when
+    the velocities disagree with the records' own track and heading by more
+    than white noise explains (:func:`.kinematics.coloured_velocity_noise`),
+    the levels of ``u, v, r`` are their RMS difference from the velocities
+    derived from the track (:func:`.kinematics.kinematic_noise_levels`), if
+    larger."""
     L, U = float(ctx.vessel.length), float(ctx.vessel.speed)
     floors = np.array([1e-4 * L, 1e-4 * L, 1e-4, 1e-4 * U, 1e-4 * U, 1e-4 * U / L])
     sums, count = np.zeros(len(CHANNELS)), 0
@@ -88,7 +96,10 @@ def noise_levels(ctx: Context, records) -> np.ndarray:
                 x = np.unwrap(x)
             sums[k] += float(np.sum((x - _smooth(x, n)) ** 2))
         count += len(rec)
-    return np.maximum(np.sqrt(sums / max(count, 1)), floors)
+    sigma = np.sqrt(sums / max(count, 1))
+    if coloured_velocity_noise(records):
+        sigma[3:6] = np.maximum(sigma[3:6], kinematic_noise_levels(records))
+    return np.maximum(sigma, floors)
 
 
 def relative_noise(ctx: Context, records, sigma: np.ndarray | None = None) -> np.ndarray:

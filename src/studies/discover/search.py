@@ -20,7 +20,8 @@ from .output_error import (needs_refinement, noise_levels, output_error_scores, 
                            score_terms, training_windows)
 
 __all__ = ["select_missing_terms", "forward_select", "terms_by_output_error", "breaks_down", "not_named",
-           "held_out_evidence", "named_on_held_out", "search"]
+           "held_out_evidence", "named_on_held_out", "second_candidates", "second_cause",
+           "second_on_held_out_note", "search"]
 
 log = logging.getLogger(__name__)
 
@@ -167,13 +168,97 @@ def terms_by_output_error(ctx: Context, baseline: CauseFit, windows, sigma, max_
     return chosen, best, candidates
 
 
-def _refined_pair(ctx: Context, first: CauseFit, second: CauseFit, windows, sigma) -> CauseFit:
-    """Two refined causes at once, refined again from their joint solution."""
-    theta = np.concatenate([first.theta, second.theta])
-    combo = fit_cause(ctx, Combined(first.cause, second.cause, starts=[theta]))
-    combo = replace(combo, theta=theta, params={**combo.params, **second.params, **first.params},
-                    setup=combo.cause.setup(ctx, theta))
-    return refine(ctx, combo, windows, sigma, states=first.refined["states"])
+def _pair_order(best: CauseFit, other: CauseFit) -> tuple[CauseFit, CauseFit]:
+    """``(first, second)`` of a pair as :class:`Combined` takes them: a missing
+    term always second (it adds its terms to the first cause's model)."""
+    return (other, best) if isinstance(best.cause, MissingTerm) else (best, other)
+
+
+def _pair_start(ctx: Context, best: CauseFit, other: CauseFit):
+    """The pair of ``best`` and ``other`` with its starting point: ``best``'s
+    solution with ``other`` at no effect (nonlinear parameters zero, its own
+    coefficients zero), so the pair starts where ``best`` ends and cannot fit
+    the training records worse. Returns ``(cause, theta, params)``."""
+    first, second = _pair_order(best, other)
+    parts = [f.theta if f is best else np.zeros(len(f.theta)) for f in (first, second)]
+    theta = np.concatenate(parts)
+    cause = Combined(first.cause, second.cause, starts=[theta])
+    own = {name: 0.0 for name in other.cause.params if name not in best.params}
+    return cause, theta, {**best.params, **own}
+
+
+def _pair(ctx: Context, best: CauseFit, other: CauseFit, windows, sigma) -> CauseFit:
+    """``best`` and ``other`` at once, from :func:`_pair_start`: refined by output
+    error when ``windows`` are given (from ``best``'s window states), else
+    fitted by regression from that start."""
+    cause, theta, params = _pair_start(ctx, best, other)
+    if windows is None:
+        # by regression the coefficients are re-solved: the two causes' own solutions are a second start
+        first, second = _pair_order(best, other)
+        return fit_cause(ctx, Combined(first.cause, second.cause,
+                                       starts=[theta, np.concatenate([first.theta, second.theta])]))
+    combo = fit_cause(ctx, cause)
+    combo = replace(combo, theta=theta, params={**combo.params, **params}, setup=cause.setup(ctx, theta))
+    return refine(ctx, combo, windows, sigma, states=best.refined["states"])
+
+
+#: single causes tried as a second cause on top of the first, at most
+SECOND_CANDIDATES = 6
+
+#: a second cause judged on held-out records must lower the first's windowed
+#: validation error by this fraction at least
+SECOND_HELD_OUT_GAIN = 0.25
+
+
+def second_candidates(fits: list, baseline: CauseFit, best: CauseFit) -> list:
+    """The causes tried on top of ``best``: those that alone explain the
+    training records clearly better than the baseline (score lower by
+    :data:`EVIDENCE`), at most :data:`SECOND_CANDIDATES`, best score first;
+    never ``best`` itself, a pair, or a cause with its own dynamics."""
+    if isinstance(best.cause, Combined) or best.cause.replaces_dynamics:
+        return []
+    others = [f for f in fits if f is not baseline and f.cause.id != best.cause.id
+              and not f.cause.replaces_dynamics and f.score < baseline.score - EVIDENCE]
+    return sorted(others, key=lambda f: f.score)[:SECOND_CANDIDATES]
+
+
+def second_held_out(pair: CauseFit, best: CauseFit) -> bool:
+    """The pair predicts the held-out records much better than ``best`` alone:
+    its windowed validation error lower by :data:`SECOND_HELD_OUT_GAIN`, in a
+    significant majority of windows (:func:`held_out_evidence`), losing none.
+    A second effect the training records alone cannot show (the baseline's
+    own asymmetric terms absorb a rudder offset on the training manoeuvres,
+    not on others) is named this way."""
+    if pair.undecidable or breaks_down(pair, best):
+        return False
+    _, _, p = held_out_evidence(pair, best)
+    return p < HELD_OUT_P and pair.validation_rmse < (1.0 - SECOND_HELD_OUT_GAIN) * best.validation_rmse
+
+
+def second_cause(pairs: list, best: CauseFit) -> CauseFit | None:
+    """The pair named as first plus second cause: among the pairs preferred
+    to ``best`` on the training score (:func:`_gains`) the lowest score;
+    failing those, among the pairs preferred on the held-out records
+    (:func:`second_held_out`) the lowest validation error; else None."""
+    by_score = [f for f in pairs if _gains(f, best)]
+    if by_score:
+        return min(by_score, key=lambda f: f.score)
+    held_out = [f for f in pairs if second_held_out(f, best)]
+    return min(held_out, key=lambda f: f.validation_rmse) if held_out else None
+
+
+def second_on_held_out_note(pair: CauseFit | None, best: CauseFit) -> str | None:
+    """The note that says a pair was named on the held-out records (None when
+    there is no pair or the training score alone names it)."""
+    if pair is None or _gains(pair, best):
+        return None
+    better, n, p = held_out_evidence(pair, best)
+    d = best.score - pair.score
+    train = f"score lower by only {d:.1f}" if d > 0 else f"score higher by {-d:.1f}"
+    return (f"second cause of {pair.cause.id} named on the held-out records: the pair predicts {better} of {n} "
+            f"validation windows better than {best.cause.id} alone ({pair.validation_rmse:.4g} against "
+            f"{best.validation_rmse:.4g} m, Wilcoxon signed-rank p = {p:.2g}); the training records alone "
+            f"do not show it ({train}; {EVIDENCE:g} needed)")
 
 
 def _validated(ctx: Context, fit: CauseFit) -> CauseFit:
@@ -361,29 +446,14 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
     out = {"baseline": baseline, "fits": fits, "best": best, "terms": terms, "candidates": candidates,
            "second": None, "output_error": output_error}
     if second and best is not baseline:
-        pairs = []
-        # second causes worth trying: the two that alone explain most (score clearly better than none)
-        others = sorted([f for f in fits if f is not baseline and f is not best], key=lambda f: f.score)[:2]
-        for other in others:
-            if other.score >= baseline.score - EVIDENCE:
-                continue
-            if isinstance(best.cause, Combined) or other.cause.id == best.cause.id:
-                continue
-            if best.cause.replaces_dynamics or other.cause.replaces_dynamics:
-                continue            # a pair on top of another model's dynamics is not built
-            first, second_ = (best, other) if not isinstance(best.cause, MissingTerm) else (other, best)
-            if output_error:
-                fit = _refined_pair(ctx, first, second_, windows, sigma)
-                output_error_scores([fit], scale)
-            else:
-                combo = Combined(first.cause, second_.cause,
-                                 starts=[np.concatenate([first.theta, second_.theta])])
-                fit = fit_cause(ctx, combo)
-            _validated(ctx, fit)
-            pairs.append(fit)
-        gaining = [f for f in pairs if _gains(f, best)]
-        out["pairs"] = pairs
-        out["second"] = min(gaining, key=lambda f: f.score) if gaining else None
+        out["pairs"] = [_validated(ctx, _pair(ctx, best, other, windows, sigma))
+                        for other in second_candidates(fits, baseline, best)]
+        if output_error:
+            output_error_scores(out["pairs"], scale)
+        for fit in out["pairs"]:
+            log.info("pair  %-30s score %.1f validation %.4g (%.1f s)", fit.cause.id, fit.score,
+                     fit.validation_rmse, fit.seconds)
+        out["second"] = second_cause(out["pairs"], best)
     if not intervals:
         out["posterior"] = {}
     elif best.refined is not None and best is not baseline:

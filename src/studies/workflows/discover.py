@@ -28,7 +28,8 @@ from ..discover.fitting import Context, regression_fit, training_error
 from ..discover.report import (indistinguishable, plot_predictions, plot_ranking, plot_residuals,
                                write_discovery, write_report)
 from ..discover.confidence import certainty
-from ..discover.search import EVIDENCE, breaks_down, held_out_evidence, named_on_held_out, not_named, search
+from ..discover.search import (EVIDENCE, breaks_down, held_out_evidence, named_on_held_out, not_named, search,
+                               second_on_held_out_note)
 from ..errors import ConfigError
 from ..identify.kalman import ekf_derivatives
 from ..vessels import get_vessel
@@ -250,7 +251,8 @@ def execute_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
         "fit": "output error" if result["output_error"] else "equation error",
         "candidate_terms": [t.name for t in result["candidates"]],
         "selected_terms": [t.name for t in result["terms"]],
-        "notes": study.notes + [note for note in [named_on_held_out(best, baseline)]
+        "notes": study.notes + [note for note in [named_on_held_out(best, baseline),
+                                                  second_on_held_out_note(result.get("second"), best)]
                                 + [not_named(f, baseline) for f in ranked if f is not best] if note],
     }
     discovery["indistinguishable_from"] = indistinguishable(discovery["ranking"], discovery["cause"])
