@@ -12,7 +12,7 @@ no quantisation, no rederived velocities), drawing nothing from ``rng``.
 Sensor-like scales: about 3 % of each velocity channel's largest
 excursion, 0.2 deg on the heading, 0.1 deg on the rudder and 0.1 m on the
 positions (a carrier-phase satellite fix or a model basin's optical
-tracking; the issue's sea trials name no position noise) at the reference
+tracking) at the reference
 level of 3 %. With ``s = level / 0.03`` the
 standard deviations are
 
