@@ -174,7 +174,7 @@ def _pair_order(best: CauseFit, other: CauseFit) -> tuple[CauseFit, CauseFit]:
     return (other, best) if isinstance(best.cause, MissingTerm) else (best, other)
 
 
-def _pair_start(ctx: Context, best: CauseFit, other: CauseFit):
+def _pair_start(best: CauseFit, other: CauseFit):
     """The pair of ``best`` and ``other`` with its starting point: ``best``'s
     solution with ``other`` at no effect (nonlinear parameters zero, its own
     coefficients zero), so the pair starts where ``best`` ends and cannot fit
@@ -191,7 +191,7 @@ def _pair(ctx: Context, best: CauseFit, other: CauseFit, windows, sigma) -> Caus
     """``best`` and ``other`` at once, from :func:`_pair_start`: refined by output
     error when ``windows`` are given (from ``best``'s window states), else
     fitted by regression from that start."""
-    cause, theta, params = _pair_start(ctx, best, other)
+    cause, theta, params = _pair_start(best, other)
     if windows is None:
         # by regression the coefficients are re-solved: the two causes' own solutions are a second start
         first, second = _pair_order(best, other)
@@ -247,14 +247,20 @@ def second_cause(pairs: list, best: CauseFit) -> CauseFit | None:
     return min(held_out, key=lambda f: f.validation_rmse) if held_out else None
 
 
+def _score_change(reference: CauseFit, fit: CauseFit, only: str = "") -> str:
+    """How ``fit``'s score compares with ``reference``'s, in words
+    (``only`` = ``"only "`` for a drop that falls short)."""
+    d = reference.score - fit.score
+    return f"score lower by {only}{d:.1f}" if d > 0 else f"score higher by {-d:.1f}"
+
+
 def second_on_held_out_note(pair: CauseFit | None, best: CauseFit) -> str | None:
     """The note that says a pair was named on the held-out records (None when
     there is no pair or the training score alone names it)."""
     if pair is None or _gains(pair, best):
         return None
     better, n, p = held_out_evidence(pair, best)
-    d = best.score - pair.score
-    train = f"score lower by only {d:.1f}" if d > 0 else f"score higher by {-d:.1f}"
+    train = _score_change(best, pair, "only ")
     return (f"second cause of {pair.cause.id} named on the held-out records: the pair predicts {better} of {n} "
             f"validation windows better than {best.cause.id} alone ({pair.validation_rmse:.4g} against "
             f"{best.validation_rmse:.4g} m, Wilcoxon signed-rank p = {p:.2g}); the training records alone "
@@ -304,8 +310,7 @@ def not_named(fit: CauseFit, reference: CauseFit, near_gain: float = 0.10) -> st
         return (f"{fit.cause.id} not named: it predicts {better} of {n} held-out windows better than the "
                 f"baseline ({v:.4g} against {b:.4g} m), not significantly (Wilcoxon signed-rank p = {p:.2g})")
     if not lost and v < (1.0 - near_gain) * b and fit.score >= reference.score - EVIDENCE:
-        d = reference.score - fit.score
-        evidence = f"score lower by only {d:.1f}" if d > 0 else f"score higher by {-d:.1f}"
+        evidence = _score_change(reference, fit, "only ")
         values = compact_parameters(fit.cause.parameters(fit.theta, fit.params))
         return (f"{fit.cause.id} ({values}) not named: it predicts the held-out records better ({v:.4g} against "
                 f"{b:.4g} m, {100 * (1 - v / b):.0f} % less) but the training records give too little "
@@ -365,8 +370,7 @@ def named_on_held_out(fit: CauseFit, reference: CauseFit) -> str | None:
     if not fit.cause.replaces_dynamics or fit is reference:
         return None
     better, n, p = held_out_evidence(fit, reference)
-    d = reference.score - fit.score
-    train = f"score lower by {d:.1f}" if d > 0 else f"score higher by {-d:.1f}"
+    train = _score_change(reference, fit)
     return (f"{fit.cause.id} is judged on the held-out records: it predicts {better} of {n} validation "
             f"windows better than the baseline (Wilcoxon signed-rank p = {p:.2g}); the training records alone "
             f"do not show it ({train}), their states lie where the baseline's polynomial fits well")
