@@ -14,9 +14,12 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 
+import socket
 import sqlite3
 import subprocess
 import sys
+import time
+import urllib.request
 from pathlib import Path
 
 import numpy as np
@@ -186,3 +189,38 @@ def _all_runs(root: Path) -> list[tuple]:
 
 def rng(seed=0):
     return np.random.default_rng(seed)
+
+
+def free_port() -> int:
+    """A TCP port free on 127.0.0.1 at the time of asking."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def wait_until_healthy(url: str, proc: subprocess.Popen, seconds: float) -> None:
+    """Wait until the MLflow server or UI of ``proc`` answers ``<url>/health``
+    (AssertionError when it does not within ``seconds`` or ``proc`` ends)."""
+    deadline = time.time() + seconds
+    while True:
+        try:
+            with urllib.request.urlopen(f"{url}/health", timeout=2) as answer:
+                if answer.status == 200:
+                    return
+        except OSError:
+            pass
+        if proc.poll() is not None or time.time() > deadline:
+            raise AssertionError(f"the MLflow server at {url} did not answer within {seconds:g} s")
+        time.sleep(0.5)
+
+
+@pytest.fixture(scope="module")
+def hydra():
+    """The package's Hydra configuration, initialised for the module's tests (``compose``)."""
+    from hydra import initialize_config_module
+    from hydra.core.global_hydra import GlobalHydra
+
+    GlobalHydra.instance().clear()
+    with initialize_config_module("studies.conf", version_base="1.3"):
+        yield
+    GlobalHydra.instance().clear()

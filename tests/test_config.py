@@ -11,9 +11,8 @@ from dataclasses import MISSING, fields, is_dataclass
 from pathlib import Path
 
 import pytest
-from hydra import compose, initialize_config_module
+from hydra import compose
 from hydra.core.config_store import ConfigStore
-from hydra.core.global_hydra import GlobalHydra
 from hydra.core.override_parser.overrides_parser import OverridesParser
 from omegaconf import OmegaConf, open_dict
 
@@ -38,14 +37,6 @@ def _options(group: str) -> list:
 
 PRESETS = _options("experiment")
 CASES = [(group, option) for group in GROUPS for option in _options(group)]
-
-
-@pytest.fixture(scope="module")
-def hydra():
-    GlobalHydra.instance().clear()
-    with initialize_config_module("studies.conf", version_base="1.3"):
-        yield
-    GlobalHydra.instance().clear()
 
 
 def _typed(name: str, overrides=()):

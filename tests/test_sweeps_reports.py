@@ -2,7 +2,6 @@
 
 import json
 import re
-import socket
 import subprocess
 import sys
 import time
@@ -11,7 +10,7 @@ import urllib.request
 import pandas as pd
 import pytest
 
-from conftest import mlflow_runs, run_studies
+from conftest import free_port, mlflow_runs, run_studies, wait_until_healthy
 
 SMALL = ["manoeuvre.duration=300", "validate.manoeuvres=[zigzag_10_10]", "validate.duration=200"]
 
@@ -79,30 +78,15 @@ def test_report_tables_hold_the_logged_numbers(swept_store):
     assert float(row.strip("|").split("|")[1]) == pytest.approx(metrics["zigzag_10_10/fitness"], rel=1e-3)
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @pytest.mark.slow
 def test_ui_serves_the_store_on_loopback(swept_store):
-    port = _free_port()
+    port = free_port()
     proc = subprocess.Popen([sys.executable, "-m", "studies", "ui", f"port={port}"], cwd=swept_store,
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
         first = proc.stdout.readline()
         assert f"http://127.0.0.1:{port}" in first
-        deadline = time.time() + 90
-        while True:
-            try:
-                with urllib.request.urlopen(f"http://127.0.0.1:{port}/health", timeout=2) as r:
-                    if r.status == 200:
-                        break
-            except OSError:
-                if time.time() > deadline or proc.poll() is not None:
-                    raise AssertionError("MLflow UI did not answer")
-                time.sleep(1)
+        wait_until_healthy(f"http://127.0.0.1:{port}", proc, 90)
         req = urllib.request.Request(
             f"http://127.0.0.1:{port}/api/2.0/mlflow/experiments/get-by-name?experiment_name=small")
         with urllib.request.urlopen(req, timeout=10) as r:

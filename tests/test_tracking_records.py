@@ -11,8 +11,7 @@ from types import SimpleNamespace
 import numpy as np
 import pandas as pd
 import pytest
-from hydra import compose, initialize_config_module
-from hydra.core.global_hydra import GlobalHydra
+from hydra import compose
 from omegaconf import OmegaConf
 
 from studies.identify import GeneticRefinement, LeastSquares, build_problems
@@ -25,14 +24,6 @@ from studies.workflows.kinds import logged_params
 
 
 # ------------------------------------------------------------------ params of the run's kind
-
-@pytest.fixture(scope="module")
-def hydra():
-    GlobalHydra.instance().clear()
-    with initialize_config_module("studies.conf", version_base="1.3"):
-        yield
-    GlobalHydra.instance().clear()
-
 
 def _logged(name: str, *overrides: str) -> dict:
     """The flattened params a job of ``studies <name> overrides`` logs."""

@@ -17,39 +17,17 @@ import os
 import pwd
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
 import time
-import urllib.request
 from pathlib import Path
 
 import pytest
 
-from conftest import run_studies
+from conftest import free_port, run_studies, wait_until_healthy
 
 SHORT = ["manoeuvre.duration=300", "validate.manoeuvres=[zigzag_10_10]", "validate.duration=100"]
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def _wait_until_healthy(url: str, proc: subprocess.Popen, seconds: float) -> None:
-    deadline = time.time() + seconds
-    while True:
-        try:
-            with urllib.request.urlopen(f"{url}/health", timeout=2) as answer:
-                if answer.status == 200:
-                    return
-        except OSError:
-            pass
-        if proc.poll() is not None or time.time() > deadline:
-            raise AssertionError(f"the MLflow server at {url} did not answer within {seconds:g} s")
-        time.sleep(0.5)
 
 
 def _group_alive(pgid: int) -> bool:
@@ -77,7 +55,7 @@ def _stop_group(proc: subprocess.Popen) -> None:
 def server(tmp_path_factory):
     """``mlflow server`` on 127.0.0.1 with a sqlite database and proxied artifacts."""
     place = tmp_path_factory.mktemp("server")
-    port = _free_port()
+    port = free_port()
     url = f"http://127.0.0.1:{port}"
     cmd = [sys.executable, "-m", "mlflow", "server", "--host", "127.0.0.1", "--port", str(port),
            "--workers", "1", "--backend-store-uri", f"sqlite:///{place / 'mlflow.db'}",
@@ -87,7 +65,7 @@ def server(tmp_path_factory):
     proc = subprocess.Popen(cmd, cwd=place, env=env, stdout=log, stderr=subprocess.STDOUT,
                             start_new_session=True)
     try:
-        _wait_until_healthy(url, proc, 120)
+        wait_until_healthy(url, proc, 120)
         yield url
     finally:
         _stop_group(proc)
@@ -198,7 +176,7 @@ def postgres():
     # not under pytest's tmp_path: the cluster's account must be able to reach it
     place = Path(tempfile.mkdtemp(prefix="studies-pg-"))
     shutil.chown(place, user)
-    port = _free_port()
+    port = free_port()
     as_user = {"user": user} if os.geteuid() == 0 else {}
 
     def pg(*args):
