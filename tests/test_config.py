@@ -172,7 +172,7 @@ def test_impossible_values_are_refused_with_the_key(hydra, command, overrides, t
     ("wind.speed=fast", "wind.speed must be a number, got 'fast'"),
     ("resume=perhaps", "resume must be true or false, got 'perhaps'"),
     ("seed=1.5", "seed must be an integer, got 1.5"),
-    ("wind=3", "wind: is a group of settings (speed, direction)"),
+    ("wind=3", "wind: is a group of settings (speed, direction, convention)"),
 ])
 def test_wrong_types_are_refused_while_composing(hydra, override, text):
     with pytest.raises(Exception) as info:
@@ -215,7 +215,7 @@ def test_register_is_idempotent_and_every_yaml_names_a_stored_schema():
     for group, name in stored:
         assert store.load(f"{group}/{name}.yaml" if group else f"{name}.yaml") is not None
     for path in CONF.rglob("*.yaml"):
-        if path.parent.name == "experiment":
+        if path.parent.name in ("experiment", "conventions"):
             continue        # presets (# @package _global_) change values only
         defaults = [d for d in OmegaConf.load(path).get("defaults", [])]
         group = None if path.parent == CONF else path.parent.name

@@ -72,6 +72,11 @@ SINDY_LIBRARIES = ("model", "extended")
 BAYES_MOVES = ("de", "stretch")
 #: ``method.discrepancy`` of the Bayesian regression (:mod:`studies.identify.discrepancy`)
 BAYES_DISCREPANCIES = ("none", "process_noise")
+#: ``wind.convention``: the relative wind and moment of the Blendermann loads
+#: (:class:`studies.vessels.base.WindParticulars`)
+WIND_CONVENTIONS = ("downwind", "zhu2021")
+#: ``objective.simulation``: how a trajectory objective simulates a training record
+OBJECTIVE_SIMULATIONS = ("replay", "closed_loop")
 
 
 # ------------------------------------------------------------------ value checks
@@ -166,14 +171,45 @@ class Wind:
         True wind speed V_w [m/s], in [0, 100].
     direction : float
         Direction the wind comes from [deg], 0 = north; any finite value.
+    convention : str
+        How the wind loads form the relative wind (:data:`WIND_CONVENTIONS`):
+        ``downwind`` (a wind pushes the ship downwind) or ``zhu2021`` (the
+        thesis' eq. 3.17 as printed and coded, which mirrors the side force;
+        for reproducing its tables). Used in the simulation of the training
+        and validation manoeuvres and in the identification alike.
     """
 
     speed: float = 0.0
     direction: float = 45.0
+    convention: str = "downwind"
 
     def __post_init__(self):
         self.speed = _number("wind.speed", self.speed, 0.0, 100.0)
         self.direction = _number("wind.direction", self.direction)
+        self.convention = _choice("wind.convention", self.convention, WIND_CONVENTIONS)
+
+
+@dataclass
+class Objective:
+    """How the trajectory objective simulates the training records (``objective``).
+
+    The objective is thesis eq. 3.43 (the GA's fitness of ``method=ls_ga|svm_ga``,
+    and the trajectory posterior of ``method=bayes``).
+
+    Attributes
+    ----------
+    simulation : str
+        ``replay`` (:data:`OBJECTIVE_SIMULATIONS`): each record's own rudder
+        replayed from its first state; ``closed_loop``: each record's zig-zag
+        steered again by the model, the rudder reversed when the simulated
+        heading reaches the execute angle (the thesis' GA code, its appendix
+        A.4); zig-zag records only.
+    """
+
+    simulation: str = "replay"
+
+    def __post_init__(self):
+        self.simulation = _choice("objective.simulation", self.simulation, OBJECTIVE_SIMULATIONS)
 
 
 @dataclass
@@ -522,6 +558,11 @@ class ReportOptions:
         Sweep id (tag ``sweep_id``) whose runs are reported; None: the
         experiment's latest sweep (all its runs when it has no sweep),
         ``all``: every run of the experiment.
+    compare : str or None
+        A paper (``thesis``, ...; :mod:`studies.papers`): instead of one
+        experiment's page, the reproduction report of that paper, its
+        published tables beside the runs of its presets
+        (``<dir>/reproduce_<paper>/``).
     """
 
     dir: str = "reports"
@@ -529,6 +570,7 @@ class ReportOptions:
     series: str = "method.name"
     experiment: Optional[str] = None
     sweep: Optional[str] = None
+    compare: Optional[str] = None
 
 
 @dataclass
@@ -1128,7 +1170,8 @@ class RunConfig:
         MLflow run name; None: built from method/manoeuvre/wind.
     preset : str or None
         Set by experiment presets.
-    wind, current, noise, disturbance, train, data, identify, kalman, validate, simplify, report, tracking, simulation
+    wind, current, noise, disturbance, objective, train, data, identify, kalman, validate, simplify, report,
+    tracking, simulation
         The blocks of settings (see their classes).
     vessel, model, method, manoeuvre
         The chosen option of each config group.
@@ -1143,6 +1186,7 @@ class RunConfig:
     current: Current = field(default_factory=Current)
     noise: Noise = field(default_factory=Noise)
     disturbance: Disturbance = field(default_factory=Disturbance)
+    objective: Objective = field(default_factory=Objective)
     train: Train = field(default_factory=Train)
     data: Data = field(default_factory=Data)
     identify: Identify = field(default_factory=Identify)

@@ -43,7 +43,7 @@ import numpy as np
 from ..data.io import read_table
 from ..errors import ConfigError, DataError
 
-__all__ = ["Manoeuvre", "MANOEUVRE_KINDS", "zigzag", "turning"]
+__all__ = ["Manoeuvre", "MANOEUVRE_KINDS", "zigzag", "turning", "zigzag_of_record"]
 
 MANOEUVRE_KINDS = ("zigzag", "turning", "course", "rudder")
 
@@ -197,3 +197,56 @@ def turning(amplitude: float = 35.0, pullout: float = 540.0, duration: float = 9
     """Turning circle with pull-out after ``pullout`` deg of heading change."""
     return Manoeuvre(f"turning_{amplitude:g}", "turning", duration, dt,
                      amplitude=amplitude, heading=pullout)
+
+
+def zigzag_of_record(record) -> Manoeuvre | None:
+    """The zig-zag a record shows, as the manoeuvre that steers it again.
+
+    Read from the record alone (nothing about how it was made): the rudder
+    amplitude is half the rudder's peak-to-peak angle to the degree, the
+    execute heading the heading change [deg, to the degree] from the first
+    sample at the rudder's first reversal, the first deflection's sign that
+    of the first rudder departure beyond half the amplitude; the duration and
+    sampling are the record's. A closed-loop simulation of it reverses the
+    rudder when the simulated heading has changed by the execute heading
+    from the initial one, as an autopilot or helmsman does.
+
+    Parameters
+    ----------
+    record : DataFrame
+        Data contract (``t`` [s], ``psi`` [rad], ``delta`` [rad]).
+
+    Returns
+    -------
+    Manoeuvre or None
+        None when the rudder does not reverse at least twice between
+        deflections of similar size (not a zig-zag).
+    """
+    t = record["t"].to_numpy(float)
+    psi = record["psi"].to_numpy(float)
+    delta = record["delta"].to_numpy(float)
+    amplitude = float(np.round(np.rad2deg(0.5 * (delta.max() - delta.min()))))
+    if amplitude < 1.0 or len(t) < 3:
+        return None
+    half = 0.5 * np.deg2rad(amplitude)
+    side = np.where(delta > half, 1, np.where(delta < -half, -1, 0))
+    deflected = np.flatnonzero(side != 0)
+    if len(deflected) == 0:
+        return None
+    sides = side[deflected]
+    reversals = deflected[1:][np.diff(sides) != 0]
+    if len(reversals) < 2:
+        return None
+    first = int(sides[0])
+    # the rudder turns back from its first deflection when the heading reaches the execute
+    # heading: take the heading where the first deflection peaks (its last peak sample)
+    segment = np.arange(deflected[0], reversals[0])
+    deflection = first * delta[segment]
+    peak = segment[np.flatnonzero(deflection >= deflection.max() - 1e-9)[-1]]
+    heading = float(np.round(np.rad2deg(abs(psi[peak] - psi[0]))))
+    if heading < 1.0:
+        return None
+    duration = float(t[-1] - t[0])
+    dt = float(np.round(np.median(np.diff(t)), 9))
+    return Manoeuvre(str(record.attrs.get("name", "zigzag")), "zigzag", duration, dt,
+                     amplitude=amplitude, heading=heading, first_sign=first)

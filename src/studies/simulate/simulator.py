@@ -160,15 +160,17 @@ def simulate(model: ManoeuvringModel, values: dict, vessel: Vessel, manoeuvre: M
 
 def simulate_many(model: ManoeuvringModel, vectors: np.ndarray, vessel: Vessel,
                   manoeuvre: Manoeuvre, environment: Environment | None = None,
-                  external: np.ndarray | None = None, yaw_sign: float = -1.0):
+                  external: np.ndarray | None = None, yaw_sign: float = -1.0,
+                  initial: dict | None = None):
     """Simulate many coefficient vectors (rows, in model term order) in parallel.
 
-    Returns ``(t, states, diverged)``: sample times [s], states
-    ``(n_sets, n_samples, 7)`` in the integrator's order (du, v, r, x0, y0,
-    psi, delta) at the record's sampling, and per set the first diverged
-    integration step (-1 when bounded).
+    ``initial`` is the initial state as for :func:`simulate` (velocities
+    through the water). Returns ``(t, states, diverged)``: sample times [s],
+    states ``(n_sets, n_samples, 7)`` in the integrator's order (du, v, r,
+    x0, y0, psi, delta) at the record's sampling, and per set the first
+    diverged integration step (-1 when bounded).
     """
-    inputs = prepare(model, vessel, manoeuvre, environment, external, yaw_sign)
+    inputs = prepare(model, vessel, manoeuvre, environment, external, yaw_sign, initial)
     states, diverged = rk4_simulate_many(np.atleast_2d(vectors), *inputs.args())
     states = states[:, :: inputs.substeps]
     t = np.arange(states.shape[1]) * manoeuvre.dt

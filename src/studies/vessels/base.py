@@ -21,7 +21,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Vessel", "WindParticulars"]
+from ..config import WIND_CONVENTIONS
+
+__all__ = ["Vessel", "WindParticulars", "WIND_CONVENTIONS"]
 
 
 @dataclass(frozen=True)
@@ -48,6 +50,15 @@ class WindParticulars:
         Cross-force parameter delta of Blendermann [-].
     rho_air : float
         Air density [kg/m^3].
+    convention : str
+        How the relative wind and the yaw moment are formed
+        (:data:`WIND_CONVENTIONS`): ``downwind`` (default; a wind pushes the
+        ship downwind, the moment coefficient antisymmetric in the relative
+        angle) or ``zhu2021``, the thesis' eq. 3.17 as printed and as its
+        code computes it (``v_rw = v - V_w sin(beta_w - psi)``, which mirrors
+        the side force, and MSS ``blendermann94``'s moment
+        ``C_N = (s_L/L_oa - 0.18 (gamma - pi/2)) C_Y`` for every angle); see
+        :mod:`studies.environment.wind`.
     """
 
     area_frontal: float
@@ -59,12 +70,23 @@ class WindParticulars:
     cd_l_af_stern: float = 0.55
     cross_force: float = 0.40
     rho_air: float = 1.224
+    convention: str = "downwind"
+
+    def __post_init__(self):
+        if self.convention not in WIND_CONVENTIONS:
+            raise ValueError(f"wind convention must be one of {', '.join(WIND_CONVENTIONS)}, "
+                             f"got {self.convention!r}")
 
     def as_array(self) -> np.ndarray:
-        """Pack as the float array the compiled simulator takes."""
+        """Pack as the float array the compiled simulator takes (the
+        convention as two flags: the sign of the wind's sway component in the
+        relative wind, and 1.0 for the moment without the antisymmetric
+        extension)."""
+        thesis = self.convention == "zhu2021"
         return np.array([self.area_frontal, self.area_lateral, self.s_l,
                          self.length_overall, self.cd_t, self.cd_l_af_bow,
-                         self.cd_l_af_stern, self.cross_force, self.rho_air])
+                         self.cd_l_af_stern, self.cross_force, self.rho_air,
+                         -1.0 if thesis else 1.0, 1.0 if thesis else 0.0])
 
 
 @dataclass(frozen=True)

@@ -99,7 +99,7 @@ def study_for(cfg: RunConfig) -> Study:
 #: the top-level settings that decide what a run of each kind computes (its MLflow params)
 PARAM_GROUPS = {
     "manoeuvring": ("seed", "preset", "vessel", "model", "method", "manoeuvre", "train", "wind",
-                    "current", "noise", "disturbance", "data", "validate"),
+                    "current", "noise", "disturbance", "objective", "data", "validate"),
     "roll_decay": ("seed", "preset", "model", "method", "data", "validate", "simulation"),
 }
 #: settings used only with records given in ``data.path`` (the measured-data pipeline)

@@ -50,7 +50,7 @@ from ..environment.noise import add_measurement_noise, disturbance_forces, recor
 from ..identify import build_problems, make_identifier
 from ..identify.discrepancy import Discrepancy
 from ..identify.ls import LeastSquares
-from ..identify.objective import TrajectoryObjective
+from ..identify.objective import trajectory_objective
 from ..identify.regression import prime_states
 from ..models.abkowitz import ManoeuvringModel
 from ..models.abkowitz import abkowitz
@@ -161,6 +161,16 @@ def simulate_training(vessel: Vessel, model: ManoeuvringModel, truth: dict, mano
     return record
 
 
+def with_wind_convention(vessel: Vessel, convention: str) -> Vessel:
+    """``vessel`` whose wind loads follow ``convention`` (``wind.convention``:
+    ``downwind`` or ``zhu2021``, :class:`~studies.vessels.base.WindParticulars`);
+    the simulation of the training and validation manoeuvres and the
+    identification use it alike."""
+    if vessel.wind is None or vessel.wind.convention == convention:
+        return vessel
+    return dataclasses.replace(vessel, wind=dataclasses.replace(vessel.wind, convention=convention))
+
+
 def reference_model(vessel: Vessel) -> tuple[ManoeuvringModel, dict]:
     """The model that plays the real ship in simulated studies: the full
     Abkowitz model with the vessel's published coefficients."""
@@ -187,7 +197,7 @@ def prepare(cfg: RunConfig, root: Path | None = None, record: Recorder | None = 
     its own run by ``record``).
     """
     settings = read_settings(cfg)
-    vessel = get_vessel(str(cfg.vessel.name))
+    vessel = with_wind_convention(get_vessel(str(cfg.vessel.name)), cfg.wind.convention)
     model = get_study_model(cfg, root, record)
     method = str(cfg.method.name)
     make_identifier(method, _method_options(cfg))
@@ -719,7 +729,7 @@ def execute(study: Study, out_dir: Path) -> dict:
     started = time.perf_counter()
     derivative = cfg.data.derivative
     identifier = make_identifier(study.method, _method_options(cfg))
-    objective = TrajectoryObjective(study.model, study.vessel, study.records)
+    objective = trajectory_objective(study.model, study.vessel, study.records, cfg.objective.simulation)
     info = {}
     if study.measured:
         derivative = measured_derivative(study.records, derivative)
