@@ -20,7 +20,7 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "studies"
 #: still applies)
 LAYERS = [
     ("foundation", {"errors", "config", "conf", "interrupt", "plotting"}),
-    ("data", {"data"}),
+    ("data", {"data", "papers"}),
     ("models", {"models", "vessels", "environment"}),
     ("simulate", {"simulate"}),
     ("identify", {"identify"}),

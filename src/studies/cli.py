@@ -352,12 +352,37 @@ def _report_task(cfg) -> None:
         settings = _settings(cfg)
         report_dir = output_path(settings.report.dir, "report.dir", root)
         tracking.check_store(settings.tracking.uri, root)
-        name, runs = tracking.read_experiment(settings.tracking.uri, root, settings.report.experiment or None)
-        path = build_report(name, tracking.select_sweep(runs, settings.report.sweep), report_dir,
-                            settings.report.condition)
+        if settings.report.compare:
+            path = _reproduction(settings, root, report_dir)
+        else:
+            name, runs = tracking.read_experiment(settings.tracking.uri, root,
+                                                  settings.report.experiment or None)
+            path = build_report(name, tracking.select_sweep(runs, settings.report.sweep), report_dir,
+                                settings.report.condition)
     except (LookupError, StudiesError) as error:
         _fail(error, verbose)
     print(f"report written: {path} and {path.with_suffix('.html')}")
+
+
+def _reproduction(settings, root: Path, report_dir: Path) -> Path:
+    """``report.compare=<paper>``: the runs of every experiment of the paper
+    (all of their jobs, none where the store has no such experiment) into
+    its reproduction report."""
+    from .report.reproduction import build_reproduction, experiments
+    from .runtime import tracking
+
+    paper = settings.report.compare
+    runs = {}
+    for experiment in experiments(paper):
+        try:
+            _, found = tracking.read_experiment(settings.tracking.uri, root, experiment)
+        except LookupError:
+            found = []
+        runs[experiment] = tracking.select_sweep(found, "all") if found else []
+    if not any(runs.values()):
+        raise LookupError(f"report.compare={paper}: the store has no runs of "
+                          f"{', '.join(experiments(paper))}; run the paper's presets first")
+    return build_reproduction(paper, runs, report_dir)
 
 
 def _varying(results: list[dict]) -> dict:

@@ -1,0 +1,72 @@
+"""The published values of the papers `studies` is built from, entered once as data.
+
+Each paper has an id (the ``report.compare=`` value of ``studies report``), its
+citation, and its tables as CSV files beside this module, every row naming
+the table (and the page where the paper has page numbers) it was read from.
+The reproduction reports (:mod:`studies.report.reproduction`) put these
+numbers beside the project's own.
+
+The values were read from the plain-text copies of the papers; where a cell
+was garbled in the copy, the table's own text (which often repeats the
+number) was used, and the file's header says so.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pandas as pd
+
+from ..errors import ConfigError
+
+__all__ = ["Paper", "PAPERS", "get_paper", "published"]
+
+DATA = Path(__file__).resolve().parent
+
+
+@dataclass(frozen=True)
+class Paper:
+    """One paper: its id, citation and the files of its published tables.
+
+    Attributes
+    ----------
+    id : str
+        ``report.compare=`` value (``thesis``, ``svm_paper``, ``roll_paper``).
+    citation : str
+    tables : dict
+        ``{name: file}``: CSV files in this folder (``#`` lines are comments).
+    """
+
+    id: str
+    citation: str
+    tables: dict = field(default_factory=dict)
+
+
+PAPERS = {
+    "thesis": Paper(
+        "thesis",
+        "M. Zhu (2021), Genetic-algorithm-based parameter identification for ship manoeuvring "
+        "model under wind disturbance, MSc thesis, NTNU",
+        {"deviations": "zhu2021_deviations.csv"}),
+}
+
+
+def get_paper(paper_id: str) -> Paper:
+    """The paper registered under ``paper_id``; ``ConfigError`` names the known ones."""
+    try:
+        return PAPERS[paper_id]
+    except KeyError:
+        raise ConfigError(f"report.compare: unknown paper '{paper_id}'; known: "
+                          f"{', '.join(sorted(PAPERS))}") from None
+
+
+def published(paper_id: str, table: str) -> pd.DataFrame:
+    """A paper's published table (:attr:`Paper.tables`) as a DataFrame."""
+    paper = get_paper(paper_id)
+    try:
+        name = paper.tables[table]
+    except KeyError:
+        raise ConfigError(f"paper '{paper_id}' has no table '{table}'; it has "
+                          f"{', '.join(sorted(paper.tables))}") from None
+    return pd.read_csv(DATA / name, comment="#")
