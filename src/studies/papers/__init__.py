@@ -62,11 +62,12 @@ def get_paper(paper_id: str) -> Paper:
 
 
 def published(paper_id: str, table: str) -> pd.DataFrame:
-    """A paper's published table (:attr:`Paper.tables`) as a DataFrame."""
+    """A paper's published table (:attr:`Paper.tables`) as a DataFrame (the
+    ``table`` column, the paper's table number, as text: "4.10" is not 4.1)."""
     paper = get_paper(paper_id)
     try:
         name = paper.tables[table]
     except KeyError:
         raise ConfigError(f"paper '{paper_id}' has no table '{table}'; it has "
                           f"{', '.join(sorted(paper.tables))}") from None
-    return pd.read_csv(DATA / name, comment="#")
+    return pd.read_csv(DATA / name, comment="#", dtype={"table": str})
