@@ -30,12 +30,12 @@ from pathlib import Path
 from ...errors import ConfigError
 from ...papers import get_paper
 from ..builder import _report_directory, _write_html
-from . import thesis
+from . import roll_paper, thesis
 
 __all__ = ["REPRODUCTIONS", "experiments", "build_reproduction"]
 
 #: ``report.compare`` value -> the module that compares that paper
-REPRODUCTIONS = {"thesis": thesis}
+REPRODUCTIONS = {"thesis": thesis, "roll_paper": roll_paper}
 
 
 def _module(paper_id: str):
