@@ -78,7 +78,7 @@ def build_reproduction(paper_id: str, runs: dict, report_dir) -> Path:
     lines = [f"# Reproduction: {paper.citation}", ""]
     counted = ", ".join(f"`{e}` ({len(runs.get(e) or [])} runs)" for e in module.EXPERIMENTS)
     lines += [f"The project's runs come from the MLflow experiments {counted}; the published values "
-              f"from `studies/papers/` (table and page of each number in its file).", ""]
+              f"from `studies/papers/` (table and page, or section, of each number in its file).", ""]
     if missing:
         lines += ["Experiments with no runs in the store (their sections are left out): "
                   + ", ".join(f"`{e}`" for e in missing) + ". The runs are made by:", ""]
