@@ -219,7 +219,7 @@ def _study(cfg, root: Path, out_dir: Path, on_create) -> dict:
         metrics = prepared.execute(out_dir)
         summary = {k: v for k, v in metrics.items()
                    if k.startswith(("deviation/", "runtime/", "validation/", "simulation/"))
-                   or k.endswith(("/fitness", "/rmse_deg", "cpu_s"))}
+                   or k.endswith(("/fitness", "/rmse_deg_record_start", "/rmse_deg_own_start", "cpu_s"))}
         model = out_dir / IDENTIFIED_MODEL_FILE        # manoeuvring models; not roll decays
         linked = {k: v for k, v in summary.items() if not k.startswith("runtime/")}
         logged = run.log_model(model, settings.tracking.register, linked) if model.is_file() else None

@@ -2,7 +2,8 @@
 
 Each paper has an id (the ``report.compare=`` value of ``studies report``), its
 citation, and its tables as CSV files beside this module, every row naming
-the table (and the page where the paper has page numbers) it was read from.
+the table (and the page where the paper has page numbers, else its section) it was
+read from.
 The reproduction reports (:mod:`studies.report.reproduction`) put these
 numbers beside the project's own.
 
@@ -49,6 +50,12 @@ PAPERS = {
         "M. Zhu (2021), Genetic-algorithm-based parameter identification for ship manoeuvring "
         "model under wind disturbance, MSc thesis, NTNU",
         {"deviations": "zhu2021_deviations.csv"}),
+    "roll_paper": Paper(
+        "roll_paper",
+        "C. Chen, M. Tello Ruiz, G. Delefortrie, T. Mei, M. Vantorre, E. Lataire (2019), Parameter "
+        "estimation for a ship's roll response model in shallow water using an intelligent machine "
+        "learning method, Ocean Engineering 191, 106479",
+        {"tables": "chen2019.csv"}),
 }
 
 

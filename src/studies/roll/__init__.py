@@ -39,7 +39,9 @@ speed
     speed, fitted to decays at two or more speeds; a decay simulated at an
     untested speed.
 comparison
-    Prediction errors (MAE, RMSE) and the damping of a simulated decay
+    Prediction errors (MAE, RMSE) of a decay replayed from a given start,
+    the same for every method (``replay_errors``; ``STARTS``: the record's
+    own initial state or the method's), and the damping of a simulated decay
     against measured ones.
 figures
     PNG figures: predictions and errors, decay curves, simulation vs tests,

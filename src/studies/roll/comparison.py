@@ -2,6 +2,13 @@
 
 - :func:`mae`, :func:`rmse`: errors of a predicted roll time series against
   the measured one (Chen et al. 2019, eq. 17-18);
+- :func:`replay_errors`: the one way every method's predicted decay is
+  scored: the identified model simulated (RK4) over the whole record from a
+  given initial state, MAE and RMSE against the record, and whether the
+  replay diverged (then its errors are not numbers to average);
+  :data:`STARTS` names the two initial states used, the record's own
+  (``record_start``, the same for every method) and the method's own fitted
+  one (``own_start``);
 - :func:`compare_simulation_with_tests`: the equivalent linear damping of a
   simulated decay (e.g. potential flow) against measured decays of the same
   condition, from their decay curves (:mod:`studies.roll.decay`), and the
@@ -18,6 +25,7 @@ using an intelligent machine learning method. Ocean Engineering 191, 106479
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
@@ -26,8 +34,19 @@ import pandas as pd
 from studies.roll.decay import decay_curve, fit_decay_curve, zeta_from_curve
 from studies.roll.figures import plot_simulation_vs_tests
 from studies.roll.model import damping_ratio, equivalent_linear_damping
+from studies.roll.simulate import predict_record
 
-__all__ = ["mae", "rmse", "compare_simulation_with_tests"]
+__all__ = ["mae", "rmse", "replay_errors", "ReplayErrors", "STARTS", "DIVERGED_ROLL_RAD",
+           "compare_simulation_with_tests"]
+
+#: the initial states a predicted decay is replayed from: the record's own
+#: (:func:`studies.roll.records.initial_state`, the same for every method) and
+#: the method's own estimate (``RollFit.meta["initial_states"]``)
+STARTS = {"record_start": "from the record's initial state (angle and rate fitted to its first period), "
+                          "the same for every method",
+          "own_start": "from the method's own fitted initial state"}
+#: [rad] a replay that leaves +-90 deg (the range a roll record may hold) has diverged
+DIVERGED_ROLL_RAD = math.pi / 2
 
 
 def mae(measured, predicted) -> float:
@@ -42,6 +61,60 @@ def rmse(measured, predicted) -> float:
     m = np.asarray(measured, dtype=float)
     p = np.asarray(predicted, dtype=float)
     return float(np.sqrt(np.mean((m - p) ** 2)))
+
+
+@dataclass(frozen=True)
+class ReplayErrors:
+    """Errors of one replayed decay.
+
+    Attributes
+    ----------
+    mae, rmse : float
+        [rad] (eq. 17-18 of Chen et al. 2019), NaN when the replay diverged.
+    diverged : bool
+        The replay left +-90 deg or was not finite.
+    start : (float, float)
+        Initial angle [rad] and rate [rad/s] it was replayed from.
+    predicted : ndarray
+        The replayed roll angle [rad] at the record's times.
+    """
+
+    mae: float
+    rmse: float
+    diverged: bool
+    start: tuple
+    predicted: np.ndarray
+
+
+def replay_errors(params, terms: Sequence[str], record: pd.DataFrame, start) -> ReplayErrors:
+    """Replay a decay with identified coefficients from ``start`` and score it.
+
+    The single definition of a method's prediction error: every method's
+    MAE and RMSE (run metrics, :func:`studies.workflows.roll.compare_methods`)
+    come from here, so they differ only by the coefficients and the start.
+
+    Parameters
+    ----------
+    params : mapping
+        ``omega0`` [rad/s] and the coefficients of ``terms``.
+    terms : sequence of str
+        Model terms (:class:`studies.roll.model.RollModel`).
+    record : DataFrame
+        Prepared decay (``t`` [s] from the release, ``phi`` [rad]).
+    start : (float, float)
+        Initial angle [rad] and rate [rad/s] at ``record.t[0]``.
+
+    Returns
+    -------
+    ReplayErrors
+    """
+    phi0, dphi0 = float(start[0]), float(start[1])
+    pred = predict_record(params, terms, record, (phi0, dphi0))
+    meas = record["phi"].to_numpy(float)
+    diverged = not (np.all(np.isfinite(pred)) and np.max(np.abs(pred)) < DIVERGED_ROLL_RAD)
+    if diverged:
+        return ReplayErrors(float("nan"), float("nan"), True, (phi0, dphi0), pred)
+    return ReplayErrors(mae(meas, pred), rmse(meas, pred), False, (phi0, dphi0), pred)
 
 
 def compare_simulation_with_tests(simulation, tests: Sequence, reference_amplitude: float | None = None,

@@ -70,7 +70,11 @@ class RollFit:
     cpu_s : float
         CPU time of the identification [s] (``time.process_time``; summed over threads).
     meta : dict
-        Method details (settings chosen by cross-validation, residuals, wall time, ...).
+        Method details (settings chosen by cross-validation, residuals, wall
+        time, ...) and ``initial_states``: the method's own estimate of each
+        record's initial state ``(phi0 [rad], dphi0 [rad/s])`` at its first
+        sample (how it was obtained: the estimator's
+        :attr:`~_Estimator.initial_state_source`).
     """
 
     params: dict
@@ -239,6 +243,8 @@ class _Estimator(abc.ABC):
     """Common part: settings, timing, record handling."""
 
     name = "base"
+    #: how the method's own initial state of a record (``meta["initial_states"]``) is obtained
+    initial_state_source = "the record's (no estimate of its own)"
 
     def __init__(self, terms: Sequence[str] = ("b1", "b2"), seed: int = 0):
         self.model = RollModel(tuple(terms))
@@ -271,7 +277,9 @@ class _Estimator(abc.ABC):
             params, meta = self._fit(records)
             cpu = time.process_time() - c0
         meta = dict(meta)
-        meta.update({"method": self.name, "terms": list(self.terms), "wall_s": time.perf_counter() - w0})
+        meta.setdefault("initial_states", [initial_state(r) for r in records])
+        meta.update({"method": self.name, "terms": list(self.terms), "wall_s": time.perf_counter() - w0,
+                     "initial_state_source": self.initial_state_source})
         return RollFit({k: float(v) for k, v in params.items()}, float(cpu), meta)
 
     @abc.abstractmethod
@@ -310,12 +318,15 @@ class NLSEstimator(_Estimator):
     """
 
     name = "nls"
+    initial_state_source = "fitted with the coefficients (output error)"
 
     def __init__(self, terms: Sequence[str] = ("b1", "b2"), points_per_period: float | None = None,
                  fit_initial_state: bool = True, max_nfev: int = 200, seed: int = 0):
         super().__init__(terms, seed)
         self.points_per_period = None if points_per_period is None else float(points_per_period)
         self.fit_initial_state = bool(fit_initial_state)
+        if not self.fit_initial_state:
+            self.initial_state_source = _Estimator.initial_state_source
         self.max_nfev = int(max_nfev)
 
     def _prepare(self) -> None:
@@ -371,6 +382,8 @@ class NLSEstimator(_Estimator):
         if self.fit_initial_state:
             meta["initial_states"] = [tuple(map(float, sol.x[k + 2 * j:k + 2 * j + 2]))
                                       for j in range(len(records))]
+        else:
+            meta["initial_states"] = [tuple(map(float, s)) for s in inits]
         return params, meta
 
 
@@ -392,7 +405,14 @@ class _EquationErrorEstimator(_Estimator):
     eq. 15-16 of Chen et al.) the smoothed record lacks the third harmonic
     that the quadratic term generates, and ``b2`` is biased low by tens of
     per cent at 1 % noise, with ``b1`` compensating.
+
+    Their own initial state of a record (``meta["initial_states"]``) is the
+    smoother's angle and rate at the record's first sample, averaged over
+    the interleaved fits: what the curve fit says the decay starts from
+    (an edge value: the regression itself leaves ``edge_periods`` out).
     """
+
+    initial_state_source = "the curve fit (smoother) at the first sample"
 
     def __init__(self, terms=("b1", "b2"), points_per_period: float = 20.0, n_phases: int | None = None,
                  eval_per_period: int = 60, harmonics: Sequence[int] = (2, 3, 4, 5),
@@ -425,6 +445,7 @@ class _EquationErrorEstimator(_Estimator):
         settings = self._select(records, T)
         cols = ([], [], [])
         lengths = []
+        starts = []
         n_fits = 0
         for r in records:
             t_all = r["t"].to_numpy(float)
@@ -432,6 +453,7 @@ class _EquationErrorEstimator(_Estimator):
             edge = self.edge_periods * T
             te = np.arange(t_all[0] + edge, t_all[-1] - edge, T / self.eval_per_period)
             acc = [np.zeros(te.size) for _ in range(3)]
+            start = np.zeros(2)
             phases = self._phases(step)
             for ph in phases:
                 t, y, _ = _subsample(r, self.points_per_period, phase=ph)
@@ -439,15 +461,19 @@ class _EquationErrorEstimator(_Estimator):
                 n_fits += 1
                 for k in range(3):
                     acc[k] += f(te, k)
+                for k in range(2):
+                    start[k] += float(f(t_all[:1], k)[0])
             for k in range(3):
                 cols[k].append(acc[k] / len(phases))
             lengths.append(te.size)
+            starts.append(tuple(float(v) for v in start / len(phases)))
         phi, dphi, ddphi = (np.concatenate(c) for c in cols)
         filt = harmonic_filter(self.eval_per_period, self.harmonics) if self.harmonics else None
         params, info = ode_least_squares(self.model, phi, dphi, ddphi, self.fit_offset,
                                          row_filter=filt, segments=lengths)
         info.update(settings)
-        info.update({"n_fits": n_fits, "period_s": T, "harmonics_removed": list(self.harmonics)})
+        info.update({"n_fits": n_fits, "period_s": T, "harmonics_removed": list(self.harmonics),
+                     "initial_states": starts})
         return params, info
 
 

@@ -9,9 +9,28 @@ Outputs written into ``out_dir`` (the output contract of DESIGN.md):
 
 - ``coefficients.csv``: ``name,value,lower,upper,true,deviation_pct``
   (``lower``/``upper`` empty: none of NLS, FLS, NLS-SVM gives a posterior);
-- ``metrics.json``: flat numbers (CPU time, per-record errors
-  ``<stem>/rmse_deg``, ``<stem>/mae_deg``, ``<stem>/rmse_deg_linear_only``,
-  equivalent damping, dimensional coefficients, simulation-vs-test numbers);
+- ``metrics.json``: flat numbers (CPU time, equivalent damping,
+  dimensional coefficients, simulation-vs-test numbers) and the prediction
+  errors of every record, computed one way for every method
+  (:func:`studies.roll.comparison.replay_errors`: the identified model
+  simulated over the whole record, MAE and RMSE in degrees, eq. 17-18) from
+  two initial states, named in the key:
+
+  - ``<stem>/mae_deg_record_start``, ``<stem>/rmse_deg_record_start``: from
+    the record's own initial state (angle and rate fitted to its first
+    period; ``<stem>/phi0_deg_record_start``, ``rate0_deg_s_record_start``),
+    the same for every method: the like-for-like comparison;
+  - ``<stem>/mae_deg_own_start``, ``<stem>/rmse_deg_own_start`` (training
+    records): from the method's own estimate of the initial state
+    (``<stem>/phi0_deg_own_start``, ``rate0_deg_s_own_start``): NLS fits it
+    with the coefficients, FLS and NLS-SVM take their curve fit's value at
+    the first sample;
+  - ``<stem>/diverged_record_start``, ``<stem>/diverged_own_start``: 1 when
+    that replay left +-90 deg (its errors are then not written);
+    ``fit/`` and ``validation/rmse_deg_record_start|own_start`` pool the
+    records whose replay stayed bounded, ``fit/diverged_*`` count the others;
+  - ``<stem>/rmse_deg_record_start_linear_only`` (and ``mae``): the same
+    for a linear-only model (``b1``) identified by the same method;
 - PNG figures: predictions and errors per record (paper Figs 5/8), decay
   curves, and the simulation-vs-test comparison.
 
@@ -33,8 +52,8 @@ import numpy as np
 import pandas as pd
 
 from studies.errors import ConfigError
-from studies.roll.comparison import compare_simulation_with_tests, mae, rmse
-from studies.roll.decay import decay_curve
+from studies.roll.comparison import STARTS, compare_simulation_with_tests, mae, replay_errors, rmse
+from studies.roll.decay import decay_curve, noise_std
 from studies.roll.estimators import make_estimator
 from studies.roll.figures import plot_decay_curves, plot_prediction
 from studies.roll.model import (
@@ -44,8 +63,7 @@ from studies.roll.model import (
     equivalent_linear_damping,
     froude_scale_params,
 )
-from studies.roll.records import froude_scale_record, load_roll_decay
-from studies.roll.simulate import predict_record
+from studies.roll.records import froude_scale_record, initial_state, load_roll_decay
 
 __all__ = ["run_roll_study", "compare_methods"]
 
@@ -128,10 +146,63 @@ def _clean(metrics: Mapping[str, float]) -> dict[str, float]:
     return dict(sorted(out.items()))
 
 
-def _error_metrics(params, terms, rec) -> tuple[np.ndarray, float, float]:
-    pred = predict_record(params, terms, rec)
-    meas = rec["phi"].to_numpy(float)
-    return pred, math.degrees(rmse(meas, pred)), math.degrees(mae(meas, pred))
+def _own_start(fit, index: int | None):
+    """The method's own initial state of training record ``index`` (None: not a training record)."""
+    states = fit.meta.get("initial_states") or []
+    if index is None or index >= len(states):
+        return None
+    return tuple(float(v) for v in states[index])
+
+
+def _replays(fit, terms, rec, own) -> dict:
+    """``{start: ReplayErrors}`` of one record: from the record's initial state
+    and, when ``own`` is given, from the method's own."""
+    out = {"record_start": replay_errors(fit.params, terms, rec, initial_state(rec))}
+    if own is not None:
+        out["own_start"] = replay_errors(fit.params, terms, rec, own)
+    return out
+
+
+def _replay_metrics(stem: str, replays: dict) -> dict[str, float]:
+    """The metrics of :func:`_replays`: errors [deg] of bounded replays, the
+    diverged flag and the start of each."""
+    m: dict[str, float] = {}
+    for start, e in replays.items():
+        m[f"{stem}/diverged_{start}"] = float(e.diverged)
+        m[f"{stem}/phi0_deg_{start}"] = math.degrees(e.start[0])
+        m[f"{stem}/rate0_deg_s_{start}"] = math.degrees(e.start[1])
+        if not e.diverged:
+            m[f"{stem}/mae_deg_{start}"] = math.degrees(e.mae)
+            m[f"{stem}/rmse_deg_{start}"] = math.degrees(e.rmse)
+    return m
+
+
+def _condition_metrics(stem: str, rec: pd.DataFrame) -> dict[str, float]:
+    """What the record says of its test: forward speed [m/s at its scale and
+    kn at full scale] and the scale factor, when known."""
+    m: dict[str, float] = {}
+    part = rec.attrs.get("particulars") or {}
+    if rec.attrs.get("speed") is not None:
+        m[f"{stem}/speed_m_s"] = float(rec.attrs["speed"])
+    if part.get("speed_kn") is not None:
+        m[f"{stem}/speed_kn_full_scale"] = float(part["speed_kn"])
+    if part.get("scale") is not None:
+        m[f"{stem}/scale_factor"] = float(part["scale"])
+    return m
+
+
+def _decay_metrics(stem: str, rec: pd.DataFrame, n: int = 4) -> dict[str, float]:
+    """What the record's decay curve says: noise, and period and amplitude over
+    its first and last ``n`` half-cycles (a period that changes with amplitude
+    is what a model with one omega0 cannot follow)."""
+    curve = decay_curve(rec)
+    m = {f"{stem}/noise_deg": math.degrees(noise_std(rec["phi"].to_numpy(float))),
+         f"{stem}/n_half_cycles": float(len(curve))}
+    if len(curve) >= 2 * n:
+        for tag, part in (("first", curve.iloc[:n]), ("last", curve.iloc[-n:])):
+            m[f"{stem}/period_{tag}_s"] = 2.0 * float(part["half_period"].mean())
+            m[f"{stem}/amplitude_{tag}_deg"] = math.degrees(float(part["amplitude"].mean()))
+    return m
 
 
 # ------------------------------------------------------------ entry point
@@ -246,13 +317,17 @@ def run_roll_study(data_paths: list[str], method: str, out_dir: str,
     m["equivalent/zeta_eq"] = damping_ratio(fit.params, a_ref)
     m["equivalent/zeta_linear_part"] = fit.params.get("b1", 0.0) / (2 * fit.params["omega0"])
     m["equivalent/zeta_linear_only_model"] = damping_ratio(lin.params, a_ref)
+    if "b2" in fit.params:
+        beq = equivalent_linear_damping(fit.params, a_ref)
+        m["equivalent/quadratic_share_at_release"] = (
+            8.0 / (3.0 * math.pi) * fit.params["omega0"] * a_ref * fit.params["b2"] / beq if beq else np.nan)
     for a_deg in (2.0, 5.0, 10.0):
         m[f"equivalent/zeta_eq_at_{a_deg:g}deg"] = damping_ratio(fit.params, math.radians(a_deg))
     part = _particulars(train)
     if part is not None:
         m.update(_dimensional_metrics(fit.params, part, a_ref))
 
-    fit_sq, fit_n, val_sq, val_n = 0.0, 0, 0.0, 0
+    pooled = {(group, start): [0.0, 0, 0] for group in ("fit", "validation") for start in STARTS}
     names_seen: dict[str, int] = {}
     for i, (rec, is_train) in enumerate([(r, 1) for r in train] + [(r, 0) for r in valid]):
         stem = _stem(rec, i)
@@ -261,31 +336,41 @@ def run_roll_study(data_paths: list[str], method: str, out_dir: str,
             stem = f"{stem}_{names_seen[stem]}"
         else:
             names_seen[stem] = 0
-        pred, e_rmse, e_mae = _error_metrics(fit.params, terms, rec)
-        pred_l, l_rmse, l_mae = _error_metrics(lin.params, lin_terms, rec)
-        m[f"{stem}/rmse_deg"] = e_rmse
-        m[f"{stem}/mae_deg"] = e_mae
-        m[f"{stem}/rmse_deg_linear_only"] = l_rmse
-        m[f"{stem}/mae_deg_linear_only"] = l_mae
+        replays = _replays(fit, terms, rec, _own_start(fit, i) if is_train else None)
+        linear = replay_errors(lin.params, lin_terms, rec, initial_state(rec))
+        m.update(_replay_metrics(stem, replays))
+        if not linear.diverged:
+            m[f"{stem}/rmse_deg_record_start_linear_only"] = math.degrees(linear.rmse)
+            m[f"{stem}/mae_deg_record_start_linear_only"] = math.degrees(linear.mae)
         m[f"{stem}/is_training"] = is_train
         m[f"{stem}/duration_s"] = float(rec["t"].iloc[-1])
         m[f"{stem}/release_amplitude_deg"] = math.degrees(abs(float(rec["phi"].iloc[0])))
-        n = len(rec)
-        if is_train:
-            fit_sq += (math.radians(e_rmse) ** 2) * n
-            fit_n += n
-        else:
-            val_sq += (math.radians(e_rmse) ** 2) * n
-            val_n += n
+        m.update(_decay_metrics(stem, rec))
+        m.update(_condition_metrics(stem, rec))
+        group = "fit" if is_train else "validation"
+        for start, e in replays.items():
+            cell = pooled[(group, start)]
+            if e.diverged:
+                cell[2] += 1
+            else:
+                cell[0] += e.rmse**2 * len(rec)
+                cell[1] += len(rec)
         if is_train == 0 or not valid:
             label = "+".join(terms)
+            predictions = {f"{method} ({label})": replays["record_start"].predicted}
+            if "own_start" in replays:
+                predictions[f"{method} ({label}), own start"] = replays["own_start"].predicted
+            predictions[f"{method} (b1 only)"] = linear.predicted
             fig = out / f"prediction_{stem}.png"
-            plot_prediction(rec["t"], rec["phi"], {f"{method} ({label})": pred, f"{method} (b1 only)": pred_l},
-                            str(fig), title=f"{stem}: measured and predicted roll ({'fitted' if is_train else 'not fitted'})")
+            plot_prediction(rec["t"], rec["phi"], predictions, str(fig),
+                            title=f"{stem}: measured and predicted roll ({'fitted' if is_train else 'not fitted'})")
             files.append(str(fig))
-    m["fit/rmse_deg"] = math.degrees(math.sqrt(fit_sq / fit_n))
-    if val_n:
-        m["validation/rmse_deg"] = math.degrees(math.sqrt(val_sq / val_n))
+    for (group, start), (sq, n, diverged) in pooled.items():
+        if group == "validation" and (not valid or start == "own_start"):
+            continue  # no validation records; their own start exists only for fitted ones
+        m[f"{group}/diverged_{start}"] = float(diverged)
+        if n:
+            m[f"{group}/rmse_deg_{start}"] = math.degrees(math.sqrt(sq / n))
 
     curves = {_stem(r, i): decay_curve(r) for i, r in enumerate(train + valid)}
     fig = out / "decay_curves.png"
@@ -334,31 +419,46 @@ def compare_methods(data_paths, validate_paths=None, terms: Sequence[str] = ("b1
                     seed: int = 0) -> pd.DataFrame:
     """Table-6-style comparison of NLS, FLS and NLS-SVM on the same records.
 
+    Every method's errors are computed the same way
+    (:func:`studies.roll.comparison.replay_errors`), from two initial states
+    (:data:`studies.roll.comparison.STARTS`), each named in its row:
+    ``record_start`` (the record's own initial state, the same for every
+    method: like for like) and ``own_start`` (the method's own estimate:
+    NLS fits it with the coefficients, FLS and NLS-SVM take their curve
+    fit's value at the first sample; only when the errors are computed on
+    the identification records themselves).
+
     Parameters
     ----------
     data_paths : path, DataFrame or list of them
         Records identified on.
     validate_paths : path, DataFrame or list of them, optional
-        Records on which MAE and RMSE are computed (predicted from their
-        initial state); default the identification records themselves, as in
-        the paper.
+        Records on which MAE and RMSE are computed; default the
+        identification records themselves, as in the paper.
     terms : sequence of str
         Model terms.
     methods : sequence of str
         Methods to compare.
     out_dir : str, optional
         Writes ``comparison.csv`` and ``comparison_predictions.png``
-        (paper Fig. 8: predictions and errors of every method) there.
+        (paper Fig. 8: every method's prediction from the record's initial
+        state and its error) there.
     seed : int
         Seed passed to the estimators.
 
     Returns
     -------
     DataFrame
-        Rows: the coefficients (``omega0`` [rad/s], ``b1`` [1/s], ``b2`` [-],
-        ...), ``B44_full_kgm2_s`` and ``B44q_full_kgm2`` when the particulars
-        are known, ``zeta_eq`` (at the first record's release amplitude),
-        ``MAE_deg``, ``RMSE_deg``, ``cpu_s``; one column per method.
+        One column per method. Rows: the coefficients (``omega0`` [rad/s],
+        ``b1`` [1/s], ``b2`` [-], ...), ``B44_full_kgm2_s`` and
+        ``B44q_full_kgm2`` when the particulars are known, ``zeta_eq`` (at
+        the first record's release amplitude), then per start ``S`` in
+        ``record_start``, ``own_start``: ``MAE_deg_S`` and ``RMSE_deg_S``
+        (pooled over the records whose replay stayed bounded; NaN when all
+        diverged), ``diverged_S`` (how many replays diverged: counted, never
+        averaged), ``phi0_deg_S`` and ``rate0_deg_s_S`` (the first record's
+        start), and ``cpu_s``. ``attrs["starts"]`` says what each start is,
+        ``attrs["initial_state_source"]`` how each method got its own.
 
     References
     ----------
@@ -368,13 +468,17 @@ def compare_methods(data_paths, validate_paths=None, terms: Sequence[str] = ("b1
     for meth in methods:
         _check_method_terms(meth, terms)
     train = [_load(p) for p in _as_list(data_paths)]
-    valid = [_load(p) for p in _as_list(validate_paths)] or train
+    valid = [_load(p) for p in _as_list(validate_paths)]
+    on_training = not valid
+    valid = valid or train
     part = _particulars(train)
     a_ref = abs(float(train[0]["phi"].iloc[0]))
     table: dict[str, dict[str, float]] = {}
     preds: dict[str, np.ndarray] = {}
+    sources: dict[str, str] = {}
     for meth in methods:
         fit = make_estimator(meth, terms, seed).fit(train)
+        sources[meth] = fit.meta.get("initial_state_source", "")
         col = {k: fit.params[k] for k in ("omega0",) + terms}
         if part is not None:
             dm = _dimensional_metrics(fit.params, part, a_ref)
@@ -382,22 +486,34 @@ def compare_methods(data_paths, validate_paths=None, terms: Sequence[str] = ("b1
                 if f"dimensional/{k}" in dm:
                     col[k] = dm[f"dimensional/{k}"]
         col["zeta_eq"] = damping_ratio(fit.params, a_ref)
-        meas, pr = [], []
-        for r in valid:
-            meas.append(r["phi"].to_numpy(float))
-            pr.append(predict_record(fit.params, terms, r))
-        meas_c, pred_c = np.concatenate(meas), np.concatenate(pr)
-        col["MAE_deg"] = math.degrees(mae(meas_c, pred_c))
-        col["RMSE_deg"] = math.degrees(rmse(meas_c, pred_c))
+        replays = [_replays(fit, terms, r, _own_start(fit, i) if on_training else None)
+                   for i, r in enumerate(valid)]
+        for start in STARTS:
+            done = [(r, rp[start]) for r, rp in zip(valid, replays) if start in rp]
+            if not done:
+                continue
+            bounded = [(r, e) for r, e in done if not e.diverged]
+            if bounded:
+                meas = np.concatenate([r["phi"].to_numpy(float) for r, _ in bounded])
+                pred = np.concatenate([e.predicted for _, e in bounded])
+                col[f"MAE_deg_{start}"] = math.degrees(mae(meas, pred))
+                col[f"RMSE_deg_{start}"] = math.degrees(rmse(meas, pred))
+            else:
+                col[f"MAE_deg_{start}"] = col[f"RMSE_deg_{start}"] = np.nan
+            col[f"diverged_{start}"] = float(sum(e.diverged for _, e in done))
+            col[f"phi0_deg_{start}"] = math.degrees(done[0][1].start[0])
+            col[f"rate0_deg_s_{start}"] = math.degrees(done[0][1].start[1])
         col["cpu_s"] = fit.cpu_s
         table[meth] = col
-        preds[meth] = pr[0]
+        preds[meth] = replays[0]["record_start"].predicted
     df = pd.DataFrame(table)
+    df.attrs["starts"] = dict(STARTS)
+    df.attrs["initial_state_source"] = sources
     if out_dir is not None:
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
         df.to_csv(out / "comparison.csv", index_label="quantity")
         r0 = valid[0]
         plot_prediction(r0["t"], r0["phi"], preds, str(out / "comparison_predictions.png"),
-                        title=f"{_stem(r0, 0)}: predictions of {', '.join(methods)}")
+                        title=f"{_stem(r0, 0)}: predictions of {', '.join(methods)} from the record's initial state")
     return df

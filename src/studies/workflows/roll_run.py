@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..config import RunConfig
-from ..roll.records import load_roll_decay
+from ..roll.records import find_particulars, load_roll_decay, record_vessel
 from ..errors import ConfigError
 from ..roll.estimators import ESTIMATORS
 from ..roll.simulate import simulate_decay_record
@@ -54,10 +54,14 @@ class RollStudy:
 
     @property
     def tags(self) -> dict:
-        """The tracked run's tags."""
-        return {"method": self.method, "model": self.cfg.model.name, "manoeuvre": "roll_decay",
+        """The tracked run's tags; for records, ``vessel`` (the ship the first
+        record is of, ``unknown`` when no parameter file beside it names one)."""
+        tags = {"method": self.method, "model": self.cfg.model.name, "manoeuvre": "roll_decay",
                 "data": "measured" if self.data_paths else "simulated",
                 "preset": self.cfg.preset or "none"}
+        if self.data_paths:
+            tags["vessel"] = record_vessel(find_particulars(self.data_paths[0]))[0] or "unknown"
+        return tags
 
     @property
     def inputs(self) -> list:
