@@ -135,7 +135,7 @@ def _paper() -> pd.DataFrame:
 def _pv(paper: pd.DataFrame, table: int, quantity: str, method: str | None = None,
         speed: float | None = None, ukc: float | None = None) -> float:
     """A published value in SI (value x factor); NaN when absent."""
-    t = paper[(paper["table"] == table) & (paper["quantity"] == quantity)]
+    t = paper[(paper["table"] == str(table)) & (paper["quantity"] == quantity)]
     if method is not None:
         t = t[t["method"] == method]
     if speed is not None:
@@ -149,12 +149,12 @@ def _pv(paper: pd.DataFrame, table: int, quantity: str, method: str | None = Non
 
 def _particular(paper: pd.DataFrame, quantity: str, scale: str) -> float:
     """A Table 2 particular at ``scale`` (``full`` or ``model``), as printed."""
-    t = paper[(paper["table"] == 2) & (paper["quantity"] == quantity) & paper["case"].str.contains(scale)]
+    t = paper[(paper["table"] == "2") & (paper["quantity"] == quantity) & paper["case"].str.contains(scale)]
     return float(t["value"].iloc[0]) if len(t) else float("nan")
 
 
 def _printed(paper: pd.DataFrame, table: int, quantity: str, method: str) -> str:
-    t = paper[(paper["table"] == table) & (paper["quantity"] == quantity) & (paper["method"] == method)]
+    t = paper[(paper["table"] == str(table)) & (paper["quantity"] == quantity) & (paper["method"] == method)]
     return "-" if t.empty else str(t["printed"].iloc[0])
 
 
@@ -567,7 +567,7 @@ def _which_start() -> str:
 def _tables78(paper: pd.DataFrame) -> str:
     rows = []
     for table, key, section in ((7, "ukc_pct", "5.3.1"), (8, "speed_kn", "5.3.2")):
-        t = paper[paper["table"] == table]
+        t = paper[paper["table"] == str(table)]
         for value in sorted(t[key].unique()):
             sub = t[t[key] == value].set_index("quantity")
             rows.append({"table": f"{table} (section {section})",
