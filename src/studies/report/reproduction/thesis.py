@@ -590,7 +590,9 @@ def substitutions(runs: dict) -> list:
         "MSS `blendermann94` vessel 2).",
         "SVM: the thesis used scikit-learn's LinearSVR with C = 1 and epsilon = 0 on the unscaled "
         "regressors (its appendix A.2); the project's `svm` chooses C and epsilon by time-blocked "
-        "cross-validation on scaled columns. On noise-free records both land near least squares.",
+        "cross-validation on scaled columns and lands on least squares on these noise-free records, "
+        "where the thesis' departs from its own LS on several surge terms (its LinearSVR fits an "
+        "intercept in surge that the code then drops).",
         "GA: the thesis' settings (15 least Sobol-sensitive genes, +-50 % bounds, 200 generations, "
         "crossover 0.6, mutation probability 1, rank selection, 3 parents kept, stop at 1e-5) in pygad 3 "
         "instead of pygad 2.14; the start solution plus 4 copies as in its text (its code passes 4 rows).",
