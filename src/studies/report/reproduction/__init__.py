@@ -30,12 +30,12 @@ from pathlib import Path
 from ...errors import ConfigError
 from ...papers import get_paper
 from ..builder import _report_directory, _write_html
-from . import thesis
+from . import svm_paper, thesis
 
 __all__ = ["REPRODUCTIONS", "experiments", "build_reproduction"]
 
 #: ``report.compare`` value -> the module that compares that paper
-REPRODUCTIONS = {"thesis": thesis}
+REPRODUCTIONS = {"thesis": thesis, "svm_paper": svm_paper}
 
 
 def _module(paper_id: str):
@@ -58,7 +58,7 @@ def build_reproduction(paper_id: str, runs: dict, report_dir) -> Path:
     Parameters
     ----------
     paper_id : str
-        ``thesis``, ... (:data:`REPRODUCTIONS`).
+        ``thesis``, ``svm_paper`` (:data:`REPRODUCTIONS`).
     runs : dict
         ``{experiment: [StoredRun, ...]}`` for every experiment of
         :func:`experiments` (an empty list where the store has none).
@@ -78,7 +78,7 @@ def build_reproduction(paper_id: str, runs: dict, report_dir) -> Path:
     lines = [f"# Reproduction: {paper.citation}", ""]
     counted = ", ".join(f"`{e}` ({len(runs.get(e) or [])} runs)" for e in module.EXPERIMENTS)
     lines += [f"The project's runs come from the MLflow experiments {counted}; the published values "
-              f"from `studies/papers/` (table and page of each number in its file).", ""]
+              f"from `studies/papers/` (table and page, or section, of each number in its file).", ""]
     if missing:
         lines += ["Experiments with no runs in the store (their sections are left out): "
                   + ", ".join(f"`{e}`" for e in missing) + ". The runs are made by:", ""]
