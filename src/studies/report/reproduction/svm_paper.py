@@ -733,8 +733,8 @@ def substitutions(runs: dict) -> list:
         "Methods: the paper's SVM (scikit-learn, linear kernel, grid search and cross-validation) is "
         "`method=svm` (linear epsilon-SVR on scaled columns, time-blocked cross-validation); least squares "
         "(`method=ls`), not in the paper, is shown beside it.",
-        "Smoothing: Savitzky-Golay states and derivatives of the training records (`data.derivative=savgol`), "
-        "as the paper's pre-processing; the paper does not give the window.",
+        "Smoothing: Savitzky-Golay states and derivatives of the training records (`data.derivative=savgol`, "
+        "a 4 s window, cubic), as the paper's pre-processing; the paper gives neither window nor order.",
         "Validation: the 18 deg turning circle of the reference model (Table 4), with a pull-out at 540 deg; "
         "the six characteristics as defined in `studies.analysis.characteristics`.",
     ]
