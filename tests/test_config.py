@@ -145,6 +145,8 @@ BAD = [
     ("config", ["wind.speed=-3"], "wind.speed must be >= 0.0, got -3.0"),
     ("config", ["seed=-1"], "seed must be non-negative, got -1"),
     ("config", ["disturbance.level=5"], "disturbance.level must be one of NL0-NL3"),
+    ("config", ["disturbance.scaling=per_minute"],
+     "disturbance.scaling must be one of record, per_second, got 'per_minute'"),
     ("config", ["validate.manoeuvres=[zigzag_99]"],
      "validate.manoeuvres: unknown manoeuvre 'zigzag_99'; known: "),
     ("config", ["method=bayes", "method.n_samples=0"], "method.n_samples must be an integer >= 1, got 0"),

@@ -79,3 +79,15 @@ def test_arbitrary_rudder_series_is_followed_through_the_servo(model, vessel, tm
     at = rec.set_index("t")["delta"]
     assert np.rad2deg(at[50.0]) == pytest.approx(10.0, abs=1.5)   # servo lag of ~1 s
     assert np.rad2deg(at[200.0]) == pytest.approx(-10.0, abs=1e-3)
+
+
+def test_a_vessel_without_wind_particulars_simulates_as_in_calm_water(model, vessel):
+    """The compiled wind load is typed for every entry of the particulars it
+    reads, also for a vessel that has none (the KVLCC2): its calm-water
+    zig-zag is the one of the same vessel with particulars."""
+    import dataclasses
+
+    bare = dataclasses.replace(vessel, wind=None)
+    man = zigzag(20, 20, duration=200.0)
+    np.testing.assert_array_equal(simulate(model, vessel.coefficients, bare, man)[["x0", "y0", "psi"]],
+                                  simulate(model, vessel.coefficients, vessel, man)[["x0", "y0", "psi"]])

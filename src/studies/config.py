@@ -46,7 +46,7 @@ __all__ = [
     "register", "SCHEMAS", "known_manoeuvres", "manoeuvre_config", "explain_validation_error",
     "CONF_DIR", "compose_settings", "DERIVATIVES", "WEIGHTINGS", "STUDIES", "ROLL_TERMS", "ROLL_DAMPING_TERMS",
     "MANOEUVRE_KINDS",
-    "SVM_LOSSES", "SINDY_LIBRARIES", "BAYES_MOVES", "BAYES_DISCREPANCIES",
+    "SVM_LOSSES", "SINDY_LIBRARIES", "BAYES_MOVES", "BAYES_DISCREPANCIES", "DISTURBANCE_SCALINGS",
 ]
 
 #: the packaged config folder (``studies/conf``)
@@ -77,6 +77,9 @@ BAYES_DISCREPANCIES = ("none", "process_noise")
 WIND_CONVENTIONS = ("downwind", "zhu2021")
 #: ``objective.simulation``: how a trajectory objective simulates a training record
 OBJECTIVE_SIMULATIONS = ("replay", "closed_loop")
+#: ``disturbance.scaling``: how Wang et al. (2021) eq. 14 sizes the Wiener bias
+#: (:mod:`studies.environment.noise`)
+DISTURBANCE_SCALINGS = ("record", "per_second")
 
 
 # ------------------------------------------------------------------ value checks
@@ -264,10 +267,18 @@ class Disturbance:
         Noise level NL0-NL3 (0-3) of the earth-fixed slowly varying bias.
     process : int
         Noise level NL0-NL3 (0-3) of the body-fixed process noise.
+    scaling : str
+        How eq. 14 (``max|clean prime force| k0 k_i zeta``) sizes the bias
+        (:data:`DISTURBANCE_SCALINGS`): ``record`` (the bias's standard
+        deviation at the end of each record equals the eq. 14 size) or
+        ``per_second`` (the eq. 14 size per square-root second, so the
+        bias grows as ``sqrt(t / 1 s)`` times it). The process noise is
+        white of the eq. 14 size in both.
     """
 
     level: int = 0
     process: int = 0
+    scaling: str = "record"
 
     def __post_init__(self):
         for key in ("level", "process"):
@@ -275,6 +286,7 @@ class Disturbance:
             if isinstance(value, bool) or value not in (0, 1, 2, 3):
                 raise ConfigError(f"disturbance.{key} must be one of NL0-NL3 (0-3), got {value!r}")
             setattr(self, key, int(value))
+        self.scaling = _choice("disturbance.scaling", self.scaling, DISTURBANCE_SCALINGS)
 
 
 @dataclass

@@ -15,11 +15,28 @@ Wind-speed measurement error (thesis eq. 4.1): the record carries
 
 Disturbance (Wang et al. 2021 eq. 12-14): an earth-fixed slowly varying
 bias ``b`` (a Wiener process, ``db = w1``) and body-fixed process noise
-``w2`` added to the prime forces, each ``max|clean prime force| * k0 * k_i *
-zeta`` with ``k_i`` = 0.2 for surge and 1.0 for sway and yaw and the noise
-levels NL0-NL3 of its Table 2 (k0 = 0, 5, 10, 20 %). The Wiener increment
-over a step ``dt`` has standard deviation ``scale * sqrt(dt)`` (scale per
-square-root second), process noise is white, held over one integration step.
+``w2`` added to the prime forces, each sized by eq. 14, ``max|clean prime
+force| * k0 * k_i * zeta``, with ``k_i`` = 0.2 for surge and 1.0 for sway
+and yaw and the noise levels NL0-NL3 of its Table 2 (k0 = 0, 5, 10, 20 %).
+The process noise is white, of that standard deviation, held over one
+integration step. Eq. 14 sizes the bias in one of two readings
+(:data:`BIAS_SCALINGS`, ``disturbance.scaling``):
+
+``record`` (default)
+    eq. 14 is the size of the bias: the Wiener path is normalised so that
+    its standard deviation at the end of the record equals the eq. 14 size
+    (increments of standard deviation ``size * sqrt(dt / T)``, ``T`` the
+    record's length); over the record it grows as ``size * sqrt(t / T)``.
+    This is the reading of the paper's words (k0 "used to label the noisy
+    extent") and of the rule it borrows, Sutulo & Guedes Soares' sizing of
+    measurement noise, which sets the size of the signal, not a rate.
+``per_second``
+    eq. 14 is the intensity of the Wiener process per square-root second
+    (increments ``size * sqrt(dt)``): the standard deviation at time ``t``
+    is ``size * sqrt(t / 1 s)``, 24.5 times the eq. 14 size after 600 s,
+    so that the NL1 bias already exceeds the largest clean sway force and
+    yaw moment (kept for comparison; the project's reading before the
+    ``record`` one).
 
 References
 ----------
@@ -39,10 +56,11 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from ..config import DISTURBANCE_SCALINGS
 from ..errors import ConfigError
 
-__all__ = ["NOISE_LEVELS", "REDUCTION_FACTORS", "add_measurement_noise", "record_wind",
-           "disturbance_forces", "noise_level"]
+__all__ = ["NOISE_LEVELS", "REDUCTION_FACTORS", "DISTURBANCE_FACTORS", "BIAS_SCALINGS",
+           "add_measurement_noise", "record_wind", "disturbance_forces", "noise_level"]
 
 #: k0 of the SVM paper's noise levels NL0-NL3
 NOISE_LEVELS = {0: 0.0, 1: 0.05, 2: 0.10, 3: 0.20}
@@ -52,6 +70,9 @@ REDUCTION_FACTORS = {"u": 0.05, "v": 1.0, "r": 1.0, "delta": 0.05}
 
 #: k_i of Wang et al. (2021) eq. 14 per DOF (surge, sway, yaw)
 DISTURBANCE_FACTORS = np.array([0.2, 1.0, 1.0])
+
+#: how eq. 14 sizes the Wiener bias (``disturbance.scaling``; the module's docstring)
+BIAS_SCALINGS = DISTURBANCE_SCALINGS
 
 
 def noise_level(level) -> float:
@@ -100,23 +121,49 @@ def record_wind(record: pd.DataFrame, accuracy: float) -> pd.DataFrame:
 
 
 def disturbance_forces(n_steps: int, dt: float, force_scale: np.ndarray, bias_level: float,
-                       process_level: float, rng: np.random.Generator) -> np.ndarray:
+                       process_level: float, rng: np.random.Generator,
+                       scaling: str = "record") -> np.ndarray:
     """External prime forces per integration step (n_steps, 6).
 
-    Columns 0-2: earth-fixed bias ``b`` (Wiener process starting at zero);
-    columns 3-5: body-fixed process noise ``w2``.
+    Columns 0-2: earth-fixed bias ``b`` (Wiener process, zero in the first
+    row); columns 3-5: body-fixed process noise ``w2``. Row ``i`` acts
+    during the step that starts at ``t_i = i dt``. All values are prime
+    forces and moment (X', Y', N', divided by ``0.5 rho L^2 U^2`` and
+    ``0.5 rho L^3 U^2``), as ``force_scale``.
 
     Parameters
     ----------
+    n_steps : int
+        Integration steps of the record (rows returned).
+    dt : float
+        Integration step [s].
     force_scale : ndarray (3,)
-        ``max |clean prime force|`` per DOF (X', Y', N') of the clean run.
+        ``max |clean prime force|`` per DOF (X', Y', N') of the clean run [-].
     bias_level, process_level : float
-        k0 of the bias and of the process noise (see :data:`NOISE_LEVELS`).
+        k0 of the bias and of the process noise, fractions
+        (:data:`NOISE_LEVELS`: 0.05 = NL1). The eq. 14 size per DOF is
+        ``force_scale * k_i * k0`` [-].
+    rng : numpy Generator
+    scaling : str
+        How eq. 14 sizes the bias (:data:`BIAS_SCALINGS`). ``record``: the
+        bias's standard deviation in the last row (at ``T = (n_steps - 1)
+        dt``) is the eq. 14 size [-], increments ``size sqrt(dt / T)``.
+        ``per_second``: the eq. 14 size is the intensity [1/sqrt(s)],
+        increments ``size sqrt(dt)``, standard deviation ``size sqrt(t)``
+        at ``t`` [s]. The process noise is the same in both: white, of
+        standard deviation the eq. 14 size, one draw per step.
     """
+    if scaling not in BIAS_SCALINGS:
+        raise ConfigError(f"disturbance.scaling must be one of {', '.join(BIAS_SCALINGS)}, "
+                          f"got {scaling!r}")
     scale = np.asarray(force_scale, float) * DISTURBANCE_FACTORS
     out = np.zeros((n_steps, 6))
-    if bias_level > 0:
-        steps = rng.standard_normal((n_steps, 3)) * (scale * bias_level * np.sqrt(dt))
+    if bias_level > 0 and n_steps > 1:
+        if scaling == "record":
+            step_sd = scale * bias_level / np.sqrt(n_steps - 1)      # sqrt(dt / T), T = (n_steps - 1) dt
+        else:
+            step_sd = scale * bias_level * np.sqrt(dt)
+        steps = rng.standard_normal((n_steps, 3)) * step_sd
         out[:, :3] = np.cumsum(steps, axis=0) - steps[0]
     if process_level > 0:
         out[:, 3:] = rng.standard_normal((n_steps, 3)) * (scale * process_level)

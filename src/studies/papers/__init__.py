@@ -2,8 +2,8 @@
 
 Each paper has an id (the ``report.compare=`` value of ``studies report``), its
 citation, and its tables as CSV files beside this module, every row naming
-the table (and the page where the paper has page numbers, else its section) it was
-read from.
+the table (and the page where the paper has page numbers, else its section)
+it was read from.
 The reproduction reports (:mod:`studies.report.reproduction`) put these
 numbers beside the project's own.
 
@@ -56,6 +56,12 @@ PAPERS = {
         "estimation for a ship's roll response model in shallow water using an intelligent machine "
         "learning method, Ocean Engineering 191, 106479",
         {"tables": "chen2019.csv"}),
+    "svm_paper": Paper(
+        "svm_paper",
+        "T. Wang, G. Li, B. Wu, V. Aesoy, H. Zhang (2021), Parameter identification of ship manoeuvring "
+        "model under disturbance using support vector machine method, Ships and Offshore Structures "
+        "16(S1), 13-21",
+        {"table4": "wang2021_table4.csv"}),
 }
 
 

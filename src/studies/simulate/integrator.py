@@ -246,10 +246,15 @@ def _ext_rows(ext, n):
     return ext
 
 
+#: entries of :meth:`studies.vessels.base.WindParticulars.as_array` (9 particulars, 2 convention flags)
+WIND_ENTRIES = 11
+
+
 def _wind_tuple(wp):
-    """Wind particulars as a tuple of 9 (zeros for a vessel without them)."""
+    """Wind particulars as a tuple of :data:`WIND_ENTRIES` (zeros for a vessel
+    without them: the compiled wind load is typed for every entry it reads)."""
     wp = np.asarray(wp, dtype=float)
-    return tuple(float(x) for x in wp) if wp.size else (0.0,) * 9
+    return tuple(float(x) for x in wp) if wp.size else (0.0,) * WIND_ENTRIES
 
 
 def rk4_simulate(coef, powers, dofs, mass, length, speed0, x0, dt, cmd, mode, params,

@@ -140,7 +140,8 @@ def simulate_training(vessel: Vessel, model: ManoeuvringModel, truth: dict, mano
     The true wind acts; the record carries the wind speed with the
     anemometer error (thesis eq. 4.1). With a disturbance level, a clean run
     first gives the force scale of the bias and process noise (SVM paper eq.
-    14). Measurement noise (Li et al. eq. 22) is added last.
+    14, the bias sized by ``disturbance.scaling`` over this record's length).
+    Measurement noise (Li et al. eq. 22) is added last.
     """
     env = settings.environment
     external = None
@@ -150,7 +151,7 @@ def simulate_training(vessel: Vessel, model: ManoeuvringModel, truth: dict, mano
         scale = np.max(np.abs(model.forces(primes, truth)), axis=0)
         n_steps = len(manoeuvre.step_times()) - 1
         external = disturbance_forces(n_steps, manoeuvre.step, scale, settings.bias_level,
-                                      settings.process_level, rng)
+                                      settings.process_level, rng, settings.bias_scaling)
     record = simulate(model, truth, vessel, manoeuvre, env, external)
     if "diverged_at" in record.attrs:
         raise RuntimeError(f"the reference simulation of {manoeuvre.name} diverged at "
@@ -280,7 +281,8 @@ def run_name(cfg: RunConfig, settings: Settings) -> str:
     if settings.measurement_noise:
         parts.append(f"noise={100 * settings.measurement_noise:g}%")
     if settings.bias_level:
-        parts.append(f"NL={cfg.disturbance.level}")
+        parts.append(f"NL={cfg.disturbance.level}"
+                     + ("" if settings.bias_scaling == "record" else f" ({settings.bias_scaling})"))
     if str(cfg.model.name) != "abkowitz":
         parts.append(f"model={cfg.model.name}")
     parts.append(f"seed={settings.seed}")

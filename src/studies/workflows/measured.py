@@ -64,6 +64,7 @@ from ..identify.regression import assemble_problems, prime_states
 from ..models.abkowitz import ManoeuvringModel
 from ..models.terms import DOFS
 from ..analysis.bands import band_statistics, predictive_draws
+from ..analysis.characteristics import steady_turn_rows
 from ..plotting import pyplot
 from ..simulate.simulator import replay_many
 from ..vessels.base import Vessel
@@ -259,25 +260,7 @@ def identify_measured(model: ManoeuvringModel, vessel: Vessel, records, derivati
 
 def _steady_rows(record: pd.DataFrame) -> np.ndarray | None:
     """Rows of the steady phase of a turning record (see :func:`steady_turn`)."""
-    delta = np.abs(record["delta"].to_numpy(float))
-    psi = record["psi"].to_numpy(float)
-    top = delta.max()
-    moved = np.flatnonzero(delta > np.deg2rad(1.0))
-    if top < np.deg2rad(2.0) or len(moved) == 0:
-        return None
-    plateau = np.abs(delta - np.median(delta[delta > 0.9 * top])) <= max(np.deg2rad(0.5), 0.05 * top)
-    change = np.abs(psi - psi[moved[0]])
-    rows = plateau & (change >= 2 * np.pi)
-    rows[: moved[0]] = False
-    if not rows.any():
-        return None
-    first = np.flatnonzero(rows)[0]
-    leave = np.flatnonzero(~plateau[first:])
-    if len(leave):
-        rows[first + leave[0]:] = False
-    if rows.sum() < 10 or change[rows].max() - change[rows].min() < np.pi / 2:
-        return None
-    return rows
+    return steady_turn_rows(record)
 
 
 def _steady_values(record: pd.DataFrame, rows: np.ndarray) -> dict:

@@ -53,6 +53,7 @@ class Settings:
     measurement_noise: float
     bias_level: float
     process_level: float
+    bias_scaling: str
     seed: int
     data_paths: list
     validate_paths: list
@@ -74,6 +75,7 @@ def read_settings(cfg: RunConfig) -> Settings:
         measurement_noise=float(cfg.noise.measurement),
         bias_level=noise_level(cfg.disturbance.level or 0),
         process_level=noise_level(cfg.disturbance.process or 0),
+        bias_scaling=str(cfg.disturbance.scaling),
         seed=int(cfg.seed),
         data_paths=as_path_list(cfg.data.path),
         validate_paths=as_path_list(cfg.validate.path),

@@ -30,12 +30,12 @@ from pathlib import Path
 from ...errors import ConfigError
 from ...papers import get_paper
 from ..builder import _report_directory, _write_html
-from . import roll_paper, thesis
+from . import roll_paper, svm_paper, thesis
 
 __all__ = ["REPRODUCTIONS", "experiments", "build_reproduction"]
 
 #: ``report.compare`` value -> the module that compares that paper
-REPRODUCTIONS = {"thesis": thesis, "roll_paper": roll_paper}
+REPRODUCTIONS = {"thesis": thesis, "svm_paper": svm_paper, "roll_paper": roll_paper}
 
 
 def _module(paper_id: str):
@@ -58,7 +58,7 @@ def build_reproduction(paper_id: str, runs: dict, report_dir) -> Path:
     Parameters
     ----------
     paper_id : str
-        ``thesis``, ... (:data:`REPRODUCTIONS`).
+        ``thesis``, ``svm_paper`` (:data:`REPRODUCTIONS`).
     runs : dict
         ``{experiment: [StoredRun, ...]}`` for every experiment of
         :func:`experiments` (an empty list where the store has none).
