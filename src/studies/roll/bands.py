@@ -141,14 +141,16 @@ def _scores(ensemble: np.ndarray, measured: np.ndarray, noise: float, rng) -> di
     quantiles of the predicted measurement."""
     noisy = np.repeat(ensemble, NOISE_DRAWS, axis=0)
     noisy = noisy + noise * rng.standard_normal(noisy.shape)
+    # numpy's nanquantile works column by column: only where there are gaps (missing peaks)
+    quantile = np.quantile if np.all(np.isfinite(noisy)) else np.nanquantile
     out: dict = {}
     for level in LEVELS:
-        lo, hi = np.nanquantile(noisy, (0.5 - level / 2, 0.5 + level / 2), axis=0)
+        lo, hi = quantile(noisy, (0.5 - level / 2, 0.5 + level / 2), axis=0)
         inside = (measured >= lo) & (measured <= hi)
         out[f"coverage_{int(round(100 * level))}"] = float(np.mean(inside))
         if level == 0.9:
             out["lower"], out["upper"], out["inside"] = lo, hi, inside
-    out["median"] = np.nanmedian(ensemble, axis=0)
+    out["median"] = (np.median if quantile is np.quantile else np.nanmedian)(ensemble, axis=0)
     out["width"] = float(np.nanmean(out["upper"] - out["lower"]))
     out["interval_score"] = float(np.nanmean(interval_score(out["lower"], out["upper"], measured, 0.1)))
     ok = np.all(np.isfinite(noisy), axis=0)
