@@ -938,6 +938,15 @@ class GaMethod(MethodConfig):
 class BayesMethod(MethodConfig):
     """``method=bayes``: regression posterior per DOF, optionally a trajectory posterior (emcee).
 
+    With ``model=roll`` the roll posterior of :mod:`studies.roll.bayes` reads
+    ``n_walkers``, ``n_samples``, ``burn_in``, ``thin``, ``seed``,
+    ``init_scale``, ``moves``, ``corner_max``, ``autocorr_correction`` (AR(2)
+    residuals; false: independent ones, the model taken as exact),
+    ``discrepancy`` (``process_noise``: wander of the roll stiffness and
+    linear damping, :mod:`studies.roll.discrepancy`) and
+    ``discrepancy_evaluations``; the ``trajectory_*`` settings and
+    ``discrepancy_step`` belong to the manoeuvring posterior.
+
     Attributes
     ----------
     n_walkers : int or None

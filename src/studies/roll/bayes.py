@@ -36,7 +36,7 @@ envelope changes slowly (the period drift and the damping the ``b1 + b2``
 model cannot follow). On a grid of :data:`POINTS_PER_PERIOD` = 20 samples
 per period an AR(2) represents it as a resonance at the roll frequency
 (complex roots of modulus 0.94-0.98 on the KVLCC2 tests); the Gauss-Newton
-standard errors of ``b1`` and ``b2`` whitened by it are 4-6 times the
+standard errors of ``b1`` and ``b2`` whitened by it are 3.7-6.2 times the
 independent-residual ones there and unchanged on a simulated decay with
 white noise (partial autocorrelations near zero). On finer grids the AR(2)
 describes the residual's smoothness from one sample to the next instead of

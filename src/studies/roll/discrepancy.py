@@ -34,12 +34,14 @@ from its roughness (:func:`studies.roll.decay.noise_std`); ``sigma_w2``,
 :func:`scipy.optimize.minimize` in ``log sigma`` and ``log tau`` from a
 small grid of starts) with the coefficients fixed at the posterior medians.
 The estimate is a plug-in (empirical Bayes) one: the coefficients' posterior
-is not changed by it. Letting the filter move the coefficients as well (the
-joint estimate) was measured to trade the mean damping against the wander:
-on test 21338 it gave ``b2 < 0`` (damping falling with amplitude, the
-opposite of the decay curve) and bands wider than the decay. ``tau`` is
-bounded to ``[T0 / 2, duration / 2]``: a wander slower than half the record
-cannot be told from the coefficients themselves.
+is not changed by it. Sampling the coefficients on this filter's likelihood
+together with the wander (the joint estimate) was measured to trade the
+mean damping against the wander: on the first 70 % of test 21338 it gave
+``b2`` between -0.10 and -0.03 (damping falling with amplitude, the
+opposite of the decay curve; NLS: 0.078) and, with ``tau`` free up to 200
+periods, bands wider than the decay. ``tau`` is bounded to
+``[T0 / 2, duration / 2]``: a wander slower than half the record cannot be
+told from the coefficients themselves.
 
 Realisation in the bands (:mod:`studies.roll.bands`): every replay draws a
 coefficient set from the posterior and its own realisation of ``eps`` and
