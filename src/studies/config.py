@@ -736,11 +736,16 @@ class RollModelConfig(ModelConfig):
         with at least one damping term (b1, b2, b3).
     synthetic : RollSynthetic
         The decay simulated when ``data.path`` is empty.
+    holdout : float or None
+        With one training decay and no ``validate.path``: the share of its
+        half-cycles (the last ones) held out and predicted from their own
+        initial state, in [0.05, 0.8]; None: nothing held out.
     """
 
     terms: List[str] = field(default_factory=lambda: ["b1", "b2"])
     synthetic: RollSynthetic = field(default_factory=RollSynthetic)
     study: str = "roll_decay"
+    holdout: Optional[float] = None
 
     def __post_init__(self):
         super().__post_init__()
@@ -752,6 +757,9 @@ class RollModelConfig(ModelConfig):
         if not any(t in ROLL_DAMPING_TERMS for t in self.terms):
             raise ConfigError(f"model.terms={self.terms}: the roll model needs at least one "
                               "damping term (b1, b2, b3)")
+        self.holdout = _optional_number("model.holdout", self.holdout)
+        if self.holdout is not None and not 0.05 <= self.holdout <= 0.8:
+            raise ConfigError(f"model.holdout must be in [0.05, 0.8] or null, got {self.holdout}")
 
 
 #: interaction factors ``model.output_error`` may list (``model=mmg``)
@@ -941,6 +949,15 @@ class GaMethod(MethodConfig):
 @dataclass
 class BayesMethod(MethodConfig):
     """``method=bayes``: regression posterior per DOF, optionally a trajectory posterior (emcee).
+
+    With ``model=roll`` the roll posterior of :mod:`studies.roll.bayes` reads
+    ``n_walkers``, ``n_samples``, ``burn_in``, ``thin``, ``seed``,
+    ``init_scale``, ``moves``, ``corner_max``, ``autocorr_correction`` (AR(2)
+    residuals; false: independent ones, the model taken as exact),
+    ``discrepancy`` (``process_noise``: wander of the roll stiffness and
+    linear damping, :mod:`studies.roll.discrepancy`) and
+    ``discrepancy_evaluations``; the ``trajectory_*`` settings and
+    ``discrepancy_step`` belong to the manoeuvring posterior.
 
     Attributes
     ----------

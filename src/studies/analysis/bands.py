@@ -281,18 +281,25 @@ def trust_verdict(name: str, stats: dict, outside: float | None = None, ranges: 
     return trusted, text
 
 
-def plot_calibration(stats: dict, path, title: str) -> None:
-    """Coverage of the measured track against the nominal level (50/80/90/95 %)."""
+def plot_calibration(stats: dict, path, title: str, series=(("coverage_xy", "x0 and y0 inside"),)) -> None:
+    """Coverage of the measurement against the nominal level (50/80/90/95 %).
+
+    ``series`` lists ``(key, label)``: the curve of ``stats["<key>_<level>"]``
+    per level (the manoeuvring bands: the measured track, ``coverage_xy``;
+    the roll bands: the angle and the peak envelope).
+    """
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(5.5, 5.0))
-    levels = [lv for lv in LEVELS if f"coverage_xy_{int(round(100 * lv))}" in stats]
-    cover = [stats[f"coverage_xy_{int(round(100 * lv))}"] for lv in levels]
     ax.plot([0, 1], [0, 1], color="0.6", lw=1, ls="--", label="calibrated")
     ax.plot([0.9, 0.9], TRUSTED_COVERAGE, color="tab:green", lw=8, alpha=0.3, solid_capstyle="butt",
             label="accepted at 90 %")
-    ax.plot(levels, cover, "o-", color="tab:orange", label="x0 and y0 inside")
-    for lv, c in zip(levels, cover):
-        ax.annotate(f"{100 * c:.0f} %", (lv, c), textcoords="offset points", xytext=(4, -12), fontsize=8)
+    for (key, label), color in zip(series, ("tab:orange", "tab:blue", "tab:purple")):
+        levels = [lv for lv in LEVELS if np.isfinite(stats.get(f"{key}_{int(round(100 * lv))}", np.nan))]
+        cover = [stats[f"{key}_{int(round(100 * lv))}"] for lv in levels]
+        ax.plot(levels, cover, "o-", color=color, label=label)
+        for lv, c in zip(levels, cover):
+            ax.annotate(f"{100 * c:.0f} %", (lv, c), textcoords="offset points", xytext=(4, -12), fontsize=8,
+                        color=color)
     ax.set_xlim(0.4, 1.0)
     ax.set_ylim(0.0, 1.02)
     ax.set_xlabel("nominal level of the band")

@@ -20,6 +20,20 @@ model
 estimators
     Identification: NLS (output error), FLS (smoothing spline, equation
     error) and NLS-SVM (LS-SVM, equation error); ``make_estimator``.
+bayes
+    ``method=bayes``: emcee posterior of the coefficients and initial states
+    on the output-error likelihood with an AR(2) residual estimated jointly
+    (:class:`~studies.roll.bayes.BayesRollEstimator`).
+discrepancy
+    The model discrepancy of the predictive bands: Ornstein-Uhlenbeck wander
+    of the roll stiffness and linear damping, estimated by the prediction-error
+    method with a compiled extended Kalman filter on the training decays.
+bands
+    Posterior predictive bands of a decay and of its peak envelope, their
+    calibration (coverage at 50/80/90/95 %, width, interval score, CRPS) and
+    whether they can be trusted.
+methods
+    Every roll method by its ``method=`` name (``ROLL_METHODS``, ``make_method``).
 lssvm
     Least-squares support-vector regression with RBF kernel and its analytic
     derivatives, windowed fits, cross-validation (used by NLS-SVM).

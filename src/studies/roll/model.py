@@ -59,10 +59,14 @@ UNITS: dict[str, str] = {"omega0": "rad/s", "b1": "1/s", "b2": "-", "b3": "s", "
 _CLIP = 1.0e3  # [rad] a trajectory beyond this has diverged; it is clipped to stay finite
 
 
-def _rk4_kernel(phi0, dphi0, t, b1, b2, b3, w2, c3, nsub):  # pragma: no cover - compiled
+def _rk4_kernel(phi0, dphi0, t, b1, b2, b3, w2, c3, nsub, dw2, db1):  # pragma: no cover - compiled
     """Fixed-step RK4 of the roll equation on the grid ``t`` with ``nsub`` sub-steps.
 
-    Plain Python so that numba can compile it; also usable uncompiled.
+    ``dw2`` and ``db1`` are added to ``omega0^2`` and ``b1`` over each output
+    interval (arrays of ``len(t) - 1``; empty arrays: no perturbation), the
+    coefficient wander of a replay with a model discrepancy
+    (:mod:`studies.roll.discrepancy`). Plain Python so that numba can compile
+    it; also usable uncompiled.
     """
     n = t.shape[0]
     out = np.empty((n, 2))
@@ -70,6 +74,7 @@ def _rk4_kernel(phi0, dphi0, t, b1, b2, b3, w2, c3, nsub):  # pragma: no cover -
     v = dphi0
     out[0, 0] = x
     out[0, 1] = v
+    wander = dw2.shape[0] > 0
     diverged = False
     for i in range(n - 1):
         if diverged:
@@ -77,21 +82,26 @@ def _rk4_kernel(phi0, dphi0, t, b1, b2, b3, w2, c3, nsub):  # pragma: no cover -
             out[i + 1, 1] = v
             continue
         h = (t[i + 1] - t[i]) / nsub
+        bb = b1
+        ww = w2
+        if wander:
+            bb = b1 + db1[i]
+            ww = w2 + dw2[i]
         for _ in range(nsub):
             k1x = v
-            k1v = -(b1 * v + b2 * abs(v) * v + b3 * v * v * v + w2 * x + c3 * x * x * x)
+            k1v = -(bb * v + b2 * abs(v) * v + b3 * v * v * v + ww * x + c3 * x * x * x)
             x2 = x + 0.5 * h * k1x
             v2 = v + 0.5 * h * k1v
             k2x = v2
-            k2v = -(b1 * v2 + b2 * abs(v2) * v2 + b3 * v2 * v2 * v2 + w2 * x2 + c3 * x2 * x2 * x2)
+            k2v = -(bb * v2 + b2 * abs(v2) * v2 + b3 * v2 * v2 * v2 + ww * x2 + c3 * x2 * x2 * x2)
             x3 = x + 0.5 * h * k2x
             v3 = v + 0.5 * h * k2v
             k3x = v3
-            k3v = -(b1 * v3 + b2 * abs(v3) * v3 + b3 * v3 * v3 * v3 + w2 * x3 + c3 * x3 * x3 * x3)
+            k3v = -(bb * v3 + b2 * abs(v3) * v3 + b3 * v3 * v3 * v3 + ww * x3 + c3 * x3 * x3 * x3)
             x4 = x + h * k3x
             v4 = v + h * k3v
             k4x = v4
-            k4v = -(b1 * v4 + b2 * abs(v4) * v4 + b3 * v4 * v4 * v4 + w2 * x4 + c3 * x4 * x4 * x4)
+            k4v = -(bb * v4 + b2 * abs(v4) * v4 + b3 * v4 * v4 * v4 + ww * x4 + c3 * x4 * x4 * x4)
             x = x + h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x)
             v = v + h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v)
         if not (abs(x) < 1.0e3 and abs(v) < 1.0e6):  # also catches NaN
@@ -101,6 +111,10 @@ def _rk4_kernel(phi0, dphi0, t, b1, b2, b3, w2, c3, nsub):  # pragma: no cover -
         out[i + 1, 0] = x
         out[i + 1, 1] = v
     return out
+
+
+#: the empty perturbation of :func:`_rk4_kernel` (no coefficient wander)
+NO_WANDER = np.empty(0)
 
 
 _COMPILED: dict[str, object] = {}
@@ -122,7 +136,7 @@ def compiled_rk4():
 
                 cand = numba.njit(cache=cache, nogil=True)(_rk4_kernel)
                 # compile now with representative types so that callers' timings are clean
-                cand(0.1, 0.0, np.array([0.0, 0.1]), 0.0, 0.0, 0.0, 1.0, 0.0, 1)
+                cand(0.1, 0.0, np.array([0.0, 0.1]), 0.0, 0.0, 0.0, 1.0, 0.0, 1, NO_WANDER, NO_WANDER)
                 kern = cand
                 break
             except Exception:
@@ -246,7 +260,7 @@ class RollModel:
         return np.column_stack(cols), names
 
     def simulate(self, params: Mapping[str, float], phi0: float, dphi0: float, t,
-                 max_step: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+                 max_step: float | None = None, wander: tuple | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Simulate a free decay with fixed-step fourth-order Runge-Kutta.
 
         Parameters
@@ -264,6 +278,11 @@ class RollModel:
             Largest integration step [s]; each output interval is split into
             ``ceil(dt / max_step)`` RK4 steps. Default: ``T0 / 60`` with
             ``T0 = 2 pi / omega0`` (global phase error below 1e-5 rad per period).
+        wander : (dw2, db1), optional
+            Arrays of ``len(t) - 1`` added to ``omega0^2`` [1/s^2] and ``b1``
+            [1/s] over each output interval: a realisation of the coefficient
+            wander of :mod:`studies.roll.discrepancy` (a replay with model
+            discrepancy). Default: none.
 
         Returns
         -------
@@ -280,7 +299,13 @@ class RollModel:
             max_step = 2.0 * math.pi / w0 / 60.0
         dt_max = float(np.max(np.diff(t))) if t.size > 1 else 0.0
         nsub = max(1, int(math.ceil(dt_max / max_step - 1e-9)))
-        out = compiled_rk4()(float(phi0), float(dphi0), t, b1, b2, b3, w2, c3, nsub)
+        if wander is None:
+            dw2 = db1 = NO_WANDER
+        else:
+            dw2, db1 = (np.ascontiguousarray(np.asarray(a, dtype=float)) for a in wander)
+            if dw2.shape != (t.size - 1,) or db1.shape != (t.size - 1,):
+                raise ValueError("wander arrays need one value per output interval (len(t) - 1)")
+        out = compiled_rk4()(float(phi0), float(dphi0), t, b1, b2, b3, w2, c3, nsub, dw2, db1)
         return out[:, 0].copy(), out[:, 1].copy()
 
 

@@ -14,7 +14,8 @@ equilibrium, on a uniform time step. Metadata are in ``DataFrame.attrs``
 (``file``, ``name``, ``t_release``, ``offset``, ``dt``, ``period``,
 ``n_extrema``, and ``speed`` [m/s] when the record says it). Every refused input raises :class:`studies.errors.DataError`
 naming the file and the reason. :func:`initial_state` estimates the state a
-record starts from; :func:`froude_scale_record` brings a record's time to
+record starts from (:func:`initial_state_covariance` also the error of that
+estimate); :func:`froude_scale_record` brings a record's time to
 another geometric scale; :func:`find_particulars` reads the ship particulars
 filed beside a record; :func:`split_cycles` cuts a decay into its first and
 its later cycles (a single record's time-blocked hold-out).
@@ -52,6 +53,7 @@ __all__ = [
     "read_fnpf_parameters",
     "find_particulars",
     "initial_state",
+    "initial_state_covariance",
     "froude_scale_record",
     "record_speed",
     "record_vessel",
@@ -422,6 +424,33 @@ def record_vessel(particulars: dict | None) -> tuple[str | None, str]:
     return None, "no parameter file beside the records names the ship"
 
 
+def _first_period_fit(record: pd.DataFrame, period: float | None):
+    """Least-squares fit of the record's first period (see :func:`initial_state`).
+
+    Returns ``(coef (8,), X (m, 8), y (m,), J (2, 8))`` with ``J @ coef`` the
+    initial angle and rate, or None when the record has no period estimate
+    or is shorter than one period.
+    """
+    t = record["t"].to_numpy(float)
+    phi = record["phi"].to_numpy(float)
+    if period is None:
+        period = float(record.attrs.get("period", np.nan))
+    tt = t - t[0]
+    if not (np.isfinite(period) and period > 0 and tt[-1] >= period):
+        return None
+    m = tt <= period
+    w = 2 * math.pi / period
+    u = tt[m]
+    c, s = np.cos(w * u), np.sin(w * u)
+    c3, s3 = np.cos(3 * w * u), np.sin(3 * w * u)
+    X = np.column_stack((c, s, u * c, u * s, u * u * c, u * u * s, c3, s3))
+    coef = np.linalg.lstsq(X, phi[m], rcond=None)[0]
+    J = np.zeros((2, 8))
+    J[0, 0] = J[0, 6] = 1.0
+    J[1, 1], J[1, 2], J[1, 7] = w, 1.0, 3 * w
+    return coef, X, phi[m], J
+
+
 def initial_state(record: pd.DataFrame, period: float | None = None) -> tuple[float, float]:
     """Initial roll angle [rad] and rate [rad/s] of a prepared record.
 
@@ -446,23 +475,53 @@ def initial_state(record: pd.DataFrame, period: float | None = None) -> tuple[fl
     phi0, dphi0 : float
         [rad], [rad/s].
     """
+    fit = _first_period_fit(record, period)
+    if fit is not None:
+        coef, _, _, J = fit
+        phi0, dphi0 = J @ coef
+        return float(phi0), float(dphi0)
     t = record["t"].to_numpy(float)
     phi = record["phi"].to_numpy(float)
-    if period is None:
-        period = float(record.attrs.get("period", np.nan))
     tt = t - t[0]
-    if np.isfinite(period) and period > 0 and tt[-1] >= period:
-        m = tt <= period
-        w = 2 * math.pi / period
-        c, s = np.cos(w * tt[m]), np.sin(w * tt[m])
-        u = tt[m]
-        c3, s3 = np.cos(3 * w * u), np.sin(3 * w * u)
-        X = np.column_stack((c, s, u * c, u * s, u * u * c, u * u * s, c3, s3))
-        coef = np.linalg.lstsq(X, phi[m], rcond=None)[0]
-        return float(coef[0] + coef[6]), float(w * coef[1] + coef[2] + 3 * w * coef[7])
     n = min(8, t.size)
     c = np.polyfit(tt[:n], phi[:n], min(3, n - 1))
     return float(np.polyval(c, 0.0)), float(np.polyval(np.polyder(c), 0.0))
+
+
+def initial_state_covariance(record: pd.DataFrame, noise: float = 0.0,
+                             period: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Initial state of :func:`initial_state` and the covariance of its error.
+
+    The error of the least-squares fit over the first period: ``J (X^T X)^-1
+    J^T s^2`` with ``s^2`` the larger of the fit's residual variance (what
+    the eight-term curve does not follow, noise and distortion alike) and
+    ``noise^2``.
+
+    Parameters
+    ----------
+    record : DataFrame
+        Prepared decay.
+    noise : float
+        Standard deviation of the measurement noise [rad], a floor of ``s``.
+    period : float, optional
+        Roll period [s]; default ``record.attrs["period"]``.
+
+    Returns
+    -------
+    mean : ndarray (2,)
+        ``(phi0 [rad], dphi0 [rad/s])``, as :func:`initial_state`.
+    cov : ndarray (2, 2)
+        [rad^2, rad^2/s, rad^2/s^2]; zeros when the record is shorter than a
+        period (the cubic fallback of :func:`initial_state` has no error model).
+    """
+    fit = _first_period_fit(record, period)
+    if fit is None:
+        return np.asarray(initial_state(record, period), float), np.zeros((2, 2))
+    coef, X, y, J = fit
+    dof = max(1, X.shape[0] - X.shape[1])
+    var = max(float(np.sum((y - X @ coef) ** 2)) / dof, float(noise) ** 2)
+    cov = J @ np.linalg.pinv(X.T @ X) @ J.T * var
+    return J @ coef, 0.5 * (cov + cov.T)
 
 
 def split_cycles(record: pd.DataFrame, share: float) -> tuple[pd.DataFrame, pd.DataFrame]:

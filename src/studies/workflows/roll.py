@@ -8,7 +8,9 @@ figures) is :mod:`studies.roll`.
 Outputs written into ``out_dir`` (the output contract of DESIGN.md):
 
 - ``coefficients.csv``: ``name,value,lower,upper,true,deviation_pct``
-  (``lower``/``upper`` empty: none of NLS, FLS, NLS-SVM gives a posterior);
+  (``lower``/``upper``: the 5 and 95 % posterior quantiles of
+  ``method=bayes``, whose ``value`` is the posterior median; empty for NLS,
+  FLS and NLS-SVM, which give no posterior);
 - ``metrics.json``: flat numbers (CPU time, equivalent damping,
   dimensional coefficients, simulation-vs-test numbers) and the prediction
   errors of every record, computed one way for every method
@@ -32,7 +34,19 @@ Outputs written into ``out_dir`` (the output contract of DESIGN.md):
   - ``<stem>/rmse_deg_record_start_linear_only`` (and ``mae``): the same
     for a linear-only model (``b1``) identified by the same method;
 - PNG figures: predictions and errors per record (paper Figs 5/8), decay
-  curves, and the simulation-vs-test comparison.
+  curves, and the simulation-vs-test comparison;
+- with ``method=bayes``: ``bayes/roll/...`` convergence metrics (acceptance
+  fraction, autocorrelation time, converged) and ``metric_history.json``,
+  ``corner_roll.png``, ``discrepancy/...`` (``method.discrepancy=process_noise``)
+  and, per validation record (another record, or the held-out later cycles
+  of one decay with ``holdout``), the posterior predictive bands of the
+  decay and of its peak envelope (:mod:`studies.roll.bands`):
+  ``<stem>/band/coverage_50|80|90|95``, ``covered_until_s``,
+  ``width_deg``, ``width_over_amplitude``, ``interval_score_deg``,
+  ``crps_deg``, ``envelope_coverage_...``, ``envelope_width_deg``, ...,
+  ``outside_training`` and ``trusted``; ``validation/bands_trusted``;
+  ``band_<stem>.png``/``.csv``, ``calibration_<stem>.png`` and ``bands.md``
+  (whether the bands can be trusted, record by record).
 
 References
 ----------
@@ -51,11 +65,15 @@ from typing import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
+from studies.analysis.bands import TRUSTED_COVERAGE, plot_calibration
 from studies.errors import ConfigError
+from studies.identify.bayes.figures import CORNER_MAX, plot_corner
+from studies.roll.bands import (BAND_KEYS, band_statistics, band_table, outside_amplitudes, plot_band,
+                                predictive_replays, trust_verdict)
 from studies.roll.comparison import STARTS, compare_simulation_with_tests, mae, replay_errors, rmse
 from studies.roll.decay import decay_curve, noise_std
-from studies.roll.estimators import make_estimator
 from studies.roll.figures import plot_decay_curves, plot_prediction
+from studies.roll.methods import ROLL_METHODS, make_method
 from studies.roll.model import (
     OPTIONAL_TERMS,
     damping_ratio,
@@ -63,11 +81,14 @@ from studies.roll.model import (
     equivalent_linear_damping,
     froude_scale_params,
 )
-from studies.roll.records import froude_scale_record, initial_state, load_roll_decay
+from studies.roll.records import froude_scale_record, initial_state, load_roll_decay, split_cycles
 
 __all__ = ["run_roll_study", "compare_methods"]
 
+#: the methods of Chen et al. (2019) compared by :func:`compare_methods`
 METHODS = ("nls", "fls", "nls_svm")
+#: the file of the identification's step metrics (emcee's acceptance and autocorrelation time)
+METRIC_HISTORY = "metric_history.json"
 COEFFICIENT_COLUMNS = ["name", "value", "lower", "upper", "true", "deviation_pct"]
 
 
@@ -91,8 +112,8 @@ def _stem(rec: pd.DataFrame, i: int) -> str:
 
 
 def _check_method_terms(method: str, terms: Sequence[str]) -> tuple[str, ...]:
-    if method not in METHODS:
-        raise ConfigError(f"method={method}: unknown roll identification method; choose from {list(METHODS)}")
+    if method not in ROLL_METHODS:
+        raise ConfigError(f"method={method}: unknown roll identification method; choose from {list(ROLL_METHODS)}")
     terms = tuple(terms)
     bad = [t for t in terms if t not in OPTIONAL_TERMS]
     if bad:
@@ -205,11 +226,88 @@ def _decay_metrics(stem: str, rec: pd.DataFrame, n: int = 4) -> dict[str, float]
     return m
 
 
+def _posterior_outputs(fit, terms, train, valid, out: Path, m: dict, band_draws: int, seed: int,
+                       corner_max: int, method: str) -> list[str]:
+    """The outputs of a posterior (``method=bayes``): corner plot, step
+    metrics, and the predictive bands of every validation record with their
+    metrics (into ``m``), figures, tables and ``bands.md``."""
+    samples = fit.meta.get("samples")
+    if not samples:
+        return []
+    files = []
+    path = out / "corner_roll.png"
+    plot_corner(samples["names"], samples["values"], path, f"{method}: posterior of the roll coefficients",
+                max_params=corner_max)
+    files.append(str(path))
+    history = fit.meta.get("history") or {}
+    if history:
+        path = out / METRIC_HISTORY
+        path.write_text(json.dumps({k: [[int(step), float(value)] for step, value in v]
+                                    for k, v in sorted(history.items())}, indent=1))
+        files.append(str(path))
+    if band_draws <= 0 or not valid:
+        return files
+    disc = fit.meta.get("discrepancy")
+    what = "coefficients and model discrepancy" if disc is not None else "coefficients"
+    verdicts, trusted_all = [], []
+    for i, rec in enumerate(valid):
+        stem = _stem(rec, len(train) + i)
+        replays, diverged = predictive_replays(samples["values"], samples["names"], terms, rec, band_draws,
+                                               disc, seed + 1000 + i)
+        stats = band_statistics(replays, diverged, rec, seed=seed + 1000 + i)
+        for key in BAND_KEYS:
+            m[f"{stem}/band/{key}"] = stats[key]
+        outside, train_range, rec_range = outside_amplitudes(rec, train)
+        trusted, sentence = trust_verdict(stem, stats, outside, train_range, rec_range)
+        m[f"{stem}/band/draws"] = float(band_draws)
+        m[f"{stem}/band/discrepancy"] = float(disc is not None)
+        m[f"{stem}/band/outside_training"] = outside
+        m[f"{stem}/band/trusted"] = float(trusted)
+        verdicts.append(sentence)
+        trusted_all.append(float(trusted))
+        fig = out / f"band_{stem}.png"
+        plot_band(rec, stats, fig, f"{stem}: 5-95 % posterior predictive band ({band_draws} replays: {what})")
+        cal = out / f"calibration_{stem}.png"
+        plot_calibration(stats, cal, f"{stem}\ncoverage of the measured decay ({what})",
+                         series=(("coverage", "roll angle inside"), ("envelope_coverage", "peak envelope inside")))
+        table = out / f"band_{stem}.csv"
+        band_table(stats).to_csv(table, index=False)
+        files += [str(fig), str(cal), str(table)]
+    m["validation/bands_trusted"] = float(np.mean(trusted_all))
+    path = out / "bands.md"
+    path.write_text(_bands_markdown(verdicts, disc, fit.params))
+    files.append(str(path))
+    return files
+
+
+def _bands_markdown(verdicts: list, discrepancy, params: Mapping[str, float]) -> str:
+    """``bands.md``: whether the predictive bands of the decays can be trusted, record by record."""
+    if discrepancy is None:
+        source = ("The bands come from the coefficient posterior alone (`method.discrepancy=none`): the "
+                  "model is taken as exact, so they hold only the coefficients' and the initial state's "
+                  "uncertainty and the measurement noise.")
+    else:
+        source = (f"The bands come from the coefficient posterior and a model discrepancy "
+                  f"(`method.discrepancy={discrepancy.kind}`): {discrepancy.describe(params)}, estimated "
+                  f"on the training decays only.")
+    lo, hi = TRUSTED_COVERAGE
+    lines = ["# Predictive bands of the roll decays", "", source, "",
+             f"A band is trusted on a record when its 90 % band holds the measured roll angle between "
+             f"{100 * lo:.0f} and {100 * hi:.0f} % of the time, is narrower than the record's amplitude "
+             "and fewer than 10 % of the replays diverge (figures `calibration_<record>.png`: coverage "
+             "of the angle and of the peak envelope against the nominal 50/80/90/95 %; "
+             "`band_<record>.png`: the bands).", ""]
+    lines += [f"- {v}" for v in verdicts]
+    return "\n".join(lines) + "\n"
+
+
 # ------------------------------------------------------------ entry point
 def run_roll_study(data_paths: list[str], method: str, out_dir: str,
                    validate_paths: list[str] | None = None, terms: list[str] = ["b1", "b2"],  # noqa: B006
                    simulation_path: str | None = None, true_params: dict | None = None,
-                   seed: int = 0) -> tuple[pd.DataFrame, dict[str, float], list[str]]:
+                   seed: int = 0, method_settings: dict | None = None, band_draws: int = 50,
+                   holdout: float | None = None,
+                   corner_max: int = CORNER_MAX) -> tuple[pd.DataFrame, dict[str, float], list[str]]:
     """Identify a roll-decay model, validate it and write the study outputs.
 
     Parameters
@@ -218,8 +316,8 @@ def run_roll_study(data_paths: list[str], method: str, out_dir: str,
         Decay records identified on (jointly when several): data-contract
         CSVs (``t``, ``phi``), SSPA model tests (``time``, ``phi``) or the
         FNPF format (``Time``, ``phi``); see :mod:`studies.roll.records`.
-    method : {"nls", "fls", "nls_svm"}
-        Identification method (:mod:`studies.roll.estimators`).
+    method : {"nls", "fls", "nls_svm", "bayes"}
+        Identification method (:mod:`studies.roll.methods`).
     out_dir : str
         Directory for ``coefficients.csv``, ``metrics.json`` and figures
         (created; nothing is written when an input is refused).
@@ -237,7 +335,21 @@ def run_roll_study(data_paths: list[str], method: str, out_dir: str,
         Known coefficients (simulated data): fills ``true`` and
         ``deviation_pct`` = 100 (value - true) / true.
     seed : int
-        Seed passed to the estimator (the methods are deterministic).
+        Seed passed to the estimator (NLS, FLS and NLS-SVM are deterministic;
+        emcee's draws and the bands' replays of ``bayes``).
+    method_settings : dict, optional
+        Settings of the method's estimator (``bayes``: sampler and
+        discrepancy, :class:`studies.roll.bayes.BayesRollEstimator`).
+    band_draws : int
+        Replays of every validation record for its predictive band
+        (``bayes``); 0: no bands.
+    holdout : float, optional
+        With one training record and no ``validate_paths``: the share of its
+        half-cycles (the last ones) held out as a validation record
+        (:func:`studies.roll.records.split_cycles`), predicted from its own
+        initial state.
+    corner_max : int
+        At most this many coefficients in ``corner_roll.png``.
 
     Returns
     -------
@@ -267,14 +379,25 @@ def run_roll_study(data_paths: list[str], method: str, out_dir: str,
     train = [_load(p) for p in train_in]
     valid = [_load(p) for p in _as_list(validate_paths)]
     sim = _load(simulation_path) if simulation_path is not None else None
+    held_out = None
+    if holdout is not None and len(train) == 1 and not valid:
+        try:
+            first, last = split_cycles(train[0], float(holdout))
+        except ValueError as exc:
+            raise ConfigError(f"model.holdout={holdout:g}: {exc}") from None
+        train, valid, held_out = [first], [last], float(last.attrs["t_from_release"])
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     files: list[str] = []
 
-    fit = make_estimator(method, terms, seed).fit(train)
+    settings = dict(method_settings or {})
+    method_seed = int(settings.pop("seed", seed))  # method.seed, ${seed} unless set apart
+    fit = make_method(method, terms, method_seed, **settings).fit(train)
     lin_terms = ("b1",)
-    lin = fit if terms == lin_terms else make_estimator(method, lin_terms, seed).fit(train)
+    # the linear-only model by the same method; its posterior needs no discrepancy
+    lin_settings = {**settings, "discrepancy": "none"} if "discrepancy" in settings else settings
+    lin = fit if terms == lin_terms else make_method(method, lin_terms, method_seed, **lin_settings).fit(train)
 
     # ---------------------------------------------------- coefficients.csv
     rows = []
@@ -282,7 +405,8 @@ def run_roll_study(data_paths: list[str], method: str, out_dir: str,
         v = fit.params[name]
         tv = float(true_params[name]) if true_params and name in true_params else np.nan
         dev = 100.0 * (v - tv) / tv if np.isfinite(tv) and tv != 0 else np.nan
-        rows.append({"name": name, "value": v, "lower": np.nan, "upper": np.nan, "true": tv,
+        rows.append({"name": name, "value": v, "lower": fit.meta.get("lower", {}).get(name, np.nan),
+                     "upper": fit.meta.get("upper", {}).get(name, np.nan), "true": tv,
                      "deviation_pct": dev})
     coeffs = pd.DataFrame(rows, columns=COEFFICIENT_COLUMNS)
     p_csv = out / "coefficients.csv"
@@ -310,6 +434,12 @@ def run_roll_study(data_paths: list[str], method: str, out_dir: str,
         for _, r in coeffs.iterrows():
             if np.isfinite(r["deviation_pct"]):
                 m[f"deviation_pct/{r['name']}"] = r["deviation_pct"]
+            if np.isfinite(r["lower"]) and np.isfinite(r["true"]):
+                m[f"covered_90/{r['name']}"] = float(r["lower"] <= r["true"] <= r["upper"])
+    m.update(fit.meta.get("metrics", {}))
+    if held_out is not None:
+        m["holdout/share"] = float(holdout)
+        m["holdout/t_from_release_s"] = held_out
 
     a_ref = abs(float(train[0]["phi"].iloc[0]))
     m["equivalent/amplitude_deg"] = math.degrees(a_ref)
@@ -371,6 +501,8 @@ def run_roll_study(data_paths: list[str], method: str, out_dir: str,
         m[f"{group}/diverged_{start}"] = float(diverged)
         if n:
             m[f"{group}/rmse_deg_{start}"] = math.degrees(math.sqrt(sq / n))
+
+    files += _posterior_outputs(fit, terms, train, valid, out, m, band_draws, seed, corner_max, method)
 
     curves = {_stem(r, i): decay_curve(r) for i, r in enumerate(train + valid)}
     fig = out / "decay_curves.png"
@@ -477,7 +609,7 @@ def compare_methods(data_paths, validate_paths=None, terms: Sequence[str] = ("b1
     preds: dict[str, np.ndarray] = {}
     sources: dict[str, str] = {}
     for meth in methods:
-        fit = make_estimator(meth, terms, seed).fit(train)
+        fit = make_method(meth, terms, seed).fit(train)
         sources[meth] = fit.meta.get("initial_state_source", "")
         col = {k: fit.params[k] for k in ("omega0",) + terms}
         if part is not None:

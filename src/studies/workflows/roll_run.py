@@ -11,17 +11,21 @@ from pathlib import Path
 
 import numpy as np
 
-from ..config import RunConfig
+from ..config import BayesMethod, RunConfig
 from ..roll.records import find_particulars, load_roll_decay, record_vessel
 from ..errors import ConfigError
-from ..roll.estimators import ESTIMATORS
+from ..roll.methods import ROLL_METHODS
 from ..roll.simulate import simulate_decay_record
 from .roll import run_roll_study
 from .settings import as_path_list
 
-__all__ = ["RollStudy", "prepare_roll", "execute_roll", "ROLL_TERMS"]
+__all__ = ["RollStudy", "prepare_roll", "execute_roll", "ROLL_TERMS", "BAYES_SETTINGS"]
 
 ROLL_TERMS = ("b1", "b2", "b3", "c3")
+#: the ``method=bayes`` settings the roll posterior reads (the others, ``trajectory_*`` and
+#: ``discrepancy_step``, belong to the manoeuvring posterior)
+BAYES_SETTINGS = ("n_walkers", "n_samples", "burn_in", "thin", "seed", "init_scale", "moves",
+                  "autocorr_correction", "discrepancy", "discrepancy_evaluations")
 
 
 @dataclass
@@ -42,6 +46,7 @@ class RollStudy:
     method: str
     synthetic: dict | None
     seed: int
+    method_settings: dict | None = None
 
 
     @property
@@ -78,9 +83,9 @@ class RollStudy:
 def prepare_roll(cfg: RunConfig) -> RollStudy:
     """Check the roll configuration and every input file (raises on bad input)."""
     method = str(cfg.method.name)
-    if method not in ESTIMATORS:
+    if method not in ROLL_METHODS:
         raise ConfigError(f"method '{method}' is not a roll-decay method; use one of "
-                          f"{', '.join(sorted(ESTIMATORS))}")
+                          f"{', '.join(sorted(ROLL_METHODS))}")
     terms = [str(t) for t in cfg.model.terms]
     data = as_path_list(cfg.data.path)
     validate = as_path_list(cfg.validate.path)
@@ -90,8 +95,10 @@ def prepare_roll(cfg: RunConfig) -> RollStudy:
     synthetic = None
     if not data:
         synthetic = asdict(cfg.model.synthetic)
+    settings = ({key: getattr(cfg.method, key) for key in BAYES_SETTINGS}
+                if isinstance(cfg.method, BayesMethod) else None)
     return RollStudy(cfg, data, validate, str(simulation) if simulation else None, terms, method,
-                     synthetic, int(cfg.seed))
+                     synthetic, int(cfg.seed), settings)
 
 
 def execute_roll(study: RollStudy, out_dir: Path) -> dict:
@@ -111,6 +118,8 @@ def execute_roll(study: RollStudy, out_dir: Path) -> dict:
         simulate_decay_record(params, sim_terms, s["duration"], s["dt"], 0.8 * np.deg2rad(s["phi0_deg"]),
                               s["noise"], study.seed + 1, other)
         data, validate = [str(train)], validate or [str(other)]
+    corner_max = int(getattr(study.cfg.method, "corner_max", 8))
     _, metrics, _ = run_roll_study(data, study.method, str(out_dir), validate or None, study.terms,
-                                   study.simulation_path, truth, study.seed)
+                                   study.simulation_path, truth, study.seed, study.method_settings,
+                                   int(study.cfg.validate.band_draws), study.cfg.model.holdout, corner_max)
     return metrics
