@@ -246,10 +246,17 @@ def _ext_rows(ext, n):
     return ext
 
 
+#: length of :meth:`~studies.vessels.base.WindParticulars.as_array` (the particulars and
+#: the convention's two flags): a vessel without wind particulars gets as many zeros, so
+#: that its simulations type-check (``wind_load`` reads every index) and share the
+#: compiled code of a vessel with them
+WIND_PARTICULARS = 11
+
+
 def _wind_tuple(wp):
-    """Wind particulars as a tuple of 9 (zeros for a vessel without them)."""
+    """Wind particulars as a tuple of :data:`WIND_PARTICULARS` (zeros for a vessel without them)."""
     wp = np.asarray(wp, dtype=float)
-    return tuple(float(x) for x in wp) if wp.size else (0.0,) * 9
+    return tuple(float(x) for x in wp) if wp.size else (0.0,) * WIND_PARTICULARS
 
 
 def rk4_simulate(coef, powers, dofs, mass, length, speed0, x0, dt, cmd, mode, params,
