@@ -49,7 +49,7 @@ import pandas as pd
 from ..identify.kalman import KalmanSettings, measurement_variance
 from ..identify.regression import prime_states
 from ..plotting import pyplot
-from ..simulate.simulator import ReplayPlan, replay_many
+from ..simulate.simulator import replay_plan
 
 __all__ = ["LEVELS", "Z_SCORES", "TRUSTED_COVERAGE", "interval_score", "crps_ensemble",
            "predictive_draws", "band_statistics", "training_envelope", "outside_fraction",
@@ -96,28 +96,33 @@ def _initial_spread(record: pd.DataFrame, settings: KalmanSettings, bias_sd) -> 
 
 
 def predictive_draws(model, vectors: np.ndarray, vessel, record: pd.DataFrame, discrepancy=None,
-                     seed: int = 0, settings: KalmanSettings | None = None):
+                     seed: int = 0, settings: KalmanSettings | None = None, modules=None):
     """Replays of ``record`` for the posterior predictive band.
 
-    Without a ``discrepancy`` every coefficient vector is replayed from the
-    measured initial state (:func:`~studies.simulate.simulator.replay_many`).
-    With one, each replay also takes a realisation of the discrepancy
-    accelerations and an initial ``u, v, r`` drawn around the measured one
-    (:func:`_initial_spread`: the sensor noise and the sensor biases found
-    on the training records). Returns ``(states (n_draws, n, 7), diverged
-    (n_draws,))`` as :func:`~studies.simulate.simulator.replay_many`.
+    The replays run on the model's own simulator
+    (:func:`~studies.simulate.simulator.replay_plan`: the MMG simulator for
+    an MMG vessel, ``modules`` its propeller and rudder parameters, the
+    record's ``n`` its propeller rate; the compiled Abkowitz-type integrator
+    otherwise). Without a ``discrepancy`` every coefficient vector is
+    replayed from the measured initial state. With one, each replay also
+    takes a realisation of the discrepancy accelerations and an initial
+    ``u, v, r`` drawn around the measured one (:func:`_initial_spread`: the
+    sensor noise and the sensor biases found on the training records).
+    Returns ``(states (n_draws, n, 7), diverged (n_draws,))`` as
+    :func:`~studies.simulate.simulator.replay_many` (columns 3-5: ``x0, y0,
+    psi``).
     """
     vectors = np.atleast_2d(vectors)
+    plan = replay_plan(model, vessel, record, modules)
     if discrepancy is None:
-        return replay_many(model, vectors, vessel, record)
+        return plan.run(vectors)
     settings = settings or KalmanSettings()
     rng = np.random.default_rng(seed)
-    plan = ReplayPlan(model, vessel, record)
     spread = _initial_spread(record, settings, discrepancy.initial_sd)
     first = record.iloc[0]
     states, diverged = [], []
     for vector in vectors:
-        ext = discrepancy.external(discrepancy.realise(plan.steps, plan.step, rng), vessel)
+        ext = plan.external_accelerations(discrepancy.realise(plan.steps, plan.step, rng))
         initial = {ch: float(first[ch]) + spread[ch] * rng.standard_normal() for ch in ("u", "v", "r")}
         s, d = plan.run_one(vector, ext, initial)
         states.append(s)

@@ -73,6 +73,7 @@ from scipy.optimize import minimize
 from scipy.signal import lfilter
 
 from ..errors import ConfigError
+from ..simulate.simulator import acceleration_forces
 from .kalman import KalmanSettings, _default_qc, innovation_loglik
 
 __all__ = ["DISCREPANCIES", "Discrepancy", "estimate_process_noise", "thin_record"]
@@ -135,23 +136,27 @@ class Discrepancy:
 
     @staticmethod
     def external(accelerations: np.ndarray, vessel) -> np.ndarray:
-        """Prime external forces (n, 9) for the simulator from SI accelerations (n, 3).
-
-        Columns 6-8 (body-fixed forces of given magnitude, prime at the
-        approach speed ``U0``) hold ``M' [a_u L, a_v L, a_r L^2] / U0^2``,
-        which the integrator turns back into exactly ``a``.
-        """
-        acc = np.asarray(accelerations, float)
-        L, U0 = float(vessel.length), float(vessel.speed)
-        out = np.zeros((acc.shape[0], 9))
-        out[:, 6:9] = (acc * np.array([L, L, L * L])) @ vessel.mass_matrix().T / (U0 * U0)
-        return out
+        """Prime external forces (n, 9) for the Abkowitz-type simulator from SI
+        accelerations (n, 3) (:func:`studies.simulate.simulator.acceleration_forces`;
+        the MMG simulator takes the accelerations themselves)."""
+        return acceleration_forces(accelerations, vessel)
 
     def force_sigma(self, vessel) -> np.ndarray:
-        """Standard deviations of the discrepancy as prime forces at ``U0`` (X', Y', N')."""
+        """Standard deviations of the discrepancy as prime forces at ``U0`` (X', Y', N'):
+        over ``0.5 rho L^2 U0^2`` (moment ``0.5 rho L^3 U0^2``) for the
+        Abkowitz-type models, over ``0.5 rho L d U0^2`` (moment ``0.5 rho L^2 d
+        U0^2``) for the MMG model (an MMG vessel)."""
         L, U0 = float(vessel.length), float(vessel.speed)
-        scale = np.asarray(self.sigma, float) * np.array([L, L, L * L]) / (U0 * U0)
-        M = vessel.mass_matrix()
+        if hasattr(vessel, "mass_matrix"):
+            scale = np.asarray(self.sigma, float) * np.array([L, L, L * L]) / (U0 * U0)
+            M = vessel.mass_matrix()
+        else:
+            mx, my, jz = vessel.added_masses()
+            m, xgm = vessel.mass, vessel.xg * vessel.mass
+            M = np.array([[m + mx, 0.0, 0.0], [0.0, m + my, xgm],
+                          [0.0, xgm, vessel.iz + vessel.xg * xgm + jz]])
+            M = M / vessel.force_scale(U0)[:, None]
+            scale = np.asarray(self.sigma, float)
         return np.sqrt(np.diag(M @ np.diag(scale ** 2) @ M.T))
 
     def metrics(self, vessel=None, prefix: str = "discrepancy") -> dict:
@@ -210,13 +215,16 @@ def _reference_acceleration(records) -> np.ndarray:
 
 
 def estimate_process_noise(model, values: dict, vessel, records, settings: KalmanSettings | None = None,
-                           step: float | None = 0.5, max_evaluations: int = 300) -> Discrepancy:
+                           step: float | None = 0.5, max_evaluations: int = 300,
+                           modules=None) -> Discrepancy:
     """Prediction-error estimate of the discrepancy (module docstring).
 
     Parameters
     ----------
     model, values, vessel
-        The identified model (posterior medians) and its vessel.
+        The identified model (posterior medians) and its vessel; an
+        :class:`~studies.vessels.kvlcc2_mmg.MMGVessel` makes the filter's
+        process model the MMG model (propeller rate from each record's ``n``).
     records : list of DataFrame
         The training records (data contract, uniformly sampled).
     settings : KalmanSettings, optional
@@ -225,6 +233,8 @@ def estimate_process_noise(model, values: dict, vessel, records, settings: Kalma
         Records thinned to about this step [s] for the filter; None: as sampled.
     max_evaluations : int
         Most likelihood evaluations of the Powell search.
+    modules : MMGParameters, optional
+        The MMG model's propeller and rudder parameters (default the vessel's).
     """
     started = time.perf_counter()
     if not records:
@@ -250,7 +260,7 @@ def estimate_process_noise(model, values: dict, vessel, records, settings: Kalma
         sigma, tau, used = unpack(theta)
         total = 0.0
         for rec in thinned:
-            total += innovation_loglik(rec, model, values, vessel, sigma, tau, used)
+            total += innovation_loglik(rec, model, values, vessel, sigma, tau, used, modules=modules)
         return -total if np.isfinite(total) else 1e300
 
     best = None
@@ -273,7 +283,8 @@ def estimate_process_noise(model, values: dict, vessel, records, settings: Kalma
     sigma, tau, used = unpack(theta)
     biases = []
     for rec in thinned:
-        _, states = innovation_loglik(rec, model, values, vessel, sigma, tau, used, smooth=True)
+        _, states = innovation_loglik(rec, model, values, vessel, sigma, tau, used, smooth=True,
+                                      modules=modules)
         biases.append(states[:, 9:12])
     initial_sd = np.sqrt(np.mean(np.vstack(biases) ** 2, axis=0))
     info = {"evaluations": float(evaluations[0]), "runtime_s": time.perf_counter() - started,

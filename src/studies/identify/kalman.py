@@ -34,6 +34,11 @@ noisy (regression R^2 0.06-0.8 instead of 0.92-0.97). Process models:
     model discrepancy with a smaller spectral density. The smoothed
     acceleration ``f(x_s, delta) + a_s`` therefore follows the data where
     the model is wrong, so re-identifying on it is not circular.
+    With an :class:`~studies.vessels.kvlcc2_mmg.MMGVessel` the ship model is
+    the MMG model (hull terms, propeller at the record's rate ``n``, rudder
+    in the slipstream: the simulator's own right-hand side,
+    :func:`studies.simulate.mmg.mmg_acceleration`), as the model
+    discrepancy of ``model=mmg`` needs (:func:`innovation_loglik`).
 
 Measurements: any of ``x0, y0, psi, u, v, r`` of the record (body-fixed
 ``u, v`` as in the data contract), a linear selection of the state.
@@ -83,7 +88,9 @@ from ..data.derivatives import MODEL_FREE_METHODS, DerivativeEstimate
 from ..data.derivatives import estimate_derivatives as model_free_derivatives
 from ..data.resample import uniform_step
 from ..errors import ConfigError
+from ..simulate.mmg import mmg_acceleration, process_constants
 from ..simulate.monomials import dense_coefficients, scaled_forces
+from ..vessels.kvlcc2_mmg import MMGVessel
 
 __all__ = ["KalmanSettings", "KalmanResult", "kalman_smooth", "ekf_derivatives", "innovation_loglik",
            "estimate_derivatives", "measurement_variance", "smoothed_record", "MEASURABLE",
@@ -273,9 +280,23 @@ def _model_acc(u, v, r, delta, c, k):
 
 NS = 12  # compiled code's state size (see STATE_NAMES)
 
+#: process models of the compiled filter
+KINEMATIC, ABKOWITZ, MMG = 0, 1, 2
+
 
 @njit(cache=True)
-def _f(x, delta, mode, c, k, out):
+def _process_acc(u, v, r, delta, n, mode, c, k, mp):
+    """Accelerations of the ship model: the cubic (Abkowitz-type) model of
+    :func:`_model_acc`, or with ``mode == MMG`` the MMG model
+    (:func:`studies.simulate.mmg.mmg_acceleration`, ``mp`` its constants,
+    ``n`` the propeller rate [rps])."""
+    if mode == MMG:
+        return mmg_acceleration(u, v, r, delta, n, mp[0], mp[1], mp[2], mp[3])
+    return _model_acc(u, v, r, delta, c, k)
+
+
+@njit(cache=True)
+def _f(x, delta, n, mode, c, k, mp, out):
     """Continuous dynamics of the filter's state (biases and accelerations are
     random walks: zero drift)."""
     psi, u, v, r = x[2], x[3], x[4], x[5]
@@ -286,8 +307,8 @@ def _f(x, delta, mode, c, k, out):
     out[0] = u * cp - v * sp
     out[1] = u * sp + v * cp
     out[2] = r
-    if mode == 1:
-        au, av, ar = _model_acc(u, v, r, delta, c, k)
+    if mode >= 1:
+        au, av, ar = _process_acc(u, v, r, delta, n, mode, c, k, mp)
         out[3] = au + x[6]
         out[4] = av + x[7]
         out[5] = ar + x[8]
@@ -302,7 +323,7 @@ def _f(x, delta, mode, c, k, out):
 
 
 @njit(cache=True)
-def _jacobian(x, delta, mode, c, k, J):
+def _jacobian(x, delta, n, mode, c, k, mp, J):
     for i in range(NS):
         for j in range(NS):
             J[i, j] = 0.0
@@ -319,7 +340,7 @@ def _jacobian(x, delta, mode, c, k, J):
     J[3, 6] = 1.0
     J[4, 7] = 1.0
     J[5, 8] = 1.0
-    if mode == 1:
+    if mode >= 1:
         for j in range(3):
             J[6 + j, 6 + j] = -k[7]
         for j in range(3):
@@ -329,16 +350,17 @@ def _jacobian(x, delta, mode, c, k, J):
             xm = x[3:6].copy()
             xp[j] = base + h
             xm[j] = base - h
-            ap = _model_acc(xp[0], xp[1], xp[2], delta, c, k)
-            am = _model_acc(xm[0], xm[1], xm[2], delta, c, k)
+            ap = _process_acc(xp[0], xp[1], xp[2], delta, n, mode, c, k, mp)
+            am = _process_acc(xm[0], xm[1], xm[2], delta, n, mode, c, k, mp)
             for i in range(3):
                 J[3 + i, 3 + j] = (ap[i] - am[i]) / (2.0 * h)
 
 
 @njit(cache=True)
-def _rk4(x, d0, d1, dt, mode, c, k):
-    """One RK4 step of the filter's state (:func:`_f`), the rudder linear over
-    the step (``d0`` at its start, ``d1`` at its end).
+def _rk4(x, d0, d1, n0, n1, dt, mode, c, k, mp):
+    """One RK4 step of the filter's state (:func:`_f`), the rudder and the
+    propeller rate linear over the step (``d0``, ``n0`` at its start, ``d1``,
+    ``n1`` at its end).
 
     The simulator's integrator (:mod:`studies.simulate.integrator`) is a
     different system: seven states with the rudder servo, wind, current and
@@ -353,21 +375,23 @@ def _rk4(x, d0, d1, dt, mode, c, k):
     k3 = np.empty(NS)
     k4 = np.empty(NS)
     dm = 0.5 * (d0 + d1)
-    _f(x, d0, mode, c, k, k1)
-    _f(x + 0.5 * dt * k1, dm, mode, c, k, k2)
-    _f(x + 0.5 * dt * k2, dm, mode, c, k, k3)
-    _f(x + dt * k3, d1, mode, c, k, k4)
+    nm = 0.5 * (n0 + n1)
+    _f(x, d0, n0, mode, c, k, mp, k1)
+    _f(x + 0.5 * dt * k1, dm, nm, mode, c, k, mp, k2)
+    _f(x + 0.5 * dt * k2, dm, nm, mode, c, k, mp, k3)
+    _f(x + dt * k3, d1, n1, mode, c, k, mp, k4)
     return x + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
 
 
 @njit(cache=True)
-def _filter_smooth(z, R, sel, bsel, delta, dt, x0, P0, qc, mode, c, k, smooth):
+def _filter_smooth(z, R, sel, bsel, delta, rps, dt, x0, P0, qc, mode, c, k, mp, smooth):
     """EKF over all samples, then (if ``smooth``) the RTS smoother.
 
     ``z`` (n, m) measurements (NaN = missing), ``R`` (n, m) their
     variances, ``sel`` (m,) the state measured by each channel and ``bsel``
     (m,) its bias state (-1: none), so ``z_j = x[sel_j] + x[bsel_j] + e``.
-    ``qc`` (NS,) continuous white-noise spectral densities per state.
+    ``qc`` (NS,) continuous white-noise spectral densities per state;
+    ``rps`` (n,) the propeller rate (the MMG process model's input).
     Returns ``(states, variances, loglik)``.
     """
     n, m = z.shape
@@ -384,12 +408,12 @@ def _filter_smooth(z, R, sel, bsel, delta, dt, x0, P0, qc, mode, c, k, smooth):
     loglik = 0.0
     for i in range(n):
         if i > 0:
-            _jacobian(x, delta[i - 1], mode, c, k, J)
+            _jacobian(x, delta[i - 1], rps[i - 1], mode, c, k, mp, J)
             Jdt = J * dt
             F = eye + Jdt + 0.5 * (Jdt @ Jdt)
             JQ = J @ Qc
             Qd = Qc * dt + 0.5 * (JQ + JQ.T) * dt * dt + (JQ @ J.T) * dt ** 3 / 3.0
-            x = _rk4(x, delta[i - 1], delta[i], dt, mode, c, k)
+            x = _rk4(x, delta[i - 1], delta[i], rps[i - 1], rps[i], dt, mode, c, k, mp)
             P = F @ P @ F.T + Qd
             Fs[i - 1] = F
         xp[i] = x
@@ -436,10 +460,24 @@ def _filter_smooth(z, R, sel, bsel, delta, dt, x0, P0, qc, mode, c, k, smooth):
 
 @njit(cache=True)
 def _model_rates(states, delta, c, k):
+    """Accelerations of the smoothed states under the cubic model, plus the discrepancy states."""
     n = states.shape[0]
     out = np.empty((n, 3))
     for i in range(n):
         a = _model_acc(states[i, 3], states[i, 4], states[i, 5], delta[i], c, k)
+        out[i, 0] = a[0] + states[i, 6]
+        out[i, 1] = a[1] + states[i, 7]
+        out[i, 2] = a[2] + states[i, 8]
+    return out
+
+
+@njit(cache=True)
+def _process_rates(states, delta, rps, mode, c, k, mp):
+    """:func:`_model_rates` under either ship model (:func:`_process_acc`)."""
+    n = states.shape[0]
+    out = np.empty((n, 3))
+    for i in range(n):
+        a = _process_acc(states[i, 3], states[i, 4], states[i, 5], delta[i], rps[i], mode, c, k, mp)
         out[i, 0] = a[0] + states[i, 6]
         out[i, 1] = a[1] + states[i, 7]
         out[i, 2] = a[2] + states[i, 8]
@@ -496,8 +534,37 @@ def _biased_channels(settings: KalmanSettings) -> tuple:
     return tuple(settings.bias)
 
 
+#: the MMG constants of a filter without the MMG process model (one compiled signature)
+_NO_MMG = ((0.0,) * 17, (0.0,) * 23, (0.0,) * 13, (0.0,) * 4)
+
+
+def _process(model, values: dict, vessel, modules=None, tau: float | None = None) -> tuple:
+    """``(mode, c, k, m)`` of the compiled filter with a ship model as process
+    model: the MMG model (:func:`studies.simulate.mmg.mmg_acceleration`) for
+    an :class:`~studies.vessels.kvlcc2_mmg.MMGVessel` (``modules`` its
+    propeller and rudder parameters, default the vessel's), the cubic
+    Abkowitz-type model of the simulator otherwise; ``tau`` [s] of the
+    discrepancy states (None: random walks)."""
+    if isinstance(vessel, MMGVessel):
+        hull, mk, ma, mg = process_constants(model, values, vessel, modules)
+        k = np.zeros(8)
+        k[0], k[1] = float(vessel.speed), float(vessel.length)
+        k[7] = 0.0 if not tau else 1.0 / float(tau)
+        return MMG, np.zeros(105), k, (tuple(float(x) for x in hull), mk, ma, mg)
+    c = dense_coefficients(model.vector(values), model.powers_array(), model.dof_array())[0].ravel()
+    return ABKOWITZ, c, _model_constants(vessel, tau), _NO_MMG
+
+
+def _propeller_rate(record: pd.DataFrame, vessel=None) -> np.ndarray:
+    """The record's propeller rate ``n`` [rps] (the vessel's approach rate, or
+    zeros, when it has none): an input of the MMG process model."""
+    if "n" in record:
+        return np.ascontiguousarray(record["n"].to_numpy(float))
+    return np.full(len(record), float(getattr(vessel, "rps", 0.0) or 0.0))
+
+
 def _run(record, settings: KalmanSettings, mode: int, c: np.ndarray, k: np.ndarray,
-         qa: np.ndarray, smooth: bool):
+         qa: np.ndarray, smooth: bool, m: tuple = _NO_MMG, rps: np.ndarray | None = None):
     t = record["t"].to_numpy(float)
     dt = uniform_step(t)
     channels = list(settings.channels)
@@ -533,12 +600,13 @@ def _run(record, settings: KalmanSettings, mode: int, c: np.ndarray, k: np.ndarr
         else:
             P0[idx, idx] = 1e-30
     xs, var, loglik = _filter_smooth(np.ascontiguousarray(z), np.ascontiguousarray(R), sel, bsel,
-                                     delta, float(dt), x0, P0, qc, mode, c, k, smooth)
+                                     delta, _propeller_rate(record) if rps is None else rps, float(dt),
+                                     x0, P0, qc, mode, c, k, m, smooth)
     return xs, var, loglik, R
 
 
 def kalman_smooth(record: pd.DataFrame, settings: KalmanSettings | None = None, model=None,
-                  values: dict | None = None, vessel=None) -> KalmanResult:
+                  values: dict | None = None, vessel=None, modules=None) -> KalmanResult:
     """EKF + RTS smoother of one uniformly sampled record.
 
     Parameters
@@ -549,7 +617,11 @@ def kalman_smooth(record: pd.DataFrame, settings: KalmanSettings | None = None, 
     model, values, vessel : optional
         A manoeuvring model with coefficient ``values`` and its vessel: the
         ship model becomes the process model (``process="model"``);
-        without them the kinematic model is used.
+        without them the kinematic model is used. With an
+        :class:`~studies.vessels.kvlcc2_mmg.MMGVessel` the process model is
+        the MMG model (propeller rate from the record's ``n``).
+    modules : MMGParameters, optional
+        The MMG model's propeller and rudder parameters (default the vessel's).
     """
     settings = settings or KalmanSettings()
     missing = [c for c in ("t", "u", "v", "r", "delta", *settings.channels) if c not in record]
@@ -561,39 +633,39 @@ def kalman_smooth(record: pd.DataFrame, settings: KalmanSettings | None = None, 
     if model is not None:
         if values is None or vessel is None:
             raise ValueError("a ship model needs its coefficient values and the vessel")
-        mode = 1
-        c = dense_coefficients(model.vector(values), model.powers_array(), model.dof_array())[0].ravel()
-        k = _model_constants(vessel)
+        mode, c, k, m = _process(model, values, vessel, modules)
         qa = qa * settings.discrepancy
     else:
-        mode = 0
+        mode = KINEMATIC
         c = np.zeros(105)
         k = np.zeros(8)
         k[1] = 1.0
+        m = _NO_MMG
+    rps = _propeller_rate(record, vessel)
     likelihoods = {}
     if settings.process_scale is not None:
         scale = float(settings.process_scale)
     else:
         best = (-np.inf, 1.0)
         for s in settings.scale_grid:
-            _, _, ll, _ = _run(record, settings, mode, c, k, qa * s, False)
+            _, _, ll, _ = _run(record, settings, mode, c, k, qa * s, False, m, rps)
             likelihoods[float(s)] = float(ll)
             if np.isfinite(ll) and ll > best[0]:
                 best = (ll, float(s))
         scale = best[1]
-    states, var, loglik, R = _run(record, settings, mode, c, k, qa * scale, True)
-    if mode == 1:
-        rates = _model_rates(states, record["delta"].to_numpy(float), c, k)
+    states, var, loglik, R = _run(record, settings, mode, c, k, qa * scale, True, m, rps)
+    if mode != KINEMATIC:
+        rates = _process_rates(states, record["delta"].to_numpy(float), rps, mode, c, k, m)
     else:
         rates = states[:, 6:9].copy()
     mstd = {ch: float(np.sqrt(np.median(R[:, j]))) for j, ch in enumerate(settings.channels)}
     return KalmanResult(t, states, np.sqrt(np.maximum(var, 0.0)), rates,
                         record["delta"].to_numpy(float), float(loglik), scale,
-                        "model" if mode == 1 else "kinematic", mstd, likelihoods)
+                        "kinematic" if mode == KINEMATIC else "model", mstd, likelihoods)
 
 
 def innovation_loglik(record: pd.DataFrame, model, values: dict, vessel, sigma, tau: float,
-                      settings: KalmanSettings | None = None, smooth: bool = False):
+                      settings: KalmanSettings | None = None, smooth: bool = False, modules=None):
     """Innovation log-likelihood of a record under the ship model with an
     Ornstein-Uhlenbeck (continuous AR(1)) model discrepancy.
 
@@ -605,13 +677,17 @@ def innovation_loglik(record: pd.DataFrame, model, values: dict, vessel, sigma, 
     maximises the sum of this over the training records
     (:mod:`studies.identify.discrepancy`). The sensor biases and the
     measurement noise are as in :func:`kalman_smooth`. With ``smooth`` the
-    RTS-smoothed states (n, 12) (:data:`STATE_NAMES`) are returned too.
+    RTS-smoothed states (n, 12) (:data:`STATE_NAMES`) are returned too. The
+    ship model is the MMG model for an
+    :class:`~studies.vessels.kvlcc2_mmg.MMGVessel` (``modules`` its
+    propeller and rudder parameters, the record's ``n`` its rate), as in
+    :func:`kalman_smooth`.
     """
     settings = settings or KalmanSettings()
     sigma = np.asarray(sigma, float)
-    c = dense_coefficients(model.vector(values), model.powers_array(), model.dof_array())[0].ravel()
-    k = _model_constants(vessel, tau)
-    states, _, loglik, _ = _run(record, settings, 1, c, k, 2.0 * sigma ** 2 / float(tau), smooth)
+    mode, c, k, m = _process(model, values, vessel, modules, tau)
+    states, _, loglik, _ = _run(record, settings, mode, c, k, 2.0 * sigma ** 2 / float(tau), smooth,
+                                m, _propeller_rate(record, vessel))
     return (float(loglik), states) if smooth else float(loglik)
 
 

@@ -399,7 +399,7 @@ def _validate_records(study: Study, params: dict, out_dir: Path, result=None) ->
     rows = []
     n_draws = int(study.cfg.validate.band_draws)
     vectors = None
-    if result is not None and result.samples and n_draws > 0 and getattr(study, "bands", True):
+    if result is not None and result.samples and n_draws > 0:
         vectors = _measured.posterior_vectors(study.model, result, n_draws, study.settings.seed)
     discrepancy = Discrepancy.from_sample(result.samples.get("discrepancy")) if vectors is not None else None
     envelope = training_envelope(study.records, study.vessel) if vectors is not None else None
@@ -431,7 +431,8 @@ def _validate_records(study: Study, params: dict, out_dir: Path, result=None) ->
         if vectors is not None:
             t_band = time.perf_counter()
             band = _measured.posterior_band(study.model, vectors, study.vessel, rec,
-                                            discrepancy=discrepancy, seed=study.settings.seed)
+                                            discrepancy=discrepancy, seed=study.settings.seed,
+                                            modules=getattr(study, "modules", None))
             for key in BAND_KEYS:
                 metrics[f"{name}/band/{key}"] = band[key]
             metrics[f"{name}/band/draws"] = float(len(vectors))

@@ -262,7 +262,8 @@ class BayesianRegression:
         values = {name: params.get(name, 0.0) for name in model.names}
         found = estimate_process_noise(model, values, objective.vessel, objective.records,
                                        step=self.discrepancy_step,
-                                       max_evaluations=self.discrepancy_evaluations)
+                                       max_evaluations=self.discrepancy_evaluations,
+                                       modules=getattr(objective, "modules", None))
         logger.info("bayes: model discrepancy (%s) sigma = %.3g m/s^2, %.3g m/s^2, %.3g rad/s^2, "
                     "tau = %.1f s", found.kind, *found.sigma, found.tau)
         out = Identification()
