@@ -91,7 +91,7 @@ def test_compiled_right_hand_side_is_the_array_definition(ship, model):
     c = hull_vector(model, KVLCC2_HULL)
     # heading 0, prescribed rudder at rest: only the first three derivatives are compared
     compiled = np.array([_derivatives(uu, vv, rr, 1.0, 0.0, d, np.sin(d), np.cos(d), 0.0, 0.0, True,
-                                      nn, c, k, a, g, 0.0, 0.0, 0.0)[:3]
+                                      nn, c, k, a, g, 0.0, 0.0, 0.0, 0.0)[:3]
                          for uu, vv, rr, d, nn in zip(u, v, r, delta, n)])
     # the Kalman filter's MMG process model is the same right-hand side
     filtered = np.array([mmg_acceleration(uu, vv, rr, d, nn, c, k, a, g)

@@ -208,7 +208,7 @@ def test_discrepancy_makes_the_band_of_a_wrong_model_honest(vessel):
     result, disc, plain, band = _bands(model, vessel, train, val)
     print(f"\nwithout discrepancy: coverage {plain['coverage_xy']:.2f}, width {plain['width_xy_m']:.0f} m;"
           f" with: {band['coverage_xy']:.2f}, {band['width_xy_m']:.0f} m "
-          f"(extent {band['extent_m']:.0f} m); sigma {disc.sigma}, tau {disc.tau:.1f} s")
+          f"(extent {band['extent_m']:.0f} m); sigma {disc.sigma}, tau {disc.taus} s")
     assert plain["coverage_xy"] < 0.5                    # overconfident without the discrepancy
     assert band["coverage_xy"] >= 0.8                    # not far below nominal with it
     assert band["width_xy_m"] < 0.5 * band["extent_m"]   # and not as wide as the manoeuvre

@@ -124,7 +124,7 @@ def predictive_draws(model, vectors: np.ndarray, vessel, record: pd.DataFrame, d
     for vector in vectors:
         ext = plan.external_accelerations(discrepancy.realise(plan.steps, plan.step, rng))
         initial = {ch: float(first[ch]) + spread[ch] * rng.standard_normal() for ch in ("u", "v", "r")}
-        s, d = plan.run_one(vector, ext, initial)
+        s, d = plan.run_one(vector, ext, initial, discrepancy.rate_gain)
         states.append(s)
         diverged.append(d)
     return np.asarray(states), np.asarray(diverged)

@@ -264,8 +264,8 @@ def measurement_variance(record: pd.DataFrame, channels, window: float = 10.0,
 def _model_acc(u, v, r, delta, c, k):
     """Accelerations (u_dot, v_dot, r_dot) of the manoeuvring model.
 
-    ``k``: speed0, length, 1/m11, m33/det, -m23/det, -m32/det, m22/det (and 1/tau of
-    the discrepancy, unused here).
+    ``k``: speed0, length, 1/m11, m33/det, -m23/det, -m32/det, m22/det (and the
+    discrepancy's constants, unused here: :func:`_model_constants`).
     """
     speed0 = k[0]
     length = k[1]
@@ -296,6 +296,18 @@ def _process_acc(u, v, r, delta, n, mode, c, k, mp):
 
 
 @njit(cache=True)
+def _gain(u, v, r, k):
+    """State-dependent size of the discrepancy, ``1 + k[10] |r'|`` (``r' = r L
+    / U``): exactly 1 when the slope is zero."""
+    if k[10] == 0.0:
+        return 1.0
+    speed = math.sqrt(u * u + v * v)
+    if speed < 1e-9:
+        speed = 1e-9
+    return 1.0 + k[10] * abs(r) * k[1] / speed
+
+
+@njit(cache=True)
 def _f(x, delta, n, mode, c, k, mp, out):
     """Continuous dynamics of the filter's state (biases and accelerations are
     random walks: zero drift)."""
@@ -309,13 +321,14 @@ def _f(x, delta, n, mode, c, k, mp, out):
     out[2] = r
     if mode >= 1:
         au, av, ar = _process_acc(u, v, r, delta, n, mode, c, k, mp)
-        out[3] = au + x[6]
-        out[4] = av + x[7]
-        out[5] = ar + x[8]
-        # AR(1) discrepancy (Ornstein-Uhlenbeck) when k[7] = 1 / tau > 0, else a random walk
+        g = _gain(u, v, r, k)
+        out[3] = au + g * x[6]
+        out[4] = av + g * x[7]
+        out[5] = ar + g * x[8]
+        # AR(1) discrepancy (Ornstein-Uhlenbeck) when k[7 + j] = 1 / tau_j > 0, else a random walk
         out[6] = -k[7] * x[6]
-        out[7] = -k[7] * x[7]
-        out[8] = -k[7] * x[8]
+        out[7] = -k[8] * x[7]
+        out[8] = -k[9] * x[8]
     else:
         out[3] = x[6]
         out[4] = x[7]
@@ -341,8 +354,11 @@ def _jacobian(x, delta, n, mode, c, k, mp, J):
     J[4, 7] = 1.0
     J[5, 8] = 1.0
     if mode >= 1:
+        g = _gain(u, v, x[5], k)
         for j in range(3):
-            J[6 + j, 6 + j] = -k[7]
+            J[6 + j, 6 + j] = -k[7 + j]
+            J[3 + j, 6 + j] = g
+        varying = k[10] != 0.0
         for j in range(3):
             base = x[3 + j]
             h = 1e-6 * max(abs(base), 1.0) if j < 2 else 1e-7
@@ -352,8 +368,11 @@ def _jacobian(x, delta, n, mode, c, k, mp, J):
             xm[j] = base - h
             ap = _process_acc(xp[0], xp[1], xp[2], delta, n, mode, c, k, mp)
             am = _process_acc(xm[0], xm[1], xm[2], delta, n, mode, c, k, mp)
+            dg = 0.0
+            if varying:
+                dg = _gain(xp[0], xp[1], xp[2], k) - _gain(xm[0], xm[1], xm[2], k)
             for i in range(3):
-                J[3 + i, 3 + j] = (ap[i] - am[i]) / (2.0 * h)
+                J[3 + i, 3 + j] = (ap[i] - am[i] + dg * x[6 + i]) / (2.0 * h)
 
 
 @njit(cache=True)
@@ -478,21 +497,33 @@ def _process_rates(states, delta, rps, mode, c, k, mp):
     out = np.empty((n, 3))
     for i in range(n):
         a = _process_acc(states[i, 3], states[i, 4], states[i, 5], delta[i], rps[i], mode, c, k, mp)
-        out[i, 0] = a[0] + states[i, 6]
-        out[i, 1] = a[1] + states[i, 7]
-        out[i, 2] = a[2] + states[i, 8]
+        g = _gain(states[i, 3], states[i, 4], states[i, 5], k)
+        out[i, 0] = a[0] + g * states[i, 6]
+        out[i, 1] = a[1] + g * states[i, 7]
+        out[i, 2] = a[2] + g * states[i, 8]
     return out
 
 
 # --------------------------------------------------------------- python API
 
-def _model_constants(vessel, tau: float | None = None) -> np.ndarray:
-    """Constants of the compiled model: speed, length, the inverse mass matrix
-    and ``1 / tau`` of the discrepancy states (0: random walks)."""
+def _rates_of(tau) -> np.ndarray:
+    """``1 / tau`` of the three discrepancy states (``tau`` one value or three
+    [s]; None or 0: random walks)."""
+    if tau is None:
+        return np.zeros(3)
+    tau = np.broadcast_to(np.asarray(tau, float), (3,))
+    return np.where(tau > 0, 1.0 / np.where(tau > 0, tau, 1.0), 0.0)
+
+
+def _model_constants(vessel, tau=None, gain: float = 0.0) -> np.ndarray:
+    """Constants of the compiled model (11): speed, length, the inverse mass
+    matrix, ``1 / tau`` of each discrepancy state (0: random walks; ``tau``
+    one value or one per channel) and the slope of the discrepancy's size in
+    ``|r'|`` (:func:`_gain`)."""
     M = vessel.mass_matrix()
     det = M[1, 1] * M[2, 2] - M[1, 2] * M[2, 1]
-    return np.array([vessel.speed, vessel.length, 1.0 / M[0, 0], M[2, 2] / det, -M[1, 2] / det,
-                     -M[2, 1] / det, M[1, 1] / det, 0.0 if not tau else 1.0 / float(tau)])
+    return np.concatenate([[vessel.speed, vessel.length, 1.0 / M[0, 0], M[2, 2] / det, -M[1, 2] / det,
+                            -M[2, 1] / det, M[1, 1] / det], _rates_of(tau), [float(gain)]])
 
 
 def _default_qc(record: pd.DataFrame, dt: float) -> np.ndarray:
@@ -538,21 +569,23 @@ def _biased_channels(settings: KalmanSettings) -> tuple:
 _NO_MMG = ((0.0,) * 17, (0.0,) * 23, (0.0,) * 13, (0.0,) * 4)
 
 
-def _process(model, values: dict, vessel, modules=None, tau: float | None = None) -> tuple:
+def _process(model, values: dict, vessel, modules=None, tau=None, gain: float = 0.0) -> tuple:
     """``(mode, c, k, m)`` of the compiled filter with a ship model as process
     model: the MMG model (:func:`studies.simulate.mmg.mmg_acceleration`) for
     an :class:`~studies.vessels.kvlcc2_mmg.MMGVessel` (``modules`` its
     propeller and rudder parameters, default the vessel's), the cubic
     Abkowitz-type model of the simulator otherwise; ``tau`` [s] of the
-    discrepancy states (None: random walks)."""
+    discrepancy states (None: random walks; one value or one per channel),
+    ``gain`` the slope of their size in ``|r'|``."""
     if isinstance(vessel, MMGVessel):
         hull, mk, ma, mg = process_constants(model, values, vessel, modules)
-        k = np.zeros(8)
+        k = np.zeros(11)
         k[0], k[1] = float(vessel.speed), float(vessel.length)
-        k[7] = 0.0 if not tau else 1.0 / float(tau)
+        k[7:10] = _rates_of(tau)
+        k[10] = float(gain)
         return MMG, np.zeros(105), k, (tuple(float(x) for x in hull), mk, ma, mg)
     c = dense_coefficients(model.vector(values), model.powers_array(), model.dof_array())[0].ravel()
-    return ABKOWITZ, c, _model_constants(vessel, tau), _NO_MMG
+    return ABKOWITZ, c, _model_constants(vessel, tau, gain), _NO_MMG
 
 
 def _propeller_rate(record: pd.DataFrame, vessel=None) -> np.ndarray:
@@ -591,7 +624,7 @@ def _run(record, settings: KalmanSettings, mode: int, c: np.ndarray, k: np.ndarr
     for j in range(3):
         qc[6 + j] = qa[j]
         # a random walk starts loose; an Ornstein-Uhlenbeck state at its stationary variance
-        P0[6 + j, 6 + j] = qa[j] * 100.0 if mode == 0 or k[7] == 0.0 else 0.5 * qa[j] / k[7]
+        P0[6 + j, 6 + j] = qa[j] * 100.0 if mode == 0 or k[7 + j] == 0.0 else 0.5 * qa[j] / k[7 + j]
     prior = _bias_prior(record, settings)
     for name, idx in BIAS_INDEX.items():
         if name in biased:
@@ -638,7 +671,7 @@ def kalman_smooth(record: pd.DataFrame, settings: KalmanSettings | None = None, 
     else:
         mode = KINEMATIC
         c = np.zeros(105)
-        k = np.zeros(8)
+        k = np.zeros(11)
         k[1] = 1.0
         m = _NO_MMG
     rps = _propeller_rate(record, vessel)
@@ -664,20 +697,25 @@ def kalman_smooth(record: pd.DataFrame, settings: KalmanSettings | None = None, 
                         "kinematic" if mode == KINEMATIC else "model", mstd, likelihoods)
 
 
-def innovation_loglik(record: pd.DataFrame, model, values: dict, vessel, sigma, tau: float,
-                      settings: KalmanSettings | None = None, smooth: bool = False, modules=None):
+def innovation_loglik(record: pd.DataFrame, model, values: dict, vessel, sigma, tau,
+                      settings: KalmanSettings | None = None, smooth: bool = False, modules=None,
+                      gain: float = 0.0):
     """Innovation log-likelihood of a record under the ship model with an
     Ornstein-Uhlenbeck (continuous AR(1)) model discrepancy.
 
     The filter's acceleration states become ``a_dot = -a / tau + w`` with
     ``w`` white of spectral density ``2 sigma^2 / tau``: stationary standard
     deviations ``sigma`` (3,) [m/s^2, m/s^2, rad/s^2] of the surge, sway and
-    yaw accelerations the model misses, correlation time ``tau`` [s]. The
+    yaw accelerations the model misses, correlation time ``tau`` [s] (one
+    value, or one per channel). The
     prediction-error (maximum-likelihood) estimate of ``sigma, tau``
     maximises the sum of this over the training records
     (:mod:`studies.identify.discrepancy`). The sensor biases and the
     measurement noise are as in :func:`kalman_smooth`. With ``smooth`` the
-    RTS-smoothed states (n, 12) (:data:`STATE_NAMES`) are returned too. The
+    RTS-smoothed states (n, 12) (:data:`STATE_NAMES`) and their variances
+    (n, 12) are returned too. ``gain`` makes the discrepancy's size depend on
+    the state: the accelerations enter as ``(1 + gain |r'|) a`` (``r' = r L /
+    U``, the prime yaw rate). The
     ship model is the MMG model for an
     :class:`~studies.vessels.kvlcc2_mmg.MMGVessel` (``modules`` its
     propeller and rudder parameters, the record's ``n`` its rate), as in
@@ -685,10 +723,11 @@ def innovation_loglik(record: pd.DataFrame, model, values: dict, vessel, sigma, 
     """
     settings = settings or KalmanSettings()
     sigma = np.asarray(sigma, float)
-    mode, c, k, m = _process(model, values, vessel, modules, tau)
-    states, _, loglik, _ = _run(record, settings, mode, c, k, 2.0 * sigma ** 2 / float(tau), smooth,
-                                m, _propeller_rate(record, vessel))
-    return (float(loglik), states) if smooth else float(loglik)
+    mode, c, k, m = _process(model, values, vessel, modules, tau, gain)
+    tau = np.broadcast_to(np.asarray(tau, float), (3,))
+    states, var, loglik, _ = _run(record, settings, mode, c, k, 2.0 * sigma ** 2 / tau, smooth,
+                                  m, _propeller_rate(record, vessel))
+    return (float(loglik), states, var) if smooth else float(loglik)
 
 
 def smoothed_record(result: KalmanResult, record: pd.DataFrame) -> pd.DataFrame:

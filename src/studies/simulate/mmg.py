@@ -89,20 +89,22 @@ def _drift(u, v):
 
 @njit(cache=True, inline="always", fastmath=_FAST)
 def _derivatives(u, v, r, cpsi, spsi, delta, sdelta, cdelta, delta_c, prescribed_rate, prescribed,
-                 n, c, k, a, g, e0, e1, e2):
+                 n, c, k, a, g, e0, e1, e2, eg):
     """State derivative at one RK4 stage; ``sdelta``, ``cdelta`` the sine and
     cosine of the rudder angle ``delta``, ``c`` hull coefficients, ``k`` the
     module constants, ``a`` the rigid-body constants of :func:`_body_constants`,
     ``g`` the module gains through the inverse mass matrix
     (:func:`_module_accelerations`), ``e0, e1, e2`` external accelerations
-    [m/s^2, m/s^2, rad/s^2] added to ``u_dot, v_dot, r_dot`` (zero without
-    them: adding 0.0 leaves every bit of the sums as it was)."""
+    [m/s^2, m/s^2, rad/s^2] added to ``u_dot, v_dot, r_dot`` times ``1 + eg
+    |r'|`` (zero without them: adding 0.0 leaves every bit of the sums as it
+    was)."""
     speed = math.sqrt(u * u + v * v)
     inv = 1.0 / speed
     rp = r * a[0] * inv
     xh, yh, nh = _hull(v * inv, rp, c)
     thrust, normal = _thrust_normal(u, speed, _drift(u, v), rp, sdelta, cdelta, n, k)
     q = a[1] * speed * speed
+    ge = 1.0 + eg * abs(rp)
     fx = q * xh + a[3] * v * r + a[4] * r * r
     fy = q * yh - a[2] * u * r
     fn = q * a[0] * nh - a[4] * u * r
@@ -110,9 +112,9 @@ def _derivatives(u, v, r, cpsi, spsi, delta, sdelta, cdelta, delta_c, prescribed
     # value to be known, is added last
     # the external accelerations join the hull's part, which is ready long before the
     # rudder's normal force: they do not lengthen the chain of dependent operations
-    u_dot = (fx * a[5] + e0) + g[0] * thrust - g[1] * sdelta * normal
-    v_dot = (a[6] * fy + a[7] * fn + e1) + g[2] * cdelta * normal
-    r_dot = (a[8] * fy + a[9] * fn + e2) + g[3] * cdelta * normal
+    u_dot = (fx * a[5] + e0 * ge) + g[0] * thrust - g[1] * sdelta * normal
+    v_dot = (a[6] * fy + a[7] * fn + e1 * ge) + g[2] * cdelta * normal
+    r_dot = (a[8] * fy + a[9] * fn + e2 * ge) + g[3] * cdelta * normal
     x_dot = cpsi * u - spsi * v
     y_dot = spsi * u + cpsi * v
     if prescribed:
@@ -159,10 +161,11 @@ def _body_constants(vessel: MMGVessel) -> tuple:
 
 
 @njit(cache=True, error_model="numpy", fastmath=_FAST)
-def _integrate(c, k, a, g, x0, dt, cmd, mode, params, rps, limit, ext, out):
+def _integrate(c, k, a, g, x0, dt, cmd, mode, params, rps, limit, ext, eg, out):
     """RK4 over ``out.shape[0] - 1`` steps; ``ext`` (steps, 3) external
-    accelerations held over each step, no rows for none. Returns -1, or the
-    first step that left the physical range (rows from there on are NaN)."""
+    accelerations held over each step (no rows for none), acting as ``(1 + eg
+    |r'|) ext``. Returns -1, or the first step that left the physical range
+    (rows from there on are NaN)."""
     n = out.shape[0]
     s0, s1, s2, s3, s4, s5, s6 = x0[0], x0[1], x0[2], x0[3], x0[4], x0[5], x0[6]
     for j in range(N_STATES):
@@ -198,22 +201,22 @@ def _integrate(c, k, a, g, x0, dt, cmd, mode, params, rps, limit, ext, out):
             sr = math.sin(s6)
             held = s6
         k1 = _derivatives(s0, s1, s2, cp, sp, s6, sr, cr, dc, rate, prescribed, n_a, c, k, a, g,
-                         e0, e1, e2)
+                         e0, e1, e2, eg)
         ca, sa = _small_rotation(h * k1[5])
         cb, sb = _turned(cr, sr, h * k1[6])
         k2 = _derivatives(s0 + h * k1[0], s1 + h * k1[1], s2 + h * k1[2], cp * ca - sp * sa,
                           sp * ca + cp * sa, s6 + h * k1[6], sb, cb, dc, rate, prescribed, n_m,
-                          c, k, a, g, e0, e1, e2)
+                          c, k, a, g, e0, e1, e2, eg)
         ca, sa = _small_rotation(h * k2[5])
         cb, sb = _turned(cr, sr, h * k2[6])
         k3 = _derivatives(s0 + h * k2[0], s1 + h * k2[1], s2 + h * k2[2], cp * ca - sp * sa,
                           sp * ca + cp * sa, s6 + h * k2[6], sb, cb, dc, rate, prescribed, n_m,
-                          c, k, a, g, e0, e1, e2)
+                          c, k, a, g, e0, e1, e2, eg)
         ca, sa = _small_rotation(dt * k3[5])
         cb, sb = _turned(cr, sr, dt * k3[6])
         k4 = _derivatives(s0 + dt * k3[0], s1 + dt * k3[1], s2 + dt * k3[2], cp * ca - sp * sa,
                           sp * ca + cp * sa, s6 + dt * k3[6], sb, cb, dc, rate, prescribed, n_b,
-                          c, k, a, g, e0, e1, e2)
+                          c, k, a, g, e0, e1, e2, eg)
         s0 += sixth * (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0])
         s1 += sixth * (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1])
         s2 += sixth * (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2])
@@ -246,7 +249,7 @@ def mmg_acceleration(u, v, r, delta, n, c, k, a, g):
     the simulator's own right-hand side; ``c, k, a, g`` from
     :func:`process_constants`."""
     d = _derivatives(u, v, r, 1.0, 0.0, delta, math.sin(delta), math.cos(delta), 0.0, 0.0, True,
-                     n, c, k, a, g, 0.0, 0.0, 0.0)
+                     n, c, k, a, g, 0.0, 0.0, 0.0, 0.0)
     return d[0], d[1], d[2]
 
 
@@ -295,13 +298,14 @@ def _external_rows(external, steps: int) -> np.ndarray:
 
 
 def rk4_mmg(hull: tuple, k: tuple, a: tuple, x0, dt: float, cmd, mode: int, params, rps,
-            speed0: float, external=None) -> tuple[np.ndarray, int]:
+            speed0: float, external=None, external_gain: float = 0.0) -> tuple[np.ndarray, int]:
     """Integrate one run; returns ``(states (n, 7), diverged_at)``.
 
     ``cmd`` and ``rps`` have one value per integration step (``n`` rows);
     ``external`` (optional, ``n - 1`` rows) holds accelerations [m/s^2,
     m/s^2, rad/s^2] added to ``u_dot, v_dot, r_dot``, each held over its step
-    (a model discrepancy's realisation, :mod:`studies.identify.discrepancy`).
+    (a model discrepancy's realisation, :mod:`studies.identify.discrepancy`),
+    scaled by ``1 + external_gain |r'|`` at every stage (``r' = r L / U``).
     ``diverged_at`` is -1 when the run stayed bounded (``0 < u < 5 U0``,
     ``|v| < 5 U0``, ``|r| < 1 rad/s``), else the first step outside.
     """
@@ -314,7 +318,7 @@ def rk4_mmg(hull: tuple, k: tuple, a: tuple, x0, dt: float, cmd, mode: int, para
                           np.asarray(x0, float), float(dt),
                           cmd, int(mode), np.asarray(params, float), rps,
                           DIVERGED_SPEED_FACTOR * float(speed0),
-                          _external_rows(external, cmd.shape[0] - 1), out)
+                          _external_rows(external, cmd.shape[0] - 1), float(external_gain), out)
     return out, int(diverged)
 
 
@@ -338,7 +342,7 @@ def _initial(vessel: MMGVessel, initial: dict | None) -> np.ndarray:
 
 def simulate_mmg(model: ManoeuvringModel, values: dict, vessel: MMGVessel, manoeuvre: Manoeuvre,
                  modules: MMGParameters | None = None, rps: float | None = None,
-                 initial: dict | None = None) -> pd.DataFrame:
+                 initial: dict | None = None, external=None) -> pd.DataFrame:
     """Simulate ``manoeuvre`` with the MMG model at a constant propeller rate.
 
     Parameters
@@ -359,6 +363,9 @@ def simulate_mmg(model: ManoeuvringModel, values: dict, vessel: MMGVessel, manoe
     initial : dict, optional
         Initial ``u`` (default ``vessel.speed``), ``v``, ``r``, ``x0``, ``y0``,
         ``psi``, ``delta``.
+    external : ndarray (steps, 3), optional
+        Accelerations [m/s^2, m/s^2, rad/s^2] added per integration step
+        (:func:`rk4_mmg`), e.g. process noise.
 
     Returns
     -------
@@ -370,7 +377,7 @@ def simulate_mmg(model: ManoeuvringModel, values: dict, vessel: MMGVessel, manoe
     mode, cmd, params = manoeuvre.rudder_programme(YAW_SIGN)
     rate = np.full(cmd.shape[0], float(vessel.rps if rps is None else rps))
     states, diverged = rk4_mmg(hull_vector(model, values), k, a, _initial(vessel, initial),
-                               manoeuvre.step, cmd, mode, params, rate, vessel.speed)
+                               manoeuvre.step, cmd, mode, params, rate, vessel.speed, external)
     record = _to_record(states, rate, manoeuvre.step, manoeuvre.substeps)
     record.attrs["name"] = manoeuvre.name
     if diverged >= 0:
@@ -458,7 +465,8 @@ class MMGReplayPlan:
         the accelerations themselves (the MMG integrator adds them as they are)."""
         return np.asarray(accelerations, float)
 
-    def integrate(self, vector: np.ndarray, external=None, initial: dict | None = None):
+    def integrate(self, vector: np.ndarray, external=None, initial: dict | None = None,
+                  external_gain: float = 0.0):
         """``(states (steps + 1, 7), diverged_at)`` on the integration grid (MMG order, total ``u``)."""
         x0 = self.x0
         if initial:
@@ -468,14 +476,16 @@ class MMGReplayPlan:
                     x0[idx] = float(initial[key])
         hull = hull_vector(self.model, dict(zip(self.model.names, np.asarray(vector, float))))
         return rk4_mmg(hull, self.k, self.a, x0, self.step, self.delta, 3, np.zeros(4), self.rate,
-                       self.limit_speed, external)
+                       self.limit_speed, external, external_gain)
 
-    def run_one(self, vector: np.ndarray, external=None, initial: dict | None = None):
+    def run_one(self, vector: np.ndarray, external=None, initial: dict | None = None,
+                external_gain: float = 0.0):
         """One coefficient vector with its own external accelerations (one row per
-        step, :func:`rk4_mmg`) and initial ``u, v, r, x0, y0, psi`` (over ground
-        as recorded); ``(states (n_samples, 7), diverged_at)`` at the record's
-        samples, ``u - U0`` in the first column as the Abkowitz plan gives it."""
-        states, diverged = self.integrate(vector, external, initial)
+        step, scaled by ``1 + external_gain |r'|``: :func:`rk4_mmg`) and initial
+        ``u, v, r, x0, y0, psi`` (over ground as recorded); ``(states (n_samples,
+        7), diverged_at)`` at the record's samples, ``u - U0`` in the first
+        column as the Abkowitz plan gives it."""
+        states, diverged = self.integrate(vector, external, initial, external_gain)
         states = states[:: self.substeps].copy()
         states[:, 0] -= self.speed0
         return states, int(diverged)

@@ -258,10 +258,12 @@ class ReplayPlan:
         """Integration step [s]."""
         return float(self.inputs.step)
 
-    def run_one(self, vector: np.ndarray, external=None, initial: dict | None = None):
+    def run_one(self, vector: np.ndarray, external=None, initial: dict | None = None,
+                external_gain: float = 0.0):
         """One coefficient vector with its own external forces (one row per
-        step, 6 or 9 columns as for :func:`simulate`) and initial state;
-        ``(states (n_samples, 7), diverged_at)`` at the record's samples."""
+        step, 6 or 9 columns as for :func:`simulate`; those of given magnitude
+        times ``1 + external_gain |r'|``) and initial state; ``(states
+        (n_samples, 7), diverged_at)`` at the record's samples."""
         inputs = self.inputs
         changes = {}
         if initial:
@@ -271,7 +273,8 @@ class ReplayPlan:
             changes["ext"] = np.ascontiguousarray(external, float)
         if changes:
             inputs = SimulationInputs(**{**inputs.__dict__, **changes})
-        states, diverged = rk4_simulate(np.asarray(vector, float), *inputs.args())
+        states, diverged = rk4_simulate(np.asarray(vector, float), *inputs.args(),
+                                        ext_gain=float(external_gain))
         return states[:: inputs.substeps], int(diverged)
 
     def run(self, vectors: np.ndarray, initial: dict | None = None):

@@ -482,7 +482,11 @@ def _bands_markdown(verdicts: list, discrepancy) -> str:
                   f"(`method.discrepancy={discrepancy.kind}`): AR(1) accelerations the model misses, "
                   f"standard deviations {discrepancy.sigma[0]:.2g} m/s^2 (surge), "
                   f"{discrepancy.sigma[1]:.2g} m/s^2 (sway), {discrepancy.sigma[2]:.2g} rad/s^2 (yaw), "
-                  f"correlation time {discrepancy.tau:.1f} s, estimated on the training records only.")
+                  f"correlation times {discrepancy.taus[0]:.1f}, {discrepancy.taus[1]:.1f} and "
+                  f"{discrepancy.taus[2]:.1f} s, their size times 1 + {discrepancy.rate_gain:.2f} |r'| "
+                  f"(r' = r L / U), estimated on the training records only; each replay also starts "
+                  f"from an initial u, v, r drawn from the sensors' noise and the sensor biases at "
+                  f"the start of the training records.")
     lo, hi = TRUSTED_COVERAGE
     lines = ["# Predictive bands on the validation records", "", source, "",
              f"A band is trusted on a record when its 90 % band holds the measured track (x0 and y0) "

@@ -114,7 +114,7 @@ class BayesianRegression:
                  trajectory_duration: float | None = 600.0, trajectory_prior_width: float = 1.0,
                  trajectory_init_scale: float = 0.01, trajectory_autocorr_correction: bool = True,
                  discrepancy: str = "none", discrepancy_step: float | None = 0.5,
-                 discrepancy_evaluations: int = 300):
+                 discrepancy_evaluations: int = 600):
         for key, value, low in (("n_samples", n_samples, 1), ("burn_in", burn_in, 0),
                                 ("thin", thin, 1), ("trajectory_steps", trajectory_steps, 1),
                                 ("trajectory_burn_in", trajectory_burn_in, 0),
