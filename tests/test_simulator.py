@@ -79,3 +79,14 @@ def test_arbitrary_rudder_series_is_followed_through_the_servo(model, vessel, tm
     at = rec.set_index("t")["delta"]
     assert np.rad2deg(at[50.0]) == pytest.approx(10.0, abs=1.5)   # servo lag of ~1 s
     assert np.rad2deg(at[200.0]) == pytest.approx(-10.0, abs=1e-3)
+
+
+def test_a_vessel_without_wind_gets_as_many_zeros_as_the_wind_particulars():
+    """The compiled force evaluation reads every index of the wind particulars
+    (the convention's flags at 9 and 10) whether the wind blows or not: a vessel
+    without them (the KVLCC2) must type-check from a fresh compilation cache."""
+    from studies.simulate.integrator import WIND_PARTICULARS, _wind_tuple
+    from studies.vessels import get_vessel
+
+    assert len(get_vessel("mariner").wind.as_array()) == WIND_PARTICULARS
+    assert _wind_tuple(np.zeros(0)) == (0.0,) * WIND_PARTICULARS
