@@ -191,12 +191,13 @@ def _noisy_zigzag(vessel, duration, seed, level=NL1):
     return record
 
 
-def _bands(model, vessel, train, val, seed=0):
+def _bands(model, vessel, train, val, seed=0, evaluations=600):
     """Identify on ``train``; the bands of ``val`` (a record or a list) without
-    and with the discrepancy."""
+    and with the discrepancy (estimated with at most ``evaluations``
+    likelihood evaluations)."""
     with _quiet():
         bayes = BayesianRegression(n_samples=800, burn_in=200, thin=4, seed=seed,
-                                   discrepancy="process_noise")
+                                   discrepancy="process_noise", discrepancy_evaluations=evaluations)
         result = bayes.fit(build_problems(model, vessel, train, "auto"),
                            objective=TrajectoryObjective(model, vessel, [train]))
     vectors = posterior_vectors(model, result, 50, seed)
@@ -226,7 +227,7 @@ def test_discrepancy_makes_the_band_of_a_wrong_model_honest(vessel):
     model = get_model("simplified_li2023")
     train = _noisy_zigzag(vessel, 1200.0, 10)
     val = _noisy_zigzag(vessel, 600.0, 20)
-    result, disc, plain, band = _bands(model, vessel, train, val)
+    result, disc, plain, band = _bands(model, vessel, train, val, evaluations=200)
     print(f"\nwithout discrepancy: coverage {plain['coverage_xy']:.2f}, width {plain['width_xy_m']:.0f} m;"
           f" with: {band['coverage_xy']:.2f}, {band['width_xy_m']:.0f} m "
           f"(extent {band['extent_m']:.0f} m); sigma {disc.sigma}, tau {disc.taus} s")
