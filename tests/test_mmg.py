@@ -25,7 +25,7 @@ from studies.models.mmg import (HULL_TERMS, KVLCC2_HULL, hull_forces, mmg,
                                 module_constants, module_forces)
 from studies.simulate import Manoeuvre, turning, zigzag
 from studies.simulate.mmg import (_derivatives, _drift, _module_accelerations, hull_vector,
-                                  mmg_forces, mmg_inputs, replay_mmg, self_propulsion_rps,
+                                  mmg_acceleration, mmg_forces, mmg_inputs, replay_mmg, self_propulsion_rps,
                                   simulate_mmg)
 from studies.vessels.kvlcc2_mmg import kvlcc2_mmg
 
@@ -91,8 +91,12 @@ def test_compiled_right_hand_side_is_the_array_definition(ship, model):
     c = hull_vector(model, KVLCC2_HULL)
     # heading 0, prescribed rudder at rest: only the first three derivatives are compared
     compiled = np.array([_derivatives(uu, vv, rr, 1.0, 0.0, d, np.sin(d), np.cos(d), 0.0, 0.0, True,
-                                      nn, c, k, a, g)[:3]
+                                      nn, c, k, a, g, 0.0, 0.0, 0.0, 0.0)[:3]
                          for uu, vv, rr, d, nn in zip(u, v, r, delta, n)])
+    # the Kalman filter's MMG process model is the same right-hand side
+    filtered = np.array([mmg_acceleration(uu, vv, rr, d, nn, c, k, a, g)
+                         for uu, vv, rr, d, nn in zip(u, v, r, delta, n)])
+    np.testing.assert_allclose(filtered, compiled, rtol=1e-12, atol=1e-16)
     f = mmg_forces(model, KVLCC2_HULL, ship, u, v, r, delta, n)
     mx, my, jz = ship.added_masses()
     m, xgm = ship.mass, ship.xg * ship.mass

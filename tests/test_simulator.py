@@ -91,3 +91,14 @@ def test_a_vessel_without_wind_particulars_simulates_as_in_calm_water(model, ves
     man = zigzag(20, 20, duration=200.0)
     np.testing.assert_array_equal(simulate(model, vessel.coefficients, bare, man)[["x0", "y0", "psi"]],
                                   simulate(model, vessel.coefficients, vessel, man)[["x0", "y0", "psi"]])
+
+
+def test_a_vessel_without_wind_gets_as_many_zeros_as_the_wind_particulars():
+    """The compiled force evaluation reads every index of the wind particulars
+    (the convention's flags at 9 and 10) whether the wind blows or not: a vessel
+    without them (the KVLCC2) must type-check from a fresh compilation cache."""
+    from studies.simulate.integrator import WIND_PARTICULARS, _wind_tuple
+    from studies.vessels import get_vessel
+
+    assert len(get_vessel("mariner").wind.as_array()) == WIND_PARTICULARS
+    assert _wind_tuple(np.zeros(0)) == (0.0,) * WIND_PARTICULARS

@@ -1032,7 +1032,7 @@ class BayesMethod(MethodConfig):
     trajectory_autocorr_correction: bool = True
     discrepancy: str = "none"
     discrepancy_step: Optional[float] = 0.5
-    discrepancy_evaluations: int = 300
+    discrepancy_evaluations: int = 600
 
     def __post_init__(self):
         self.discrepancy = _choice("method.discrepancy", self.discrepancy, BAYES_DISCREPANCIES)

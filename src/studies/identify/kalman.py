@@ -34,6 +34,11 @@ noisy (regression R^2 0.06-0.8 instead of 0.92-0.97). Process models:
     model discrepancy with a smaller spectral density. The smoothed
     acceleration ``f(x_s, delta) + a_s`` therefore follows the data where
     the model is wrong, so re-identifying on it is not circular.
+    With an :class:`~studies.vessels.kvlcc2_mmg.MMGVessel` the ship model is
+    the MMG model (hull terms, propeller at the record's rate ``n``, rudder
+    in the slipstream: the simulator's own right-hand side,
+    :func:`studies.simulate.mmg.mmg_acceleration`), as the model
+    discrepancy of ``model=mmg`` needs (:func:`innovation_loglik`).
 
 Measurements: any of ``x0, y0, psi, u, v, r`` of the record (body-fixed
 ``u, v`` as in the data contract), a linear selection of the state.
@@ -83,7 +88,9 @@ from ..data.derivatives import MODEL_FREE_METHODS, DerivativeEstimate
 from ..data.derivatives import estimate_derivatives as model_free_derivatives
 from ..data.resample import uniform_step
 from ..errors import ConfigError
+from ..simulate.mmg import mmg_acceleration, process_constants
 from ..simulate.monomials import dense_coefficients, scaled_forces
+from ..vessels.kvlcc2_mmg import MMGVessel
 
 __all__ = ["KalmanSettings", "KalmanResult", "kalman_smooth", "ekf_derivatives", "innovation_loglik",
            "estimate_derivatives", "measurement_variance", "smoothed_record", "MEASURABLE",
@@ -257,8 +264,8 @@ def measurement_variance(record: pd.DataFrame, channels, window: float = 10.0,
 def _model_acc(u, v, r, delta, c, k):
     """Accelerations (u_dot, v_dot, r_dot) of the manoeuvring model.
 
-    ``k``: speed0, length, 1/m11, m33/det, -m23/det, -m32/det, m22/det (and 1/tau of
-    the discrepancy, unused here).
+    ``k``: speed0, length, 1/m11, m33/det, -m23/det, -m32/det, m22/det (and the
+    discrepancy's constants, unused here: :func:`_model_constants`).
     """
     speed0 = k[0]
     length = k[1]
@@ -273,9 +280,35 @@ def _model_acc(u, v, r, delta, c, k):
 
 NS = 12  # compiled code's state size (see STATE_NAMES)
 
+#: process models of the compiled filter
+KINEMATIC, ABKOWITZ, MMG = 0, 1, 2
+
 
 @njit(cache=True)
-def _f(x, delta, mode, c, k, out):
+def _process_acc(u, v, r, delta, n, mode, c, k, mp):
+    """Accelerations of the ship model: the cubic (Abkowitz-type) model of
+    :func:`_model_acc`, or with ``mode == MMG`` the MMG model
+    (:func:`studies.simulate.mmg.mmg_acceleration`, ``mp`` its constants,
+    ``n`` the propeller rate [rps])."""
+    if mode == MMG:
+        return mmg_acceleration(u, v, r, delta, n, mp[0], mp[1], mp[2], mp[3])
+    return _model_acc(u, v, r, delta, c, k)
+
+
+@njit(cache=True)
+def _gain(u, v, r, k):
+    """State-dependent size of the discrepancy, ``1 + k[10] |r'|`` (``r' = r L
+    / U``): exactly 1 when the slope is zero."""
+    if k[10] == 0.0:
+        return 1.0
+    speed = math.sqrt(u * u + v * v)
+    if speed < 1e-9:
+        speed = 1e-9
+    return 1.0 + k[10] * abs(r) * k[1] / speed
+
+
+@njit(cache=True)
+def _f(x, delta, n, mode, c, k, mp, out):
     """Continuous dynamics of the filter's state (biases and accelerations are
     random walks: zero drift)."""
     psi, u, v, r = x[2], x[3], x[4], x[5]
@@ -286,15 +319,16 @@ def _f(x, delta, mode, c, k, out):
     out[0] = u * cp - v * sp
     out[1] = u * sp + v * cp
     out[2] = r
-    if mode == 1:
-        au, av, ar = _model_acc(u, v, r, delta, c, k)
-        out[3] = au + x[6]
-        out[4] = av + x[7]
-        out[5] = ar + x[8]
-        # AR(1) discrepancy (Ornstein-Uhlenbeck) when k[7] = 1 / tau > 0, else a random walk
+    if mode >= 1:
+        au, av, ar = _process_acc(u, v, r, delta, n, mode, c, k, mp)
+        g = _gain(u, v, r, k)
+        out[3] = au + g * x[6]
+        out[4] = av + g * x[7]
+        out[5] = ar + g * x[8]
+        # AR(1) discrepancy (Ornstein-Uhlenbeck) when k[7 + j] = 1 / tau_j > 0, else a random walk
         out[6] = -k[7] * x[6]
-        out[7] = -k[7] * x[7]
-        out[8] = -k[7] * x[8]
+        out[7] = -k[8] * x[7]
+        out[8] = -k[9] * x[8]
     else:
         out[3] = x[6]
         out[4] = x[7]
@@ -302,7 +336,7 @@ def _f(x, delta, mode, c, k, out):
 
 
 @njit(cache=True)
-def _jacobian(x, delta, mode, c, k, J):
+def _jacobian(x, delta, n, mode, c, k, mp, J):
     for i in range(NS):
         for j in range(NS):
             J[i, j] = 0.0
@@ -319,9 +353,12 @@ def _jacobian(x, delta, mode, c, k, J):
     J[3, 6] = 1.0
     J[4, 7] = 1.0
     J[5, 8] = 1.0
-    if mode == 1:
+    if mode >= 1:
+        g = _gain(u, v, x[5], k)
         for j in range(3):
-            J[6 + j, 6 + j] = -k[7]
+            J[6 + j, 6 + j] = -k[7 + j]
+            J[3 + j, 6 + j] = g
+        varying = k[10] != 0.0
         for j in range(3):
             base = x[3 + j]
             h = 1e-6 * max(abs(base), 1.0) if j < 2 else 1e-7
@@ -329,16 +366,20 @@ def _jacobian(x, delta, mode, c, k, J):
             xm = x[3:6].copy()
             xp[j] = base + h
             xm[j] = base - h
-            ap = _model_acc(xp[0], xp[1], xp[2], delta, c, k)
-            am = _model_acc(xm[0], xm[1], xm[2], delta, c, k)
+            ap = _process_acc(xp[0], xp[1], xp[2], delta, n, mode, c, k, mp)
+            am = _process_acc(xm[0], xm[1], xm[2], delta, n, mode, c, k, mp)
+            dg = 0.0
+            if varying:
+                dg = _gain(xp[0], xp[1], xp[2], k) - _gain(xm[0], xm[1], xm[2], k)
             for i in range(3):
-                J[3 + i, 3 + j] = (ap[i] - am[i]) / (2.0 * h)
+                J[3 + i, 3 + j] = (ap[i] - am[i] + dg * x[6 + i]) / (2.0 * h)
 
 
 @njit(cache=True)
-def _rk4(x, d0, d1, dt, mode, c, k):
-    """One RK4 step of the filter's state (:func:`_f`), the rudder linear over
-    the step (``d0`` at its start, ``d1`` at its end).
+def _rk4(x, d0, d1, n0, n1, dt, mode, c, k, mp):
+    """One RK4 step of the filter's state (:func:`_f`), the rudder and the
+    propeller rate linear over the step (``d0``, ``n0`` at its start, ``d1``,
+    ``n1`` at its end).
 
     The simulator's integrator (:mod:`studies.simulate.integrator`) is a
     different system: seven states with the rudder servo, wind, current and
@@ -353,21 +394,23 @@ def _rk4(x, d0, d1, dt, mode, c, k):
     k3 = np.empty(NS)
     k4 = np.empty(NS)
     dm = 0.5 * (d0 + d1)
-    _f(x, d0, mode, c, k, k1)
-    _f(x + 0.5 * dt * k1, dm, mode, c, k, k2)
-    _f(x + 0.5 * dt * k2, dm, mode, c, k, k3)
-    _f(x + dt * k3, d1, mode, c, k, k4)
+    nm = 0.5 * (n0 + n1)
+    _f(x, d0, n0, mode, c, k, mp, k1)
+    _f(x + 0.5 * dt * k1, dm, nm, mode, c, k, mp, k2)
+    _f(x + 0.5 * dt * k2, dm, nm, mode, c, k, mp, k3)
+    _f(x + dt * k3, d1, n1, mode, c, k, mp, k4)
     return x + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
 
 
 @njit(cache=True)
-def _filter_smooth(z, R, sel, bsel, delta, dt, x0, P0, qc, mode, c, k, smooth):
+def _filter_smooth(z, R, sel, bsel, delta, rps, dt, x0, P0, qc, mode, c, k, mp, smooth):
     """EKF over all samples, then (if ``smooth``) the RTS smoother.
 
     ``z`` (n, m) measurements (NaN = missing), ``R`` (n, m) their
     variances, ``sel`` (m,) the state measured by each channel and ``bsel``
     (m,) its bias state (-1: none), so ``z_j = x[sel_j] + x[bsel_j] + e``.
-    ``qc`` (NS,) continuous white-noise spectral densities per state.
+    ``qc`` (NS,) continuous white-noise spectral densities per state;
+    ``rps`` (n,) the propeller rate (the MMG process model's input).
     Returns ``(states, variances, loglik)``.
     """
     n, m = z.shape
@@ -384,12 +427,12 @@ def _filter_smooth(z, R, sel, bsel, delta, dt, x0, P0, qc, mode, c, k, smooth):
     loglik = 0.0
     for i in range(n):
         if i > 0:
-            _jacobian(x, delta[i - 1], mode, c, k, J)
+            _jacobian(x, delta[i - 1], rps[i - 1], mode, c, k, mp, J)
             Jdt = J * dt
             F = eye + Jdt + 0.5 * (Jdt @ Jdt)
             JQ = J @ Qc
             Qd = Qc * dt + 0.5 * (JQ + JQ.T) * dt * dt + (JQ @ J.T) * dt ** 3 / 3.0
-            x = _rk4(x, delta[i - 1], delta[i], dt, mode, c, k)
+            x = _rk4(x, delta[i - 1], delta[i], rps[i - 1], rps[i], dt, mode, c, k, mp)
             P = F @ P @ F.T + Qd
             Fs[i - 1] = F
         xp[i] = x
@@ -436,6 +479,7 @@ def _filter_smooth(z, R, sel, bsel, delta, dt, x0, P0, qc, mode, c, k, smooth):
 
 @njit(cache=True)
 def _model_rates(states, delta, c, k):
+    """Accelerations of the smoothed states under the cubic model, plus the discrepancy states."""
     n = states.shape[0]
     out = np.empty((n, 3))
     for i in range(n):
@@ -446,15 +490,40 @@ def _model_rates(states, delta, c, k):
     return out
 
 
+@njit(cache=True)
+def _process_rates(states, delta, rps, mode, c, k, mp):
+    """:func:`_model_rates` under either ship model (:func:`_process_acc`)."""
+    n = states.shape[0]
+    out = np.empty((n, 3))
+    for i in range(n):
+        a = _process_acc(states[i, 3], states[i, 4], states[i, 5], delta[i], rps[i], mode, c, k, mp)
+        g = _gain(states[i, 3], states[i, 4], states[i, 5], k)
+        out[i, 0] = a[0] + g * states[i, 6]
+        out[i, 1] = a[1] + g * states[i, 7]
+        out[i, 2] = a[2] + g * states[i, 8]
+    return out
+
+
 # --------------------------------------------------------------- python API
 
-def _model_constants(vessel, tau: float | None = None) -> np.ndarray:
-    """Constants of the compiled model: speed, length, the inverse mass matrix
-    and ``1 / tau`` of the discrepancy states (0: random walks)."""
+def _rates_of(tau) -> np.ndarray:
+    """``1 / tau`` of the three discrepancy states (``tau`` one value or three
+    [s]; None or 0: random walks)."""
+    if tau is None:
+        return np.zeros(3)
+    tau = np.broadcast_to(np.asarray(tau, float), (3,))
+    return np.where(tau > 0, 1.0 / np.where(tau > 0, tau, 1.0), 0.0)
+
+
+def _model_constants(vessel, tau=None, gain: float = 0.0) -> np.ndarray:
+    """Constants of the compiled model (11): speed, length, the inverse mass
+    matrix, ``1 / tau`` of each discrepancy state (0: random walks; ``tau``
+    one value or one per channel) and the slope of the discrepancy's size in
+    ``|r'|`` (:func:`_gain`)."""
     M = vessel.mass_matrix()
     det = M[1, 1] * M[2, 2] - M[1, 2] * M[2, 1]
-    return np.array([vessel.speed, vessel.length, 1.0 / M[0, 0], M[2, 2] / det, -M[1, 2] / det,
-                     -M[2, 1] / det, M[1, 1] / det, 0.0 if not tau else 1.0 / float(tau)])
+    return np.concatenate([[vessel.speed, vessel.length, 1.0 / M[0, 0], M[2, 2] / det, -M[1, 2] / det,
+                            -M[2, 1] / det, M[1, 1] / det], _rates_of(tau), [float(gain)]])
 
 
 def _default_qc(record: pd.DataFrame, dt: float) -> np.ndarray:
@@ -496,8 +565,39 @@ def _biased_channels(settings: KalmanSettings) -> tuple:
     return tuple(settings.bias)
 
 
+#: the MMG constants of a filter without the MMG process model (one compiled signature)
+_NO_MMG = ((0.0,) * 17, (0.0,) * 23, (0.0,) * 13, (0.0,) * 4)
+
+
+def _process(model, values: dict, vessel, modules=None, tau=None, gain: float = 0.0) -> tuple:
+    """``(mode, c, k, m)`` of the compiled filter with a ship model as process
+    model: the MMG model (:func:`studies.simulate.mmg.mmg_acceleration`) for
+    an :class:`~studies.vessels.kvlcc2_mmg.MMGVessel` (``modules`` its
+    propeller and rudder parameters, default the vessel's), the cubic
+    Abkowitz-type model of the simulator otherwise; ``tau`` [s] of the
+    discrepancy states (None: random walks; one value or one per channel),
+    ``gain`` the slope of their size in ``|r'|``."""
+    if isinstance(vessel, MMGVessel):
+        hull, mk, ma, mg = process_constants(model, values, vessel, modules)
+        k = np.zeros(11)
+        k[0], k[1] = float(vessel.speed), float(vessel.length)
+        k[7:10] = _rates_of(tau)
+        k[10] = float(gain)
+        return MMG, np.zeros(105), k, (tuple(float(x) for x in hull), mk, ma, mg)
+    c = dense_coefficients(model.vector(values), model.powers_array(), model.dof_array())[0].ravel()
+    return ABKOWITZ, c, _model_constants(vessel, tau, gain), _NO_MMG
+
+
+def _propeller_rate(record: pd.DataFrame, vessel=None) -> np.ndarray:
+    """The record's propeller rate ``n`` [rps] (the vessel's approach rate, or
+    zeros, when it has none): an input of the MMG process model."""
+    if "n" in record:
+        return np.ascontiguousarray(record["n"].to_numpy(float))
+    return np.full(len(record), float(getattr(vessel, "rps", 0.0) or 0.0))
+
+
 def _run(record, settings: KalmanSettings, mode: int, c: np.ndarray, k: np.ndarray,
-         qa: np.ndarray, smooth: bool):
+         qa: np.ndarray, smooth: bool, m: tuple = _NO_MMG, rps: np.ndarray | None = None):
     t = record["t"].to_numpy(float)
     dt = uniform_step(t)
     channels = list(settings.channels)
@@ -524,7 +624,7 @@ def _run(record, settings: KalmanSettings, mode: int, c: np.ndarray, k: np.ndarr
     for j in range(3):
         qc[6 + j] = qa[j]
         # a random walk starts loose; an Ornstein-Uhlenbeck state at its stationary variance
-        P0[6 + j, 6 + j] = qa[j] * 100.0 if mode == 0 or k[7] == 0.0 else 0.5 * qa[j] / k[7]
+        P0[6 + j, 6 + j] = qa[j] * 100.0 if mode == 0 or k[7 + j] == 0.0 else 0.5 * qa[j] / k[7 + j]
     prior = _bias_prior(record, settings)
     for name, idx in BIAS_INDEX.items():
         if name in biased:
@@ -533,12 +633,13 @@ def _run(record, settings: KalmanSettings, mode: int, c: np.ndarray, k: np.ndarr
         else:
             P0[idx, idx] = 1e-30
     xs, var, loglik = _filter_smooth(np.ascontiguousarray(z), np.ascontiguousarray(R), sel, bsel,
-                                     delta, float(dt), x0, P0, qc, mode, c, k, smooth)
+                                     delta, _propeller_rate(record) if rps is None else rps, float(dt),
+                                     x0, P0, qc, mode, c, k, m, smooth)
     return xs, var, loglik, R
 
 
 def kalman_smooth(record: pd.DataFrame, settings: KalmanSettings | None = None, model=None,
-                  values: dict | None = None, vessel=None) -> KalmanResult:
+                  values: dict | None = None, vessel=None, modules=None) -> KalmanResult:
     """EKF + RTS smoother of one uniformly sampled record.
 
     Parameters
@@ -549,7 +650,11 @@ def kalman_smooth(record: pd.DataFrame, settings: KalmanSettings | None = None, 
     model, values, vessel : optional
         A manoeuvring model with coefficient ``values`` and its vessel: the
         ship model becomes the process model (``process="model"``);
-        without them the kinematic model is used.
+        without them the kinematic model is used. With an
+        :class:`~studies.vessels.kvlcc2_mmg.MMGVessel` the process model is
+        the MMG model (propeller rate from the record's ``n``).
+    modules : MMGParameters, optional
+        The MMG model's propeller and rudder parameters (default the vessel's).
     """
     settings = settings or KalmanSettings()
     missing = [c for c in ("t", "u", "v", "r", "delta", *settings.channels) if c not in record]
@@ -561,58 +666,68 @@ def kalman_smooth(record: pd.DataFrame, settings: KalmanSettings | None = None, 
     if model is not None:
         if values is None or vessel is None:
             raise ValueError("a ship model needs its coefficient values and the vessel")
-        mode = 1
-        c = dense_coefficients(model.vector(values), model.powers_array(), model.dof_array())[0].ravel()
-        k = _model_constants(vessel)
+        mode, c, k, m = _process(model, values, vessel, modules)
         qa = qa * settings.discrepancy
     else:
-        mode = 0
+        mode = KINEMATIC
         c = np.zeros(105)
-        k = np.zeros(8)
+        k = np.zeros(11)
         k[1] = 1.0
+        m = _NO_MMG
+    rps = _propeller_rate(record, vessel)
     likelihoods = {}
     if settings.process_scale is not None:
         scale = float(settings.process_scale)
     else:
         best = (-np.inf, 1.0)
         for s in settings.scale_grid:
-            _, _, ll, _ = _run(record, settings, mode, c, k, qa * s, False)
+            _, _, ll, _ = _run(record, settings, mode, c, k, qa * s, False, m, rps)
             likelihoods[float(s)] = float(ll)
             if np.isfinite(ll) and ll > best[0]:
                 best = (ll, float(s))
         scale = best[1]
-    states, var, loglik, R = _run(record, settings, mode, c, k, qa * scale, True)
-    if mode == 1:
-        rates = _model_rates(states, record["delta"].to_numpy(float), c, k)
+    states, var, loglik, R = _run(record, settings, mode, c, k, qa * scale, True, m, rps)
+    if mode != KINEMATIC:
+        rates = _process_rates(states, record["delta"].to_numpy(float), rps, mode, c, k, m)
     else:
         rates = states[:, 6:9].copy()
     mstd = {ch: float(np.sqrt(np.median(R[:, j]))) for j, ch in enumerate(settings.channels)}
     return KalmanResult(t, states, np.sqrt(np.maximum(var, 0.0)), rates,
                         record["delta"].to_numpy(float), float(loglik), scale,
-                        "model" if mode == 1 else "kinematic", mstd, likelihoods)
+                        "kinematic" if mode == KINEMATIC else "model", mstd, likelihoods)
 
 
-def innovation_loglik(record: pd.DataFrame, model, values: dict, vessel, sigma, tau: float,
-                      settings: KalmanSettings | None = None, smooth: bool = False):
+def innovation_loglik(record: pd.DataFrame, model, values: dict, vessel, sigma, tau,
+                      settings: KalmanSettings | None = None, smooth: bool = False, modules=None,
+                      gain: float = 0.0):
     """Innovation log-likelihood of a record under the ship model with an
     Ornstein-Uhlenbeck (continuous AR(1)) model discrepancy.
 
     The filter's acceleration states become ``a_dot = -a / tau + w`` with
     ``w`` white of spectral density ``2 sigma^2 / tau``: stationary standard
     deviations ``sigma`` (3,) [m/s^2, m/s^2, rad/s^2] of the surge, sway and
-    yaw accelerations the model misses, correlation time ``tau`` [s]. The
+    yaw accelerations the model misses, correlation time ``tau`` [s] (one
+    value, or one per channel). The
     prediction-error (maximum-likelihood) estimate of ``sigma, tau``
     maximises the sum of this over the training records
     (:mod:`studies.identify.discrepancy`). The sensor biases and the
     measurement noise are as in :func:`kalman_smooth`. With ``smooth`` the
-    RTS-smoothed states (n, 12) (:data:`STATE_NAMES`) are returned too.
+    RTS-smoothed states (n, 12) (:data:`STATE_NAMES`) and their variances
+    (n, 12) are returned too. ``gain`` makes the discrepancy's size depend on
+    the state: the accelerations enter as ``(1 + gain |r'|) a`` (``r' = r L /
+    U``, the prime yaw rate). The
+    ship model is the MMG model for an
+    :class:`~studies.vessels.kvlcc2_mmg.MMGVessel` (``modules`` its
+    propeller and rudder parameters, the record's ``n`` its rate), as in
+    :func:`kalman_smooth`.
     """
     settings = settings or KalmanSettings()
     sigma = np.asarray(sigma, float)
-    c = dense_coefficients(model.vector(values), model.powers_array(), model.dof_array())[0].ravel()
-    k = _model_constants(vessel, tau)
-    states, _, loglik, _ = _run(record, settings, 1, c, k, 2.0 * sigma ** 2 / float(tau), smooth)
-    return (float(loglik), states) if smooth else float(loglik)
+    mode, c, k, m = _process(model, values, vessel, modules, tau, gain)
+    tau = np.broadcast_to(np.asarray(tau, float), (3,))
+    states, var, loglik, _ = _run(record, settings, mode, c, k, 2.0 * sigma ** 2 / tau, smooth,
+                                  m, _propeller_rate(record, vessel))
+    return (float(loglik), states, var) if smooth else float(loglik)
 
 
 def smoothed_record(result: KalmanResult, record: pd.DataFrame) -> pd.DataFrame:

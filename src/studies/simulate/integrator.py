@@ -76,7 +76,13 @@ def _derivatives(du, v, r, cpsi, spsi, delta, delta_c, prescribed_rate, prescrib
         fx += (cpsi * e0 + spsi * e1 + e3) * speed2
         fy += (cpsi * e1 - spsi * e0 + e4) * speed2
         fn += (e2 + e5) * speed2
-        # body-fixed forces whose magnitude does not scale with the speed (a propeller's side force)
+        # body-fixed forces whose magnitude does not scale with the speed (a propeller's side
+        # force), times 1 + k[18] |r'| (a model discrepancy growing with the turn)
+        if k[18] != 0.0:
+            gs = 1.0 + k[18] * abs(r) * k[1] / speed
+            g0 = g0 * gs
+            g1 = g1 * gs
+            g2 = g2 * gs
         fx += g0
         fy += g1
         fn += g2
@@ -93,14 +99,14 @@ def _derivatives(du, v, r, cpsi, spsi, delta, delta_c, prescribed_rate, prescrib
     return du_dot, v_dot, r_dot, x_dot, y_dot, r, delta_dot
 
 
-def _constants(mass, length, speed0, env, rho, servo) -> tuple:
+def _constants(mass, length, speed0, env, rho, servo, ext_gain: float = 0.0) -> tuple:
     """Pack the constants of the right-hand side, reciprocals precomputed.
 
     The mass-matrix inverse is scaled so that ``U^2``-scaled prime forces give
     ``du_dot``, ``v_dot`` [m/s^2] and ``r_dot`` [rad/s^2] directly.
     """
     det = mass[1, 1] * mass[2, 2] - mass[1, 2] * mass[2, 1]
-    k = np.zeros(18)
+    k = np.zeros(19)
     k[0] = speed0
     k[1] = length
     k[2] = 1.0 / (mass[0, 0] * length)
@@ -118,6 +124,7 @@ def _constants(mass, length, speed0, env, rho, servo) -> tuple:
     k[15] = servo[0]
     k[16] = servo[1]
     k[17] = 1.0 / servo[2]
+    k[18] = ext_gain
     return tuple(float(x) for x in k)
 
 
@@ -246,28 +253,32 @@ def _ext_rows(ext, n):
     return ext
 
 
-#: entries of :meth:`studies.vessels.base.WindParticulars.as_array` (9 particulars, 2 convention flags)
-WIND_ENTRIES = 11
+#: length of :meth:`~studies.vessels.base.WindParticulars.as_array` (the particulars and
+#: the convention's two flags): a vessel without wind particulars gets as many zeros, so
+#: that its simulations type-check (``wind_load`` reads every index) and share the
+#: compiled code of a vessel with them
+WIND_PARTICULARS = 11
 
 
 def _wind_tuple(wp):
-    """Wind particulars as a tuple of :data:`WIND_ENTRIES` (zeros for a vessel
-    without them: the compiled wind load is typed for every entry it reads)."""
+    """Wind particulars as a tuple of :data:`WIND_PARTICULARS` (zeros for a vessel without them)."""
     wp = np.asarray(wp, dtype=float)
-    return tuple(float(x) for x in wp) if wp.size else (0.0,) * WIND_ENTRIES
+    return tuple(float(x) for x in wp) if wp.size else (0.0,) * WIND_PARTICULARS
 
 
 def rk4_simulate(coef, powers, dofs, mass, length, speed0, x0, dt, cmd, mode, params,
-                 env, wp, rho, ext, servo):
+                 env, wp, rho, ext, servo, ext_gain: float = 0.0):
     """Integrate one parameter set; returns ``(states (n, 7), diverged_at)``.
 
-    ``coef`` is the coefficient vector in the order of ``powers``/``dofs``.
+    ``coef`` is the coefficient vector in the order of ``powers``/``dofs``;
+    the external forces of given magnitude (columns 6-8 of ``ext``) act times
+    ``1 + ext_gain |r'|`` (``r' = r L / U``).
     ``diverged_at`` is -1 when the run stayed bounded, else the first step
     index that left the physical range (rows from there on are NaN).
     """
     n = cmd.shape[0]
     c = dense_coefficients(coef, powers, dofs)[0]
-    k = _constants(mass, length, speed0, env, rho, servo)
+    k = _constants(mass, length, speed0, env, rho, servo, float(ext_gain))
     out = np.empty((n, N_STATES))
     diverged = _integrate(c, k, np.asarray(x0, float), float(dt), cmd, int(mode),
                           np.asarray(params, float), _wind_tuple(wp), _ext_rows(ext, n), out)
@@ -281,14 +292,14 @@ def _integrate_many(cs, k, x0, dt, cmd, mode, params, wp, ext, out, diverged):
 
 
 def rk4_simulate_many(coefs, powers, dofs, mass, length, speed0, x0, dt, cmd, mode, params,
-                      env, wp, rho, ext, servo):
+                      env, wp, rho, ext, servo, ext_gain: float = 0.0):
     """Integrate many parameter sets in parallel (one row of ``coefs`` each).
 
     Returns ``(states (n_sets, n, 7), diverged_at (n_sets,))``.
     """
     n = cmd.shape[0]
     cs = dense_coefficients(coefs, powers, dofs)
-    k = _constants(mass, length, speed0, env, rho, servo)
+    k = _constants(mass, length, speed0, env, rho, servo, float(ext_gain))
     out = np.empty((cs.shape[0], n, N_STATES))
     diverged = np.empty(cs.shape[0], dtype=np.int64)
     _integrate_many(cs, k, np.asarray(x0, float), float(dt), cmd, int(mode),

@@ -27,8 +27,12 @@ integration step (constant for the standard manoeuvres, a measured record's
 ``n`` when replaying), linear within a step.
 
 Records have the columns ``t, x0, y0, psi, u, v, r, delta, n`` (data
-contract, SI units and radians). Calm water: no wind, current or external
-forces yet.
+contract, SI units and radians). Calm water: no wind or current; external
+accelerations (a model discrepancy's realisation,
+:mod:`studies.identify.discrepancy`) may be added per step
+(:func:`rk4_mmg`, :class:`MMGReplayPlan`). :func:`mmg_acceleration` is the
+same right-hand side at one state, for the model-based Kalman filter of
+:mod:`studies.identify.kalman`.
 
 The heading's and the rudder's sine and cosine are computed once per step and
 rotated through the stages by their increments (exact to 1e-12 for
@@ -61,7 +65,7 @@ from .integrator import DIVERGED_SPEED_FACTOR, N_STATES, _command, _small_rotati
 from .manoeuvres import Manoeuvre
 
 __all__ = ["simulate_mmg", "replay_mmg", "rk4_mmg", "hull_vector", "mmg_inputs", "mmg_forces",
-           "self_propulsion_rps"]
+           "self_propulsion_rps", "MMGReplayPlan", "mmg_acceleration", "process_constants"]
 
 # the same contraction-only fast-math as the Abkowitz integrator
 _FAST = {"contract", "arcp", "nsz"}
@@ -85,26 +89,32 @@ def _drift(u, v):
 
 @njit(cache=True, inline="always", fastmath=_FAST)
 def _derivatives(u, v, r, cpsi, spsi, delta, sdelta, cdelta, delta_c, prescribed_rate, prescribed,
-                 n, c, k, a, g):
+                 n, c, k, a, g, e0, e1, e2, eg):
     """State derivative at one RK4 stage; ``sdelta``, ``cdelta`` the sine and
     cosine of the rudder angle ``delta``, ``c`` hull coefficients, ``k`` the
     module constants, ``a`` the rigid-body constants of :func:`_body_constants`,
     ``g`` the module gains through the inverse mass matrix
-    (:func:`_module_accelerations`)."""
+    (:func:`_module_accelerations`), ``e0, e1, e2`` external accelerations
+    [m/s^2, m/s^2, rad/s^2] added to ``u_dot, v_dot, r_dot`` times ``1 + eg
+    |r'|`` (zero without them: adding 0.0 leaves every bit of the sums as it
+    was)."""
     speed = math.sqrt(u * u + v * v)
     inv = 1.0 / speed
     rp = r * a[0] * inv
     xh, yh, nh = _hull(v * inv, rp, c)
     thrust, normal = _thrust_normal(u, speed, _drift(u, v), rp, sdelta, cdelta, n, k)
     q = a[1] * speed * speed
+    ge = 1.0 + eg * abs(rp)
     fx = q * xh + a[3] * v * r + a[4] * r * r
     fy = q * yh - a[2] * u * r
     fn = q * a[0] * nh - a[4] * u * r
     # module forces through the inverse mass matrix; the rudder's normal force, the last
     # value to be known, is added last
-    u_dot = fx * a[5] + g[0] * thrust - g[1] * sdelta * normal
-    v_dot = a[6] * fy + a[7] * fn + g[2] * cdelta * normal
-    r_dot = a[8] * fy + a[9] * fn + g[3] * cdelta * normal
+    # the external accelerations join the hull's part, which is ready long before the
+    # rudder's normal force: they do not lengthen the chain of dependent operations
+    u_dot = (fx * a[5] + e0 * ge) + g[0] * thrust - g[1] * sdelta * normal
+    v_dot = (a[6] * fy + a[7] * fn + e1 * ge) + g[2] * cdelta * normal
+    r_dot = (a[8] * fy + a[9] * fn + e2 * ge) + g[3] * cdelta * normal
     x_dot = cpsi * u - spsi * v
     y_dot = spsi * u + cpsi * v
     if prescribed:
@@ -151,9 +161,11 @@ def _body_constants(vessel: MMGVessel) -> tuple:
 
 
 @njit(cache=True, error_model="numpy", fastmath=_FAST)
-def _integrate(c, k, a, g, x0, dt, cmd, mode, params, rps, limit, out):
-    """RK4 over ``out.shape[0] - 1`` steps. Returns -1, or the first step that
-    left the physical range (rows from there on are NaN)."""
+def _integrate(c, k, a, g, x0, dt, cmd, mode, params, rps, limit, ext, eg, out):
+    """RK4 over ``out.shape[0] - 1`` steps; ``ext`` (steps, 3) external
+    accelerations held over each step (no rows for none), acting as ``(1 + eg
+    |r'|) ext``. Returns -1, or the first step that left the physical range
+    (rows from there on are NaN)."""
     n = out.shape[0]
     s0, s1, s2, s3, s4, s5, s6 = x0[0], x0[1], x0[2], x0[3], x0[4], x0[5], x0[6]
     for j in range(N_STATES):
@@ -167,8 +179,12 @@ def _integrate(c, k, a, g, x0, dt, cmd, mode, params, rps, limit, out):
     # cr, sr: cosine and sine of the rudder angle `held`, kept while the rudder rests
     held = np.nan
     cr = sr = 0.0
+    has_ext = ext.shape[0] > 0
+    e0 = e1 = e2 = 0.0
     for i in range(n - 1):
         dc, memory = _command(mode, cmd[i], s5, s2, psi0, p0, p1, p2, memory)
+        if has_ext:
+            e0, e1, e2 = ext[i, 0], ext[i, 1], ext[i, 2]
         rate = 0.0
         if prescribed:
             s6 = cmd[i]
@@ -184,22 +200,23 @@ def _integrate(c, k, a, g, x0, dt, cmd, mode, params, rps, limit, out):
             cr = math.cos(s6)
             sr = math.sin(s6)
             held = s6
-        k1 = _derivatives(s0, s1, s2, cp, sp, s6, sr, cr, dc, rate, prescribed, n_a, c, k, a, g)
+        k1 = _derivatives(s0, s1, s2, cp, sp, s6, sr, cr, dc, rate, prescribed, n_a, c, k, a, g,
+                         e0, e1, e2, eg)
         ca, sa = _small_rotation(h * k1[5])
         cb, sb = _turned(cr, sr, h * k1[6])
         k2 = _derivatives(s0 + h * k1[0], s1 + h * k1[1], s2 + h * k1[2], cp * ca - sp * sa,
                           sp * ca + cp * sa, s6 + h * k1[6], sb, cb, dc, rate, prescribed, n_m,
-                          c, k, a, g)
+                          c, k, a, g, e0, e1, e2, eg)
         ca, sa = _small_rotation(h * k2[5])
         cb, sb = _turned(cr, sr, h * k2[6])
         k3 = _derivatives(s0 + h * k2[0], s1 + h * k2[1], s2 + h * k2[2], cp * ca - sp * sa,
                           sp * ca + cp * sa, s6 + h * k2[6], sb, cb, dc, rate, prescribed, n_m,
-                          c, k, a, g)
+                          c, k, a, g, e0, e1, e2, eg)
         ca, sa = _small_rotation(dt * k3[5])
         cb, sb = _turned(cr, sr, dt * k3[6])
         k4 = _derivatives(s0 + dt * k3[0], s1 + dt * k3[1], s2 + dt * k3[2], cp * ca - sp * sa,
                           sp * ca + cp * sa, s6 + dt * k3[6], sb, cb, dc, rate, prescribed, n_b,
-                          c, k, a, g)
+                          c, k, a, g, e0, e1, e2, eg)
         s0 += sixth * (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0])
         s1 += sixth * (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1])
         s2 += sixth * (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2])
@@ -225,6 +242,25 @@ def _integrate(c, k, a, g, x0, dt, cmd, mode, params, rps, limit, out):
     return -1
 
 
+@njit(cache=True, fastmath=_FAST)
+def mmg_acceleration(u, v, r, delta, n, c, k, a, g):
+    """``(u_dot, v_dot, r_dot)`` [m/s^2, m/s^2, rad/s^2] of the MMG model at one
+    state (``u, v`` through the water, ``delta`` contract sign, ``n`` [rps]):
+    the simulator's own right-hand side; ``c, k, a, g`` from
+    :func:`process_constants`."""
+    d = _derivatives(u, v, r, 1.0, 0.0, delta, math.sin(delta), math.cos(delta), 0.0, 0.0, True,
+                     n, c, k, a, g, 0.0, 0.0, 0.0, 0.0)
+    return d[0], d[1], d[2]
+
+
+def process_constants(model: ManoeuvringModel, values: dict, vessel: MMGVessel,
+                      modules: MMGParameters | None = None) -> tuple:
+    """``(hull, module constants, rigid-body constants, module gains)``: the
+    tuples :func:`mmg_acceleration` takes."""
+    k, a = mmg_inputs(vessel, modules)
+    return hull_vector(model, values), k, a, _module_accelerations(k, a)
+
+
 def hull_vector(model: ManoeuvringModel, values: dict) -> tuple:
     """The 17 hull coefficients in the order of :data:`HULL_TERMS`; terms the
     model does not have are zero. A term outside the MMG hull is refused."""
@@ -244,11 +280,32 @@ def mmg_inputs(vessel: MMGVessel, modules: MMGParameters | None = None) -> tuple
     return module_constants(vessel, modules or vessel.modules), _body_constants(vessel)
 
 
+#: no external accelerations (the integrator's ``ext`` with no rows)
+_NO_EXTERNAL = np.zeros((0, 3))
+
+
+def _external_rows(external, steps: int) -> np.ndarray:
+    """External accelerations per step as a contiguous (steps, 3) array, or no rows."""
+    if external is None:
+        return _NO_EXTERNAL
+    ext = np.array(external, dtype=float)
+    if ext.ndim != 2 or ext.shape[1] != 3:
+        raise ValueError(f"external accelerations must be (steps, 3) [m/s^2, m/s^2, rad/s^2], "
+                         f"got shape {ext.shape}")
+    if ext.shape[0] < steps:
+        raise ValueError(f"external accelerations cover {ext.shape[0]} steps, need {steps}")
+    return np.ascontiguousarray(ext[:steps]) if ext.any() else _NO_EXTERNAL
+
+
 def rk4_mmg(hull: tuple, k: tuple, a: tuple, x0, dt: float, cmd, mode: int, params, rps,
-            speed0: float) -> tuple[np.ndarray, int]:
+            speed0: float, external=None, external_gain: float = 0.0) -> tuple[np.ndarray, int]:
     """Integrate one run; returns ``(states (n, 7), diverged_at)``.
 
     ``cmd`` and ``rps`` have one value per integration step (``n`` rows);
+    ``external`` (optional, ``n - 1`` rows) holds accelerations [m/s^2,
+    m/s^2, rad/s^2] added to ``u_dot, v_dot, r_dot``, each held over its step
+    (a model discrepancy's realisation, :mod:`studies.identify.discrepancy`),
+    scaled by ``1 + external_gain |r'|`` at every stage (``r' = r L / U``).
     ``diverged_at`` is -1 when the run stayed bounded (``0 < u < 5 U0``,
     ``|v| < 5 U0``, ``|r| < 1 rad/s``), else the first step outside.
     """
@@ -260,7 +317,8 @@ def rk4_mmg(hull: tuple, k: tuple, a: tuple, x0, dt: float, cmd, mode: int, para
     diverged = _integrate(tuple(float(x) for x in hull), k, a, _module_accelerations(k, a),
                           np.asarray(x0, float), float(dt),
                           cmd, int(mode), np.asarray(params, float), rps,
-                          DIVERGED_SPEED_FACTOR * float(speed0), out)
+                          DIVERGED_SPEED_FACTOR * float(speed0),
+                          _external_rows(external, cmd.shape[0] - 1), float(external_gain), out)
     return out, int(diverged)
 
 
@@ -284,7 +342,7 @@ def _initial(vessel: MMGVessel, initial: dict | None) -> np.ndarray:
 
 def simulate_mmg(model: ManoeuvringModel, values: dict, vessel: MMGVessel, manoeuvre: Manoeuvre,
                  modules: MMGParameters | None = None, rps: float | None = None,
-                 initial: dict | None = None) -> pd.DataFrame:
+                 initial: dict | None = None, external=None) -> pd.DataFrame:
     """Simulate ``manoeuvre`` with the MMG model at a constant propeller rate.
 
     Parameters
@@ -305,6 +363,9 @@ def simulate_mmg(model: ManoeuvringModel, values: dict, vessel: MMGVessel, manoe
     initial : dict, optional
         Initial ``u`` (default ``vessel.speed``), ``v``, ``r``, ``x0``, ``y0``,
         ``psi``, ``delta``.
+    external : ndarray (steps, 3), optional
+        Accelerations [m/s^2, m/s^2, rad/s^2] added per integration step
+        (:func:`rk4_mmg`), e.g. process noise.
 
     Returns
     -------
@@ -316,7 +377,7 @@ def simulate_mmg(model: ManoeuvringModel, values: dict, vessel: MMGVessel, manoe
     mode, cmd, params = manoeuvre.rudder_programme(YAW_SIGN)
     rate = np.full(cmd.shape[0], float(vessel.rps if rps is None else rps))
     states, diverged = rk4_mmg(hull_vector(model, values), k, a, _initial(vessel, initial),
-                               manoeuvre.step, cmd, mode, params, rate, vessel.speed)
+                               manoeuvre.step, cmd, mode, params, rate, vessel.speed, external)
     record = _to_record(states, rate, manoeuvre.step, manoeuvre.substeps)
     record.attrs["name"] = manoeuvre.name
     if diverged >= 0:
@@ -325,38 +386,114 @@ def simulate_mmg(model: ManoeuvringModel, values: dict, vessel: MMGVessel, manoe
 
 
 def replay_mmg(model: ManoeuvringModel, values: dict, vessel: MMGVessel, record: pd.DataFrame,
-               modules: MMGParameters | None = None, rps: float | None = None) -> pd.DataFrame:
+               modules: MMGParameters | None = None, rps: float | None = None,
+               external=None) -> pd.DataFrame:
     """Simulate a record's own rudder and propeller rate from its first state.
 
     The measured rudder is prescribed (no servo) and the measured ``n`` drives
     the propeller, both linear between samples (``rps`` replaces a record
     without ``n``, or overrides it); the integration step is the record's
     median sampling interval split so it is at most 0.1 s. The record and the
-    vessel must be at the same scale.
+    vessel must be at the same scale. ``external``: accelerations per
+    integration step (:func:`rk4_mmg`).
     """
-    t = record["t"].to_numpy(float)
-    dt = float(np.median(np.diff(t)))
-    man = Manoeuvre(str(record.attrs.get("name", "record")), "rudder", dt * (len(t) - 1), dt)
-    grid = man.step_times()
-    columns = ["delta"] + (["n"] if rps is None and "n" in record else [])
-    inputs = resample(pd.DataFrame({"t": t - t[0], **{c: record[c].to_numpy(float) for c in columns}}),
-                      grid, columns)
-    delta = inputs["delta"].to_numpy()
-    if rps is None and "n" not in record:
-        raise ValueError("the record has no propeller rate 'n'; pass rps=")
-    rate = inputs["n"].to_numpy() if rps is None else np.full(grid.shape[0], float(rps))
-    first = record.iloc[0]
-    x0 = _initial(vessel, {key: float(first[key]) for key in ("u", "v", "r", "x0", "y0", "psi")})
-    x0[6] = delta[0]
-    k, a = mmg_inputs(vessel, modules)
-    states, diverged = rk4_mmg(hull_vector(model, values), k, a, x0, man.step, delta, 3,
-                               np.zeros(4), rate, max(vessel.speed, float(first["u"])))
-    out = _to_record(states, rate, man.step, man.substeps)
-    out["t"] = out["t"] + t[0]
+    plan = MMGReplayPlan(model, vessel, record, modules, rps)
+    states, diverged = plan.integrate(model.vector(values), external)
+    out = _to_record(states, plan.rate, plan.step, plan.substeps)
+    out["t"] = out["t"] + plan.t0
     out.attrs["name"] = record.attrs.get("name", "record")
     if diverged >= 0:
-        out.attrs["diverged_at"] = diverged * man.step
+        out.attrs["diverged_at"] = diverged * plan.step
     return out
+
+
+class MMGReplayPlan:
+    """A record's MMG replay prepared once (rudder and propeller rate on the
+    integration grid, the compiled constants) for many hull-coefficient
+    vectors, external accelerations and initial states: the MMG counterpart
+    of :class:`studies.simulate.simulator.ReplayPlan`, with the same
+    :meth:`run_one` and :meth:`run` (states in the Abkowitz integrator's
+    column order, ``u - U0`` first, so that both plans give the same arrays).
+
+    Parameters
+    ----------
+    model : ManoeuvringModel
+        The MMG hull terms (vectors in ``model.names`` order).
+    vessel : MMGVessel
+    record : DataFrame
+        Data contract record with ``n`` [rps] (or pass ``rps``).
+    modules : MMGParameters, optional
+        Propeller and rudder parameters; default ``vessel.modules``.
+    rps : float, optional
+        Constant propeller rate replacing the record's.
+    """
+
+    def __init__(self, model: ManoeuvringModel, vessel: MMGVessel, record: pd.DataFrame,
+                 modules: MMGParameters | None = None, rps: float | None = None):
+        t = record["t"].to_numpy(float)
+        dt = float(np.median(np.diff(t)))
+        man = Manoeuvre(str(record.attrs.get("name", "record")), "rudder", dt * (len(t) - 1), dt)
+        grid = man.step_times()
+        if rps is None and "n" not in record:
+            raise ValueError("the record has no propeller rate 'n'; pass rps=")
+        columns = ["delta"] + (["n"] if rps is None else [])
+        inputs = resample(pd.DataFrame({"t": t - t[0], **{c: record[c].to_numpy(float) for c in columns}}),
+                          grid, columns)
+        self.model = model
+        self.delta = np.ascontiguousarray(inputs["delta"].to_numpy(), float)
+        self.rate = (np.ascontiguousarray(inputs["n"].to_numpy(), float) if rps is None
+                     else np.full(grid.shape[0], float(rps)))
+        first = record.iloc[0]
+        self.first = {key: float(first[key]) for key in ("u", "v", "r", "x0", "y0", "psi")}
+        self.x0 = _initial(vessel, self.first)
+        self.x0[6] = self.delta[0]
+        self.k, self.a = mmg_inputs(vessel, modules)
+        self.speed0 = float(vessel.speed)
+        self.limit_speed = max(float(vessel.speed), self.first["u"])
+        self.step = float(man.step)
+        self.substeps = int(man.substeps)
+        self.t0 = float(t[0])
+
+    @property
+    def steps(self) -> int:
+        """Integration steps of the replay (external accelerations need one row per step)."""
+        return int(self.delta.shape[0] - 1)
+
+    @staticmethod
+    def external_accelerations(accelerations: np.ndarray) -> np.ndarray:
+        """What :meth:`run_one` takes as ``external`` for SI accelerations (steps, 3):
+        the accelerations themselves (the MMG integrator adds them as they are)."""
+        return np.asarray(accelerations, float)
+
+    def integrate(self, vector: np.ndarray, external=None, initial: dict | None = None,
+                  external_gain: float = 0.0):
+        """``(states (steps + 1, 7), diverged_at)`` on the integration grid (MMG order, total ``u``)."""
+        x0 = self.x0
+        if initial:
+            x0 = x0.copy()
+            for key, idx in (("u", 0), ("v", 1), ("r", 2), ("x0", 3), ("y0", 4), ("psi", 5)):
+                if key in initial:
+                    x0[idx] = float(initial[key])
+        hull = hull_vector(self.model, dict(zip(self.model.names, np.asarray(vector, float))))
+        return rk4_mmg(hull, self.k, self.a, x0, self.step, self.delta, 3, np.zeros(4), self.rate,
+                       self.limit_speed, external, external_gain)
+
+    def run_one(self, vector: np.ndarray, external=None, initial: dict | None = None,
+                external_gain: float = 0.0):
+        """One coefficient vector with its own external accelerations (one row per
+        step, scaled by ``1 + external_gain |r'|``: :func:`rk4_mmg`) and initial
+        ``u, v, r, x0, y0, psi`` (over ground as recorded); ``(states (n_samples,
+        7), diverged_at)`` at the record's samples, ``u - U0`` in the first
+        column as the Abkowitz plan gives it."""
+        states, diverged = self.integrate(vector, external, initial, external_gain)
+        states = states[:: self.substeps].copy()
+        states[:, 0] -= self.speed0
+        return states, int(diverged)
+
+    def run(self, vectors: np.ndarray, initial: dict | None = None):
+        """``(states (n_sets, n_samples, 7), diverged (n_sets,))`` of many vectors."""
+        results = [self.run_one(v, None, initial) for v in np.atleast_2d(vectors)]
+        return (np.asarray([s for s, _ in results]), np.asarray([d for _, d in results], dtype=np.int64))
 
 
 def mmg_forces(model: ManoeuvringModel, values: dict, vessel: MMGVessel, u, v, r, delta, n,

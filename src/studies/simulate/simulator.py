@@ -22,11 +22,13 @@ from ..data.resample import resample
 from ..environment.conditions import Environment
 from ..models.abkowitz import ManoeuvringModel
 from ..vessels.base import Vessel
+from ..vessels.kvlcc2_mmg import MMGVessel
 from .integrator import rk4_simulate, rk4_simulate_many
 from .manoeuvres import Manoeuvre
+from .mmg import MMGReplayPlan
 
 __all__ = ["simulate", "simulate_many", "replay", "replay_many", "ReplayPlan", "SimulationInputs",
-           "DIVERGED_PENALTY"]
+           "DIVERGED_PENALTY", "acceleration_forces", "replay_plan"]
 
 #: finite fitness (thesis eq. 3.43, SI units) given to a simulation that left
 #: the physical range, in place of NaN
@@ -210,6 +212,22 @@ def _replay_initial(record: pd.DataFrame, environment: Environment, initial: dic
     return out
 
 
+def acceleration_forces(accelerations: np.ndarray, vessel: Vessel) -> np.ndarray:
+    """Prime external forces (n, 9) that give the integrator exactly the SI
+    accelerations ``accelerations`` (n, 3) [m/s^2, m/s^2, rad/s^2] in
+    ``u_dot, v_dot, r_dot``.
+
+    Columns 6-8 (body-fixed forces of given magnitude, prime at the approach
+    speed ``U0``) hold ``M' [a_u L, a_v L, a_r L^2] / U0^2``, which the
+    integrator turns back into ``a``.
+    """
+    acc = np.asarray(accelerations, float)
+    L, U0 = float(vessel.length), float(vessel.speed)
+    out = np.zeros((acc.shape[0], 9))
+    out[:, 6:9] = (acc * np.array([L, L, L * L])) @ vessel.mass_matrix().T / (U0 * U0)
+    return out
+
+
 class ReplayPlan:
     """A record's replay prepared once (rudder on the integration grid,
     environment, external forces) for many coefficient sets and initial
@@ -222,7 +240,13 @@ class ReplayPlan:
                  environment: Environment | None = None, external=None):
         self.environment = environment or record_environment(record)
         self.record = record
+        self.vessel = vessel
         self.inputs = _replay_inputs(model, vessel, record, self.environment, -1.0, external)
+
+    def external_accelerations(self, accelerations: np.ndarray) -> np.ndarray:
+        """What :meth:`run_one` takes as ``external`` for SI accelerations (steps, 3)
+        added to ``u_dot, v_dot, r_dot`` (:func:`acceleration_forces`)."""
+        return acceleration_forces(accelerations, self.vessel)
 
     @property
     def steps(self) -> int:
@@ -234,10 +258,12 @@ class ReplayPlan:
         """Integration step [s]."""
         return float(self.inputs.step)
 
-    def run_one(self, vector: np.ndarray, external=None, initial: dict | None = None):
+    def run_one(self, vector: np.ndarray, external=None, initial: dict | None = None,
+                external_gain: float = 0.0):
         """One coefficient vector with its own external forces (one row per
-        step, 6 or 9 columns as for :func:`simulate`) and initial state;
-        ``(states (n_samples, 7), diverged_at)`` at the record's samples."""
+        step, 6 or 9 columns as for :func:`simulate`; those of given magnitude
+        times ``1 + external_gain |r'|``) and initial state; ``(states
+        (n_samples, 7), diverged_at)`` at the record's samples."""
         inputs = self.inputs
         changes = {}
         if initial:
@@ -247,7 +273,8 @@ class ReplayPlan:
             changes["ext"] = np.ascontiguousarray(external, float)
         if changes:
             inputs = SimulationInputs(**{**inputs.__dict__, **changes})
-        states, diverged = rk4_simulate(np.asarray(vector, float), *inputs.args())
+        states, diverged = rk4_simulate(np.asarray(vector, float), *inputs.args(),
+                                        ext_gain=float(external_gain))
         return states[:: inputs.substeps], int(diverged)
 
     def run(self, vectors: np.ndarray, initial: dict | None = None):
@@ -258,6 +285,19 @@ class ReplayPlan:
             inputs = SimulationInputs(**{**inputs.__dict__, "x0": x0})
         states, diverged = rk4_simulate_many(np.atleast_2d(vectors), *inputs.args())
         return states[:, :: inputs.substeps], diverged
+
+
+def replay_plan(model: ManoeuvringModel, vessel, record: pd.DataFrame, modules=None):
+    """A record's replay prepared for many coefficient sets, on the model's own
+    simulator: :class:`~studies.simulate.mmg.MMGReplayPlan` (propeller rate
+    from the record's ``n``, ``modules`` the propeller and rudder parameters)
+    for a vessel with MMG particulars
+    (:class:`~studies.vessels.kvlcc2_mmg.MMGVessel`), :class:`ReplayPlan`
+    otherwise. Both give ``steps``, ``step``, ``run(vectors)``,
+    ``run_one(vector, external, initial)`` and ``external_accelerations``."""
+    if isinstance(vessel, MMGVessel):
+        return MMGReplayPlan(model, vessel, record, modules)
+    return ReplayPlan(model, vessel, record)
 
 
 def record_environment(record: pd.DataFrame) -> Environment:

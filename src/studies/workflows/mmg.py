@@ -17,7 +17,10 @@ Steps of :meth:`MMGRun.execute`:
 4. validation as for the Abkowitz models (:mod:`studies.workflows.manoeuvring`):
    every ``validate.path`` record replayed with its measured rudder and
    propeller rate from its first state, characteristics, steady turn,
-   closed-loop zig-zag overshoots; simulated validation manoeuvres against
+   closed-loop zig-zag overshoots and, with ``method=bayes``, the posterior
+   predictive bands replayed by the MMG simulator (with
+   ``method.discrepancy=process_noise`` the discrepancy is estimated by the
+   Kalman filter with the MMG model as process model); simulated validation manoeuvres against
    the published MMG coefficients when there are no measured records;
 5. ``model.compare_abkowitz``: the Abkowitz ``symmetric`` model identified
    by least squares from the same records, validated alike
@@ -79,12 +82,11 @@ class MMGRun(_manoeuvring.Study):
 
     The fields, name and inputs of :class:`studies.workflows.manoeuvring.Study`
     (``vessel`` the MMG particulars at the records' scale), plus the
-    propeller and rudder parameters ``modules``; replays and simulations use
-    the MMG simulator, and no posterior band is drawn (``bands``).
+    propeller and rudder parameters ``modules``; replays, simulations and the
+    posterior predictive bands (``method=bayes``) use the MMG simulator.
     """
 
     modules: object = None
-    bands: bool = False
 
     @property
     def tags(self) -> dict:

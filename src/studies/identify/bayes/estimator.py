@@ -114,7 +114,7 @@ class BayesianRegression:
                  trajectory_duration: float | None = 600.0, trajectory_prior_width: float = 1.0,
                  trajectory_init_scale: float = 0.01, trajectory_autocorr_correction: bool = True,
                  discrepancy: str = "none", discrepancy_step: float | None = 0.5,
-                 discrepancy_evaluations: int = 300):
+                 discrepancy_evaluations: int = 600):
         for key, value, low in (("n_samples", n_samples, 1), ("burn_in", burn_in, 0),
                                 ("thin", thin, 1), ("trajectory_steps", trajectory_steps, 1),
                                 ("trajectory_burn_in", trajectory_burn_in, 0),
@@ -262,7 +262,8 @@ class BayesianRegression:
         values = {name: params.get(name, 0.0) for name in model.names}
         found = estimate_process_noise(model, values, objective.vessel, objective.records,
                                        step=self.discrepancy_step,
-                                       max_evaluations=self.discrepancy_evaluations)
+                                       max_evaluations=self.discrepancy_evaluations,
+                                       modules=getattr(objective, "modules", None))
         logger.info("bayes: model discrepancy (%s) sigma = %.3g m/s^2, %.3g m/s^2, %.3g rad/s^2, "
                     "tau = %.1f s", found.kind, *found.sigma, found.tau)
         out = Identification()
