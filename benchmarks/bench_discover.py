@@ -34,6 +34,14 @@ can act together (:func:`studies.discover.hidden.hidden_pairs`; or a
 comma-separated list ``a+b,c+d``): a pair is a hit when the verdict names
 both with both parameters right.
 
+Scenarios: ``STUDIES_BENCH_SCENARIOS=varied`` (the default) draws, per seed,
+how the records are made besides the effect and the sensor noise
+(:func:`studies.discover.hidden.draw_scenario`): sampling 0.1, 0.2 or 0.5 s,
+records of 400-900 s, which turning circle and zig-zag train (either side)
+and which manoeuvre validates, process noise in half the cases;
+``fixed`` keeps the development set-up (a 20/20 zig-zag and a 35 deg
+turning circle to train, a 10/10 zig-zag to validate, 600 s at 0.1 s).
+
 Seeds: development uses seeds 100, 101, ... (the tests use smaller seeds).
 ``STUDIES_BENCH_HELDOUT=1`` draws seeds 1000, 1001, ... instead (manoeuvring
 and roll causes alike): held-out seeds that development never looks at, to
@@ -51,8 +59,8 @@ from hydra import initialize_config_module
 from joblib import Parallel, delayed
 
 from studies.config import compose_settings
-from studies.discover.hidden import (HIDDEN_CAUSES, HIDDEN_ROLL_CAUSES, hidden_pairs, hidden_records,
-                                     hidden_roll_decays, parameters_match, write_records)
+from studies.discover.hidden import (HIDDEN_CAUSES, HIDDEN_ROLL_CAUSES, draw_scenario, hidden_pairs,
+                                     hidden_records, hidden_roll_decays, parameters_match, write_records)
 from studies.environment.sensor_noise import check_sensor_noise
 from studies.vessels import get_vessel
 from studies.workflows.kinds import execute_discover, prepare_discover
@@ -62,13 +70,19 @@ from studies.workflows.kinds import execute_discover, prepare_discover
 DEVELOPMENT_SEED, HELDOUT_SEED = 100, 1000
 
 
-def _one(cause, seed, noise, family="li2023", missing="Nrrr"):
+def _one(cause, seed, noise, family="li2023", missing="Nrrr", scenarios="fixed"):
     """One discovery on hidden records: a dict of the setting, the hit, the named first and
     second causes and the discovery's wall time [s]. ``cause`` may be a pair ``"a+b"``: a
-    hit names both (the pair as the verdict, in either order) with both parameters right."""
+    hit names both (the pair as the verdict, in either order) with both parameters right.
+    ``scenarios``: ``varied`` draws the records' scenario from the seed, ``fixed`` keeps the
+    development set-up."""
+    import numba
+
+    numba.set_num_threads(1)        # one process per core: no threads within it
     vessel = get_vessel("mariner")
+    scenario = draw_scenario(seed, cause) if scenarios == "varied" else None
     records, truth = hidden_records(vessel, cause, seed=seed, noise=noise, noise_family=family,
-                                    missing=missing)
+                                    missing=missing, scenario=scenario)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         paths = write_records(records, tmp)
@@ -89,7 +103,8 @@ def _one(cause, seed, noise, family="li2023", missing="Nrrr"):
         named = d["cause"]
         hit = d["cause"] == cause and parameters_match(cause, d["parameters"], truth)
     return {"cause": cause, "noise": noise, "family": family, "seed": seed, "hit": bool(hit),
-            "named": named, "second": second.get("cause"), "elapsed": elapsed}
+            "named": named, "second": second.get("cause"), "elapsed": elapsed,
+            "scenario": repr(scenario) if scenario is not None else "fixed"}
 
 
 def _setting(noise, family) -> str:
@@ -97,10 +112,11 @@ def _setting(noise, family) -> str:
     return f"noise={noise:g}" if family == "li2023" or noise == 0 else f"noise={noise:g}/{family}"
 
 
-def _jobs(causes, noises, families, seeds, base, missing="Nrrr") -> list[tuple]:
-    """(cause, seed, noise, family, missing) per run; noise 0 once (every family leaves the records clean)."""
+def _jobs(causes, noises, families, seeds, base, missing="Nrrr", scenarios="fixed") -> list[tuple]:
+    """(cause, seed, noise, family, missing, scenarios) per run; noise 0 once (every family leaves
+    the records clean)."""
     settings = list(dict.fromkeys((n, "li2023" if n == 0 else f) for n in noises for f in families))
-    return [(c, base + s, n, f, missing) for c in causes for n, f in settings for s in range(seeds)]
+    return [(c, base + s, n, f, missing, scenarios) for c in causes for n, f in settings for s in range(seeds)]
 
 
 def _confusion(results) -> dict:
@@ -151,12 +167,15 @@ def run() -> dict:
         check_sensor_noise(family, 0.0)
     base = HELDOUT_SEED if os.environ.get("STUDIES_BENCH_HELDOUT", "0") == "1" else DEVELOPMENT_SEED
     missing = os.environ.get("STUDIES_BENCH_MISSING", "Nrrr")
+    scenarios = os.environ.get("STUDIES_BENCH_SCENARIOS", "varied")
+    if scenarios not in ("varied", "fixed"):
+        raise ValueError(f"STUDIES_BENCH_SCENARIOS must be varied or fixed, got {scenarios!r}")
     pairs = os.environ.get("STUDIES_BENCH_PAIRS", "0")
     causes = list(HIDDEN_CAUSES) + (hidden_pairs() if pairs == "1" else
                                     [p for p in pairs.split(",") if "+" in p])
-    jobs = _jobs(causes, noises, families, seeds, base, missing)
+    jobs = _jobs(causes, noises, families, seeds, base, missing, scenarios)
     out = {"discover_seeds_per_cause": seeds, "discover_seed_base": base, "discover_noise_families": families,
-           "discover_missing_term": missing}
+           "discover_missing_term": missing, "discover_scenarios": scenarios}
     if jobs:        # STUDIES_BENCH_SEEDS=0 leaves the manoeuvring causes out
         out.update(_manoeuvring_figures(Parallel(n_jobs=-1)(delayed(_one)(*job) for job in jobs)))
     roll_seeds = int(os.environ.get("STUDIES_BENCH_ROLL_SEEDS", "10"))

@@ -11,7 +11,7 @@ from studies.errors import ConfigError
 from studies.discover.fitting import Context, calibrate, fit_cause, validate
 from studies.discover.hidden import hidden_records
 from studies.discover.output_error import needs_refinement, refine, refined_posterior, score_terms
-from studies.discover.search import search
+from studies.discover.search import TERM_TRIALS, search, terms_by_output_error
 from studies.models.abkowitz import abkowitz
 
 
@@ -74,11 +74,13 @@ def test_refined_rudder_offset_beats_the_refined_baseline_and_its_interval_cover
 
 @pytest.mark.slow
 @pytest.mark.parametrize("cause", ["missing_term", "none"])
-def test_score_test_names_the_hidden_term_and_nothing_when_none_is_hidden(vessel, cause):
+def test_terms_chosen_by_output_error_name_the_hidden_term_and_nothing_when_none_is_hidden(vessel, cause):
     """At 5 % noise the equation-error score cannot tell a hidden Nrrr from the noise
-    (adding it scores worse than the baseline); at the refined baseline the score
-    test ranks Nrrr first, far above the BIC price of a term, and with nothing
-    hidden no library term reaches that price."""
+    (adding it scores worse than the baseline). At the refined baseline the score test
+    puts Nrrr among terms of the same shape in turns (Nuvd, Nurr, Nurd score a little
+    higher to first order, far above the BIC price of a term); refining the extension
+    by each of the best picks Nrrr, with the right value. With nothing hidden no
+    library term reaches that price."""
     ctx, truth = _context(vessel, cause, 100, 0.05)
     base = refine(ctx, fit_cause(ctx, NoCause()))
     ranked = score_terms(ctx, base, extended_library(ctx.model, 3))
@@ -86,9 +88,12 @@ def test_score_test_names_the_hidden_term_and_nothing_when_none_is_hidden(vessel
     top, evidence, value = ranked[0]
     if cause == "none":
         assert evidence < price, [(t.name, e) for t, e, _ in ranked[:3]]
-    else:
-        assert top.name == "Nrrr" and evidence > price + 10, [(t.name, e) for t, e, _ in ranked[:3]]
-        assert np.sign(value) == np.sign(truth["Nrrr"])
+        return
+    assert evidence > price + 10 and "Nrrr" in [t.name for t, _, _ in ranked[:TERM_TRIALS]]
+    terms, fit, _ = terms_by_output_error(ctx, base, base.refined["windows"], base.refined["sigma"],
+                                          max_terms=1)
+    assert [t.name for t in terms] == ["Nrrr"], [(t.name, e) for t, e, _ in ranked[:TERM_TRIALS]]
+    assert abs(fit.params["Nrrr"] - truth["Nrrr"]) < 0.2 * abs(truth["Nrrr"]), (fit.params["Nrrr"], truth)
 
 
 @pytest.mark.slow

@@ -9,12 +9,14 @@ al. 2023 eq. 22). Used by the tests and the hit-rate benchmark.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..environment.conditions import Environment
-from ..environment.sensor_noise import add_sensor_noise, check_sensor_noise
+from ..environment.noise import DISTURBANCE_FACTORS
+from ..environment.sensor_noise import add_sensor_noise, ar1_noise, check_sensor_noise
 from ..errors import ConfigError
 from ..models.abkowitz import abkowitz
 from ..models.registry import symmetric
@@ -23,7 +25,8 @@ from ..roll.simulate import simulate_decay_record
 from ..simulate import simulate, turning, zigzag
 from ..simulate.manoeuvres import Manoeuvre
 
-__all__ = ["HIDDEN_CAUSES", "HIDDEN_ROLL_CAUSES", "HIDDEN_ROLL_SPEED_CAUSES", "hidden_records",
+__all__ = ["HIDDEN_CAUSES", "HIDDEN_ROLL_CAUSES", "HIDDEN_ROLL_SPEED_CAUSES", "Scenario", "draw_scenario",
+           "hidden_records",
            "hidden_roll_decays", "hidden_roll_decays_at_speed", "hidden_roll_speed_series", "write_records",
            "parameters_match"]
 
@@ -75,6 +78,103 @@ def turning_to_starboard(amplitude: float = 35.0, duration: float = 600.0, dt: f
                      heading=0.0, first_sign=-1)
 
 
+def _zigzag_to(amplitude: float, side: int, duration: float, dt: float) -> Manoeuvre:
+    """A zig-zag ``amplitude/amplitude`` [deg], first rudder to ``side`` (+1: positive rudder, a
+    turn to port for the Mariner), named ``zigzag_<a>_<a>`` (``..._port_first`` for the other side)."""
+    name = f"zigzag_{amplitude:g}_{amplitude:g}" + ("" if side > 0 else "_port_first")
+    return Manoeuvre(name, "zigzag", duration, dt, amplitude=amplitude, heading=amplitude, first_sign=side)
+
+
+def _turning_to(amplitude: float, side: int, duration: float, dt: float) -> Manoeuvre:
+    """A turning circle without pull-out, rudder ``amplitude`` [deg] to ``side`` (+1: positive
+    rudder, the heading decreasing for the Mariner), named ``turning_<a>`` (``..._starboard``)."""
+    if side > 0:
+        return turning(amplitude, pullout=0.0, duration=duration, dt=dt)
+    return Manoeuvre(f"turning_{amplitude:g}_starboard", "turning", duration, dt, amplitude=amplitude,
+                     heading=0.0, first_sign=-1)
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """How the records of a hidden-effect case are made, besides the effect and the sensor noise.
+
+    Attributes
+    ----------
+    dt : float
+        Sampling interval of the records [s] (the simulation steps at most 0.1 s).
+    duration : float
+        Length of every record [s].
+    train : tuple of (kind, amplitude [deg], side)
+        Training manoeuvres: ``("zigzag", 20, 1)`` is a 20/20 zig-zag with the
+        first rudder positive, ``("turning", 35, -1)`` a 35 deg turning circle
+        with negative rudder (to starboard); see :func:`_zigzag_to`, :func:`_turning_to`.
+    validate : tuple (kind, amplitude, side)
+        The held-out manoeuvre.
+    process : float
+        Process noise: the standard deviation of a body-fixed force and moment
+        that wander as Ornstein-Uhlenbeck processes (correlation time
+        :data:`PROCESS_TIME` s), as a fraction of each DOF's largest clean
+        prime force (times 0.2 in surge, as the SVM paper's eq. 14 factors);
+        0: none. Waves, gusts and the model's own small errors act this way.
+    """
+
+    dt: float = 0.1
+    duration: float = 600.0
+    train: tuple = (("zigzag", 20.0, 1), ("turning", 35.0, 1))
+    validate: tuple = ("zigzag", 10.0, 1)
+    process: float = 0.0
+
+    def manoeuvres(self) -> list[Manoeuvre]:
+        """The training manoeuvres, then the held-out one."""
+        make = {"zigzag": _zigzag_to, "turning": _turning_to}
+        return [make[kind](float(a), int(side), float(self.duration), float(self.dt))
+                for kind, a, side in (*self.train, self.validate)]
+
+
+#: the development set-up of :func:`hidden_records` (and the tests'): a 20/20 zig-zag and a 35 deg
+#: turning circle to train, a 10/10 zig-zag to validate, 600 s at 0.1 s, no process noise
+FIXED_SCENARIO = Scenario()
+
+#: correlation time of the scenario's process noise [s]
+PROCESS_TIME = 10.0
+
+
+def draw_scenario(seed: int, cause: str) -> Scenario:
+    """A scenario drawn from its own seeded stream (independent of the effect's
+    and the noise's draws, so the same seed hides the same effect under any
+    scenario): sampling 0.1, 0.2 or 0.5 s; records of 400-900 s; training on a
+    turning circle (25 or 35 deg, either side) and a zig-zag (10/10 or 20/20,
+    either side first), validating on the other zig-zag or on a turning circle
+    to the other side; process noise in half the cases, 1-3 % of each DOF's
+    largest force. A propeller's side force (``propeller_asymmetry`` in
+    ``cause``) trains on 35 deg turning circles to both sides (only they can
+    show it) and validates on a zig-zag."""
+    rng = np.random.default_rng([int(seed), 20261125])
+    dt = float(rng.choice([0.1, 0.2, 0.5]))
+    duration = float(10 * round(rng.uniform(400.0, 900.0) / 10))
+    side = lambda: int(rng.choice([-1, 1]))                    # noqa: E731
+    zig = float(rng.choice([10.0, 20.0]))
+    turn = ("turning", float(rng.choice([25.0, 35.0])), side())
+    train = (turn, ("zigzag", zig, side()))
+    if rng.uniform() < 0.5:
+        validate = ("zigzag", 30.0 - zig, side())
+    else:
+        validate = ("turning", 35.0 if turn[1] == 25.0 else 25.0, -turn[2])
+    if "propeller_asymmetry" in cause.split("+"):
+        train, validate = (("turning", 35.0, 1), ("turning", 35.0, -1)), ("zigzag", zig, side())
+    process = float(rng.uniform(0.01, 0.03)) if rng.uniform() < 0.5 else 0.0
+    return Scenario(dt, duration, train, validate, process)
+
+
+def process_forces(n_steps: int, dt: float, force_scale: np.ndarray, level: float, rng) -> np.ndarray:
+    """Body-fixed prime process noise (n_steps, 3): Ornstein-Uhlenbeck forces of
+    correlation time :data:`PROCESS_TIME` and standard deviation ``level`` times
+    ``force_scale`` (the largest clean prime force per DOF) times the SVM paper's
+    factors (0.2 in surge)."""
+    scale = np.asarray(force_scale, float) * DISTURBANCE_FACTORS * level
+    return ar1_noise((n_steps, 3), dt, PROCESS_TIME, rng) * scale
+
+
 #: pairs of hidden causes that cannot act together (both are the wind)
 EXCLUSIVE = {frozenset({"wind_speed_bias", "wind_unmodelled"})}
 
@@ -104,7 +204,7 @@ def _any_missing_term(vessel, model, values, rng, clean) -> dict:
 
 def hidden_records(vessel, cause: str, seed: int = 0, noise: float = 0.0,
                    manoeuvres=None, noise_family: str = "li2023",
-                   missing: str = "Nrrr") -> tuple[list, dict]:
+                   missing: str = "Nrrr", scenario: Scenario | None = None) -> tuple[list, dict]:
     """Records of the vessel's reference model with ``cause`` hidden in them.
 
     Returns ``(records, truth)``: records named after their manoeuvre
@@ -122,6 +222,10 @@ def hidden_records(vessel, cause: str, seed: int = 0, noise: float = 0.0,
     chooses the hidden term of ``missing_term``: ``"Nrrr"`` (a cubic yaw
     damping, the development case) or ``"any"`` (:func:`_any_missing_term`:
     any term of the extended library, any DOF, 5-15 % of its DOF's force).
+    ``scenario`` (:class:`Scenario`, e.g. :func:`draw_scenario`) sets the
+    manoeuvres, their length and sampling and the process noise instead
+    (``manoeuvres`` must then be None); the process noise is drawn from
+    the same generator after the sensor noise of each record.
     """
     check_sensor_noise(noise_family, noise)
     parts = cause.split("+")
@@ -131,6 +235,8 @@ def hidden_records(vessel, cause: str, seed: int = 0, noise: float = 0.0,
                           "of two others that can act together")
     if missing not in ("Nrrr", "any"):
         raise ConfigError(f"hidden missing term {missing!r}: 'Nrrr' or 'any'")
+    if scenario is not None and manoeuvres is not None:
+        raise ConfigError("hidden records: give the manoeuvres or a scenario, not both")
     rng = np.random.default_rng(seed)
     model, values = abkowitz(), dict(vessel.coefficients)
     if "propeller_asymmetry" in parts:
@@ -142,6 +248,8 @@ def hidden_records(vessel, cause: str, seed: int = 0, noise: float = 0.0,
         # an asymmetry shows in turns to both sides
         manoeuvres = [turning(35, pullout=0.0, duration=600.0), turning_to_starboard(35, duration=600.0),
                       zigzag(10, 10, duration=600.0)]
+    if scenario is not None:
+        manoeuvres = scenario.manoeuvres()
     manoeuvres = manoeuvres or [zigzag(20, 20, duration=600.0), turning(35, pullout=0.0, duration=600.0),
                                 zigzag(10, 10, duration=600.0)]
     truths = {}
@@ -172,8 +280,14 @@ def hidden_records(vessel, cause: str, seed: int = 0, noise: float = 0.0,
             values.update(truth)
     env = Environment(wind[0], wind[1], current[0], current[1])
     records = []
-    for man in manoeuvres:
-        external = np.tile(body, (len(man.step_times()) - 1, 1)) if body.any() else None
+    process = [] if scenario is None or scenario.process <= 0 else \
+        [_process_noise(model, values, vessel, man, env, scenario.process, rng) for man in manoeuvres]
+    for i, man in enumerate(manoeuvres):
+        n_steps = len(man.step_times()) - 1
+        external = np.tile(body, (n_steps, 1)) if body.any() else None
+        if process:
+            external = np.zeros((n_steps, 9)) if external is None else external
+            external[:, 3:6] += process[i]
         rec = simulate(model, values, vessel, man, env, external)
         if "rudder_offset" in truths:
             rec["delta"] = rec["delta"] + truths["rudder_offset"]["delta0"]
@@ -185,6 +299,17 @@ def hidden_records(vessel, cause: str, seed: int = 0, noise: float = 0.0,
         rec.attrs["name"] = man.name
         records.append(rec)
     return records, (truths[parts[0]] if len(parts) == 1 else truths)
+
+
+def _process_noise(model, values, vessel, manoeuvre, env, level: float, rng) -> np.ndarray:
+    """Process noise of :func:`process_forces` for one manoeuvre (one row per
+    integration step), sized on the clean run's largest prime forces."""
+    from ..identify.regression import prime_states
+
+    clean = simulate(model, values, vessel, manoeuvre, env)
+    primes = prime_states(clean["u"], clean["v"], clean["r"], clean["delta"], vessel)
+    scale = np.max(np.abs(model.forces(primes, values)), axis=0)
+    return process_forces(len(manoeuvre.step_times()) - 1, manoeuvre.step, scale, level, rng)
 
 
 def hidden_roll_decays(cause: str, folder, seed: int = 0, noise: float = 0.01) -> tuple[list, dict]:

@@ -8,25 +8,31 @@ measurement noise on the Mariner the median coefficient is off by about
 model stays within the noise. Output error does not regress on the noisy
 states: it simulates them.
 
-Every training record is cut into windows of ``ctx.horizon`` seconds. Each
-window is replayed with the measured rudder (as the cause reads it) from
-its own initial state, and the simulated track ``x0, y0``, heading ``psi``
-and velocities ``u, v, r`` are compared with the measured ones, each
-channel divided by its noise level (the standard deviation of the record
-minus its Savitzky-Golay smoothing, with a floor). The unknowns are
+Every training record is thinned to :data:`RESOLUTION` (block means of
+consecutive samples: white noise shrinks, the dynamics of a ship do not
+change within a second) and cut into windows of ``ctx.horizon`` seconds.
+Each window is replayed with the measured rudder (as the cause reads it)
+from its own initial state, integrated by RK4 at the thinned step, and the
+simulated track ``x0, y0``, heading ``psi`` and velocities ``u, v, r`` are
+compared with the measured ones, each channel divided by its noise level
+(the standard deviation of the record minus its Savitzky-Golay smoothing,
+averaged over the same blocks, with a floor). The unknowns are
 
 - the model's hydrodynamic coefficients (prime), started from the
   equation-error estimate, with a weak Gaussian prior centred there whose
   standard deviation is the coefficient's own size (it only steers
   directions the records do not determine);
 - the cause's own parameters (started from the profile fit);
-- the initial ``u, v, r`` of every window (the smoothed measurement is
-  noisy; left alone, the coefficients would be bent to absorb its error).
+- the initial ``x0, y0, psi, u, v, r`` of every window (the measurement
+  there is noisy; left alone, the coefficients would be bent to absorb its
+  error: a heading 0.2 deg off puts a 120 s window metres off track).
 
 ``scipy.optimize.least_squares`` (trust region) minimises the sum of
-squares; the coefficient columns of the Jacobian come from one parallel
-replay of all perturbed coefficient vectors per window
-(:func:`studies.simulate.simulator.replay_many`).
+squares; the coefficient and initial-state columns of the Jacobian come
+from one parallel replay per window of all perturbed coefficient vectors
+and initial states (:meth:`studies.simulate.simulator.ReplayPlan.run_states`;
+a shift of the initial position moves the whole track, so its columns need
+no replay).
 """
 
 from __future__ import annotations
@@ -36,9 +42,11 @@ import time
 from dataclasses import replace
 
 import numpy as np
+import pandas as pd
 from scipy.optimize import least_squares
 from scipy.signal import savgol_filter
 
+from ..data.resample import block_means
 from ..errors import ConfigError
 from ..identify.regression import prime_states
 from ..simulate.simulator import ReplayPlan
@@ -47,7 +55,7 @@ from .fitting import (CauseFit, Context, integrated_time, sample_intervals, smoo
 from .kinematics import coloured_velocity_noise, kinematic_noise_levels
 
 __all__ = ["Window", "training_windows", "noise_levels", "relative_noise", "refinement_setting",
-           "needs_refinement", "refine", "output_error_scores", "score_terms", "refined_posterior"]
+           "needs_refinement", "refine_cause", "restart_from", "refine", "output_error_scores", "score_terms", "refined_posterior"]
 
 #: ``output_error=auto`` refines when the noise of v or r exceeds this share of
 #: the signal's standard deviation (the Mariner records give about 0.017 at 1 %
@@ -56,28 +64,39 @@ AUTO_NOISE = 0.02
 
 log = logging.getLogger(__name__)
 
-#: measured channels compared with the replay, in this order
+#: measured channels compared with the replay, in this order; also the order of
+#: each window's free initial state
 CHANNELS = ("x0", "y0", "psi", "u", "v", "r")
+
+#: sampling [s] of the records replayed and compared by the output-error fit
+#: (block means of finer records, :func:`studies.data.resample.block_means`);
+#: the replays integrate at this step
+RESOLUTION = 1.0
 
 
 class Window:
-    """One stretch of a training record: the record part and its measured outputs."""
+    """One stretch of a training record: the record part (thinned), its
+    measured outputs and the smoothed measurement at its start."""
 
-    def __init__(self, record, initial: dict, measured: np.ndarray, stride: int = 1):
-        self.record = record          # rows of the window (rudder, wind, attrs)
-        self.initial = initial        # smoothed u, v, r at the window's start (over ground)
-        self.rows = np.arange(0, len(measured), stride)   # samples compared
-        self.measured = measured[self.rows]                # (n, 6) in CHANNELS order, heading unwrapped
+    def __init__(self, record, initial: dict, measured: np.ndarray):
+        self.record = record          # rows of the window (rudder, wind, attrs), thinned
+        self.initial = initial        # smoothed x0, y0, psi, u, v, r at the window's start (over ground)
+        self.measured = measured      # (n, 6) in CHANNELS order, heading unwrapped
+        self.step = float(np.median(np.diff(record["t"].to_numpy(float)))) if len(record) > 1 else 1.0
 
 
 def _smooth(x: np.ndarray, n: int) -> np.ndarray:
     return savgol_filter(x, n, 3, mode="interp") if n < len(x) else x
 
 
-def noise_levels(ctx: Context, records) -> np.ndarray:
+def noise_levels(ctx: Context, records, step: float | None = None) -> np.ndarray:
     """Noise standard deviation per channel of :data:`CHANNELS`: the record
     minus its smoothing (window by the discrepancy principle), pooled over the
-    records, floored at 1e-4 of the natural unit (L, 1 rad, U0, U0/L).
+    records, floored at 1e-4 of the natural unit (L, 1 rad, U0, U0/L). With
+    ``step`` [s], of the noise averaged over blocks of that length
+    (:func:`studies.data.resample.block_means`, what the output-error fit
+    compares): white noise shrinks by the square root of the block's
+    samples, noise correlated over seconds hardly at all.
 
     Noise correlated over seconds looks like signal to the smoothing; when
     the velocities disagree with the records' own track and heading by more
@@ -90,12 +109,18 @@ def noise_levels(ctx: Context, records) -> np.ndarray:
     sums, count = np.zeros(len(CHANNELS)), 0
     for rec in records:
         n = smoothing_window(rec)
-        for k, c in enumerate(CHANNELS):
+        noise = {"t": rec["t"].to_numpy(float)}
+        for c in CHANNELS:
             x = rec[c].to_numpy(float)
             if c == "psi":
                 x = np.unwrap(x)
-            sums[k] += float(np.sum((x - _smooth(x, n)) ** 2))
-        count += len(rec)
+            noise[c] = x - _smooth(x, n)
+        noise = pd.DataFrame(noise)
+        if step is not None:
+            noise = block_means(noise, step)
+        for k, c in enumerate(CHANNELS):
+            sums[k] += float(np.sum(noise[c].to_numpy() ** 2))
+        count += len(noise)
     sigma = np.sqrt(sums / max(count, 1))
     if coloured_velocity_noise(records):
         sigma[3:6] = np.maximum(sigma[3:6], kinematic_noise_levels(records))
@@ -132,32 +157,38 @@ def needs_refinement(ctx: Context, setting, sigma: np.ndarray | None = None) -> 
     return setting
 
 
-def training_windows(ctx: Context, records, spacing: float = 0.5) -> list[Window]:
+def training_windows(ctx: Context, records, resolution: float = RESOLUTION) -> list[Window]:
     """Consecutive windows of ``ctx.horizon`` seconds (whole records when None;
-    a last part shorter than half a horizon joins the window before it),
-    compared every ``spacing`` seconds (or every sample when sampled coarser)."""
+    a last part shorter than half a horizon joins the window before it) of
+    the records thinned to ``resolution`` seconds (block means; records
+    sampled as coarsely or more are used as they are)."""
     out = []
     for rec in records:
-        t = rec["t"].to_numpy(float)
-        stride = max(1, int(round(spacing / float(np.median(np.diff(t))))))
-        sm = smoothed(rec)
-        smooth = {c: sm[c].to_numpy(float) for c in ("u", "v", "r")}
-        psi = np.unwrap(rec["psi"].to_numpy(float))
+        coarse = block_means(rec, resolution)
+        smooth = block_means(smoothed(rec), resolution)
+        t = coarse["t"].to_numpy(float)
+        psi = np.unwrap(coarse["psi"].to_numpy(float))
+        start = {c: (np.unwrap(smooth[c].to_numpy(float)) if c == "psi" else smooth[c].to_numpy(float))
+                 for c in CHANNELS}
         h = ctx.horizon or (t[-1] - t[0])
         edges = list(np.arange(t[0], t[-1] - 0.5 * h + 1e-9, h)) or [t[0]]
         for i, t0 in enumerate(edges):
             t1 = edges[i + 1] if i + 1 < len(edges) else t[-1] + 1e-9
-            rows = np.flatnonzero((t >= t0) & (t <= t1))
+            rows = np.flatnonzero((t >= t0) & (t < t1 - 1e-9)) if i + 1 < len(edges) else \
+                np.flatnonzero(t >= t0)
             if len(rows) < 10:
                 continue
-            part = rec.iloc[rows].copy()
+            part = coarse.iloc[rows].copy()
             part.attrs = dict(rec.attrs)
             first = rows[0]
-            initial = {c: float(smooth[c][first]) for c in ("u", "v", "r")}
+            initial = {c: float(start[c][first]) for c in CHANNELS}
+            # the track and heading at the start are the measurement itself (their noise is small)
+            initial.update({"x0": float(coarse["x0"].iloc[first]), "y0": float(coarse["y0"].iloc[first]),
+                            "psi": float(psi[first])})
             measured = np.column_stack([part["x0"].to_numpy(float), part["y0"].to_numpy(float), psi[rows],
                                         part["u"].to_numpy(float), part["v"].to_numpy(float),
                                         part["r"].to_numpy(float)])
-            out.append(Window(part, initial, measured, stride))
+            out.append(Window(part, initial, measured))
     return out
 
 
@@ -174,7 +205,16 @@ def _outputs(states: np.ndarray, speed0: float, current) -> np.ndarray:
 
 
 class _Problem:
-    """Residuals and Jacobian of the output-error fit of one cause."""
+    """Residuals and Jacobian of the output-error fit of one cause.
+
+    The unknowns ``x`` are, in this order: the model's coefficients (relative
+    to their own size ``beta_scale``), the cause's nonlinear parameters
+    (relative to ``theta_scale``) and, per window, the corrections to its
+    initial ``x0, y0, psi, u, v, r`` (in units of the channels' noise).
+    """
+
+    #: initial-state columns replayed (psi, u, v, r); x0 and y0 shift the track only
+    REPLAYED_STATES = (2, 3, 4, 5)
 
     def __init__(self, ctx: Context, fit: CauseFit, windows: list[Window], sigma: np.ndarray,
                  prior: float = 1.0):
@@ -188,22 +228,26 @@ class _Problem:
         span = np.where(np.isfinite(high - low), high - low, 0.0)
         self.theta_scale = np.maximum(np.abs(self.theta0), np.maximum(1e-3 * span, 1e-9))
         self.low, self.high = low, high
-        self.state_scale = sigma[3:6]
+        self.state_scale = np.asarray(sigma, float)
         self.nb, self.nt, self.nw = len(self.beta0), len(self.theta0), len(windows)
+        self.ns = len(CHANNELS)
         self.prior = float(prior)
         self._setups = {}
         # each window's replay prepared once per cause parameters and model (:class:`ReplayPlan`)
         self._plans = {}
+        self._plain = {}
+        # the setups need the cause's hooks only, not the training records read the cause's way
+        self._bare = replace(ctx, train=[])
 
-    # parameter vector: [coefficients (relative to beta_scale), theta (relative), states (noise units)]
     def split(self, x):
+        """``(coefficients, cause parameters, initial-state corrections (windows, 6))``."""
         b = self.beta0 + x[: self.nb] * self.beta_scale
         th = self.theta0 + x[self.nb: self.nb + self.nt] * self.theta_scale
-        st = x[self.nb + self.nt:].reshape(self.nw, 3) * self.state_scale
+        st = x[self.nb + self.nt:].reshape(self.nw, self.ns) * self.state_scale
         return b, th, st
 
     def bounds(self):
-        lo = np.full(self.nb + self.nt + 3 * self.nw, -np.inf)
+        lo = np.full(self.nb + self.nt + self.ns * self.nw, -np.inf)
         hi = -lo
         if self.nt:
             lo[self.nb: self.nb + self.nt] = (self.low - self.theta0) / self.theta_scale
@@ -215,29 +259,45 @@ class _Problem:
         if key not in self._setups:
             if len(self._setups) > 8:
                 self._setups.clear()
-            self._setups[key] = self.cause.setup(self.ctx, theta)
+            self._setups[key] = self.cause.setup(self._bare, theta)
         return self._setups[key]
 
-    def _window(self, w: Window, betas: np.ndarray, theta, state, model=None) -> np.ndarray:
-        """Residuals (noise units) of one window for every row of ``betas``
-        (coefficients of ``model``, the fit's model by default)."""
-        model = model or self.model
+    def _plan(self, w: Window, theta, model) -> ReplayPlan:
+        """The window's replay as the cause at ``theta`` reads it: a variant
+        (:meth:`ReplayPlan.variant`) of the window's plain replay, prepared
+        once per model."""
         key = (id(w), tuple(np.round(theta, 15)), id(model))
         if key not in self._plans:
-            if len(self._plans) > 64:
+            if len(self._plans) > 4 * max(self.nw, 16):
                 self._plans.clear()
+            plain_key = (id(w), id(model))
+            if plain_key not in self._plain:
+                # the entry holds its model, so the id in the key cannot be reused while it is cached
+                self._plain[plain_key] = (model, ReplayPlan(model, self.ctx.vessel, w.record, max_step=w.step))
             setup = self._setup(theta)
-            # the entry holds its model, so the id in the key cannot be reused while it is cached
-            self._plans[key] = (model, ReplayPlan(model, self.ctx.vessel, setup.sim_record(w.record),
-                                                  setup.environment(w.record), setup.external()))
-        plan = self._plans[key][1]
+            seen = setup.sim_record(w.record)
+            plan = self._plain[plain_key][1].variant(None if seen is w.record else seen,
+                                                     setup.environment(w.record), setup.external())
+            self._plans[key] = (model, plan)
+        return self._plans[key][1]
+
+    def _window(self, w: Window, betas: np.ndarray, theta, states: np.ndarray, model=None) -> np.ndarray:
+        """Residuals (noise units) of one window for every row of ``betas``
+        (coefficients of ``model``, the fit's model by default), each from
+        the window's initial state corrected by the matching row of
+        ``states`` (physical units, :data:`CHANNELS` order; one row for all)."""
+        plan = self._plan(w, theta, model or self.model)
+        states = np.atleast_2d(states)
+        if len(states) == 1 and len(betas) > 1:
+            states = np.repeat(states, len(betas), axis=0)
+        x0s = np.array([plan.initial_state({c: w.initial[c] + d for c, d in zip(CHANNELS, row)})
+                        for row in states])
+        replayed, _ = plan.run_states(betas, x0s)
+        n = min(replayed.shape[1], len(w.measured))
         env = plan.environment
-        initial = {c: w.initial[c] + d for c, d in zip(("u", "v", "r"), state)}
-        states, _ = plan.run(betas, initial)
-        rows = w.rows[w.rows < states.shape[1]]
         current = (env.current_speed, env.current_direction) if env.current_speed else None
-        out = _outputs(states[:, rows], float(self.ctx.vessel.speed), current)
-        res = (out - w.measured[None, : len(rows)]) / self.sigma
+        out = _outputs(replayed[:, :n], float(self.ctx.vessel.speed), current)
+        res = (out - w.measured[None, :n]) / self.sigma
         return np.nan_to_num(res, nan=1e3, posinf=1e3, neginf=-1e3).reshape(len(betas), -1)
 
     def residuals(self, x) -> np.ndarray:
@@ -249,24 +309,120 @@ class _Problem:
         b, th, st = self.split(x)
         h = 1e-4
         blocks = []
+        replayed = self.REPLAYED_STATES
         for i, w in enumerate(self.windows):
-            betas = np.vstack([b, b + np.diag(h * self.beta_scale)])
-            r = self._window(w, betas, th, st[i])
+            # one parallel replay: the solution, each coefficient perturbed, each replayed state perturbed
+            betas = np.vstack([b, b + np.diag(h * self.beta_scale), np.repeat(b[None], len(replayed), axis=0)])
+            states = np.repeat(st[i][None], len(betas), axis=0)
+            for j, k in enumerate(replayed):
+                states[1 + self.nb + j, k] += h * self.state_scale[k]
+            r = self._window(w, betas, th, states)
             base = r[0]
             block = np.zeros((len(base), len(x)))
-            block[:, : self.nb] = ((r[1:] - base) / h).T
+            block[:, : self.nb] = ((r[1: 1 + self.nb] - base) / h).T
             for j in range(self.nt):
                 e = np.zeros(self.nt)
                 e[j] = h * self.theta_scale[j]
                 block[:, self.nb + j] = (self._window(w, b[None], th + e, st[i])[0] - base) / h
-            for k in range(3):
-                d = st[i].copy()
-                d[k] += h * self.state_scale[k]
-                block[:, self.nb + self.nt + 3 * i + k] = (self._window(w, b[None], th, d)[0] - base) / h
+            first = self.nb + self.nt + self.ns * i
+            for j, k in enumerate(replayed):
+                block[:, first + k] = (r[1 + self.nb + j] - base) / h
+            # a shift of the initial position shifts the whole track: d(x0 residual)/d(x0 correction) = 1
+            rows = len(base) // self.ns
+            for k in (0, 1):
+                block[np.arange(rows) * self.ns + k, first + k] = self.state_scale[k] / self.sigma[k]
             blocks.append(block)
         prior = np.zeros((self.nb, len(x)))
         prior[:, : self.nb] = np.sqrt(self.prior) * np.eye(self.nb)
         return np.vstack(blocks + [prior])
+
+
+def _inherited_start(ctx: Context, fit: CauseFit, parent: CauseFit, windows: list[Window],
+                     sigma: np.ndarray) -> CauseFit:
+    """The refined ``parent``'s coefficients with the cause's parameters that
+    replay the training windows best (from the parent's window states) among
+    the equation-error estimate ``fit.theta``, no effect (zeros: the parent's
+    own solution) and the cause's starting grid
+    (:meth:`~studies.discover.causes.base.Cause.starts`, e.g. eight current
+    directions). Each candidate costs one replay per window."""
+    inherited = {**fit.params, **{k: v for k, v in parent.params.items() if k in fit.params}}
+    low, high = fit.cause.bounds(ctx) if len(fit.theta) else (np.zeros(0), np.zeros(0))
+    candidates = [np.asarray(fit.theta, float), np.zeros(len(fit.theta))]
+    candidates += [np.asarray(c, float) for c in fit.cause.starts(ctx)] if len(fit.theta) else []
+    states = parent.refined["states"]
+    best, best_cost = None, np.inf
+    for theta in candidates:
+        trial = replace(fit, params=inherited, theta=np.clip(theta, low, high))
+        prob = _Problem(ctx, trial, windows, sigma)
+        x = np.zeros(prob.nb + prob.nt + prob.ns * prob.nw)
+        x[prob.nb + prob.nt:] = states
+        res = prob.residuals(x)
+        cost = float(res @ res)
+        if cost < best_cost:
+            best, best_cost = trial, cost
+    return best
+
+
+def refine_cause(ctx: Context, fit: CauseFit, parent: CauseFit, windows: list[Window],
+                 sigma: np.ndarray, own: bool = True) -> CauseFit:
+    """The cause of the equation-error ``fit`` refined by output error from two
+    starts, the better kept: its own equation-error solution (coefficients and
+    parameters together: when the effect is large, the baseline's
+    coefficients are bent by it and only the cause's own go with its
+    parameters), and the refined ``parent``'s coefficients (the baseline's)
+    with the best of a few values of the cause's parameters
+    (:func:`_inherited_start`; no effect among them, so the refined cause
+    does not end worse than the parent). A cost after one replay does not
+    tell which start ends lower (the windows' initial states fitted to one
+    set of coefficients do not suit the other), so both are refined
+    (``own=False``: the second only)."""
+    inherited = refine(ctx, _inherited_start(ctx, fit, parent, windows, sigma), windows, sigma,
+                       states=parent.refined["states"])
+    if not own:
+        return inherited
+    own = refine(ctx, fit, windows, sigma)
+    return own if own.refined["cost"] < inherited.refined["cost"] else inherited
+
+
+def _nested_theta(small, large) -> np.ndarray | None:
+    """The parameters of ``small``'s cause within the solution of ``large``
+    (whose cause is ``small``'s, the baseline's, or a pair holding it), or None."""
+    cause = large.cause
+    if cause.id == small.cause.id:
+        return np.asarray(large.theta, float)
+    if not len(small.theta):
+        return np.zeros(0)
+    first = getattr(cause, "first", None)
+    second = getattr(cause, "second", None)
+    n = len(first.nl_params) if first is not None else 0
+    if first is not None and first.id == small.cause.id:
+        return np.asarray(large.theta[:n], float)
+    if second is not None and second.id == small.cause.id:
+        return np.asarray(large.theta[n:], float)
+    return None
+
+
+def restart_from(ctx: Context, small: CauseFit, large: CauseFit, windows: list[Window],
+                 sigma: np.ndarray) -> CauseFit:
+    """``small`` (refined) refined again from the solution of ``large``, a richer
+    model holding it (the baseline in a cause, a cause in a pair) with its extra
+    effect left out: its coefficients, ``small``'s own parameters within it and
+    its windows' initial states. Returns whichever of the two replays the
+    training records better (data residual, prior left out).
+
+    The output-error fit has local minima; a richer model, started elsewhere
+    and with more freedom, may find a better one for the parameters the two
+    share. Its gain would then be credited to its extra effect (a cause at no
+    effect beating the baseline; a second cause that only lets the first's
+    coefficients move on), unless the simpler model is given the same start.
+    """
+    theta = _nested_theta(small, large)
+    if theta is None or large.refined is None or small.refined is None:
+        return small
+    params = {**small.params, **{k: v for k, v in large.params.items() if k in small.params}}
+    trial = refine(ctx, replace(small, theta=theta, params=params), windows, sigma,
+                   states=large.refined["states"])
+    return trial if trial.refined["rss"] < small.refined["rss"] else small
 
 
 def refine(ctx: Context, fit: CauseFit, windows: list[Window] | None = None,
@@ -288,10 +444,10 @@ def refine(ctx: Context, fit: CauseFit, windows: list[Window] | None = None,
     """
     t0 = time.perf_counter()
     windows = windows if windows is not None else training_windows(ctx, ctx.train)
-    sigma = sigma if sigma is not None else noise_levels(ctx, ctx.train)
+    sigma = sigma if sigma is not None else noise_levels(ctx, ctx.train, windows[0].step if windows else None)
     prob = _Problem(ctx, fit, windows, sigma)
-    x0 = np.zeros(prob.nb + prob.nt + 3 * prob.nw)
-    if states is not None and len(states) == 3 * prob.nw:
+    x0 = np.zeros(prob.nb + prob.nt + prob.ns * prob.nw)
+    if states is not None and len(states) == prob.ns * prob.nw:
         x0[prob.nb + prob.nt:] = states
     lo, hi = prob.bounds()
     x0 = np.clip(x0, lo, hi)
@@ -299,7 +455,7 @@ def refine(ctx: Context, fit: CauseFit, windows: list[Window] | None = None,
                         max_nfev=max_nfev, x_scale=1.0, ftol=1e-4, xtol=1e-6)
     beta, theta, _ = prob.split(res.x)
     params = {**fit.params, **dict(zip(prob.names, beta.tolist()))}
-    out = replace(fit, theta=theta, params=params, validation={}, setup=prob._setup(theta))
+    out = replace(fit, theta=theta, params=params, validation={}, setup=fit.cause.setup(ctx, theta))
     data = res.fun[: len(res.fun) - prob.nb]
     out.refined = {"states": res.x[prob.nb + prob.nt:].copy(), "cost": float(res.cost),
                    "rss": float(data @ data), "n": len(data), "tau": _autocorrelation_time(data),

@@ -35,13 +35,39 @@ def dense_coefficients(vectors, powers, dofs) -> np.ndarray:
     Raises ``ValueError`` for a term of order above three.
     """
     vectors = np.atleast_2d(np.asarray(vectors, dtype=float))
-    out = np.zeros((vectors.shape[0], 3, len(CUBIC_BASIS)))
-    for k, (p, dof) in enumerate(zip(powers, dofs)):
-        key = tuple(int(x) for x in p)
-        if key not in _INDEX:
-            raise ValueError(f"term with exponents {key} is above third order; the simulator supports cubic models")
-        out[:, int(dof), _INDEX[key]] += vectors[:, k]
-    return out
+    powers, dofs = np.asarray(powers), np.asarray(dofs)
+    placement = _placement(powers.tobytes(), dofs.tobytes(), powers.shape, powers.dtype.str, dofs.dtype.str)
+    if np.isfinite(vectors).all():
+        # (n_sets, n_terms) @ (n_terms, 105): terms on the same monomial and DOF add up
+        return (vectors @ placement).reshape(vectors.shape[0], 3, len(CUBIC_BASIS))
+    # a non-finite coefficient must stay in its own column (0 x inf would spread NaN)
+    out = np.zeros((vectors.shape[0], placement.shape[1]))
+    for k, j in enumerate(np.argmax(placement, axis=1)):
+        out[:, j] += vectors[:, k]
+    return out.reshape(vectors.shape[0], 3, len(CUBIC_BASIS))
+
+
+_PLACEMENT_CACHE: dict = {}
+
+
+def _placement(powers_bytes, dofs_bytes, shape, powers_dtype, dofs_dtype) -> np.ndarray:
+    """0/1 matrix (n_terms, 105) putting every term on its column of the
+    flattened dense ``(3, 35)`` matrix (cached per model layout)."""
+    key = (powers_bytes, dofs_bytes, shape, powers_dtype, dofs_dtype)
+    if key not in _PLACEMENT_CACHE:
+        powers = np.frombuffer(powers_bytes, dtype=powers_dtype).reshape(shape)
+        dofs = np.frombuffer(dofs_bytes, dtype=dofs_dtype)
+        out = np.zeros((len(dofs), 3 * len(CUBIC_BASIS)))
+        for k, (p, dof) in enumerate(zip(powers, dofs)):
+            key_p = tuple(int(x) for x in p)
+            if key_p not in _INDEX:
+                raise ValueError(f"term with exponents {key_p} is above third order; the simulator supports "
+                                 "cubic models")
+            out[k, int(dof) * len(CUBIC_BASIS) + _INDEX[key_p]] = 1.0
+        if len(_PLACEMENT_CACHE) > 256:
+            _PLACEMENT_CACHE.clear()
+        _PLACEMENT_CACHE[key] = out
+    return _PLACEMENT_CACHE[key]
 
 
 @njit(cache=True, inline="always")

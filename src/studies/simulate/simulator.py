@@ -18,7 +18,6 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from ..data.resample import resample
 from ..environment.conditions import Environment
 from ..models.abkowitz import ManoeuvringModel
 from ..vessels.base import Vessel
@@ -181,31 +180,49 @@ def simulate_many(model: ManoeuvringModel, vectors: np.ndarray, vessel: Vessel,
 
 def _replay_inputs(model: ManoeuvringModel, vessel: Vessel, record: pd.DataFrame,
                    environment: Environment | None, yaw_sign: float,
-                   external=None) -> SimulationInputs:
+                   external=None, max_step: float = 0.1) -> SimulationInputs:
     t = record["t"].to_numpy(float)
     dt = float(np.median(np.diff(t)))
     duration = dt * (len(t) - 1)
-    man = Manoeuvre(str(record.attrs.get("name", "record")), "rudder", duration, dt)
+    man = Manoeuvre(str(record.attrs.get("name", "record")), "rudder", duration, dt, max_step=max_step)
     grid = man.step_times()
-    # the rudder on the integrator's steps, which count from the record's first sample
-    rudder = pd.DataFrame({"t": t - t[0], "delta": record["delta"].to_numpy(float)})
-    delta = resample(rudder, grid, ["delta"])["delta"].to_numpy()
+    delta = _rudder_on_grid(record, grid)
     environment = environment or Environment()
     initial = _replay_initial(record, environment, None)
-    ext = None
-    if external is not None:
-        ext = np.asarray(external, float)
-        if ext.ndim == 1:
-            ext = np.repeat(ext[None, :], len(grid) - 1, axis=0)
-    inputs = prepare(model, vessel, man, environment, ext, yaw_sign, initial)
-    return SimulationInputs(**{**inputs.__dict__, "mode": 3, "cmd": np.ascontiguousarray(delta)})
+    inputs = prepare(model, vessel, man, environment, _external_rows(external, len(grid)), yaw_sign, initial)
+    return SimulationInputs(**{**inputs.__dict__, "mode": 3, "cmd": delta})
 
 
-def _replay_initial(record: pd.DataFrame, environment: Environment, initial: dict | None) -> dict:
-    """A replay's initial state: the record's first row (over ground), overridden by
-    ``initial``, turned into velocities through the water in ``environment``'s current."""
-    first = record.iloc[0]
-    out = {**{k: float(first[k]) for k in ("u", "v", "r", "x0", "y0", "psi", "delta")}, **(initial or {})}
+def _rudder_on_grid(record: pd.DataFrame, grid: np.ndarray) -> np.ndarray:
+    """The record's rudder linearly interpolated onto the integrator's steps
+    ``grid``, which count from the record's first sample."""
+    t = record["t"].to_numpy(float)
+    return np.ascontiguousarray(np.interp(grid, t - t[0], record["delta"].to_numpy(float)))
+
+
+def _external_rows(external, n_grid: int):
+    """External forces as one row per step (a constant vector repeated), or None."""
+    if external is None:
+        return None
+    ext = np.asarray(external, float)
+    return np.repeat(ext[None, :], n_grid - 1, axis=0) if ext.ndim == 1 else ext
+
+
+#: the record's columns a replay starts from
+_START_COLUMNS = ("u", "v", "r", "x0", "y0", "psi", "delta")
+
+
+def _first_row(record: pd.DataFrame) -> dict:
+    row = record[list(_START_COLUMNS)].to_numpy(float)[0]
+    return dict(zip(_START_COLUMNS, row.tolist()))
+
+
+def _replay_initial(record: pd.DataFrame, environment: Environment, initial: dict | None,
+                    first: dict | None = None) -> dict:
+    """A replay's initial state: the record's first row (over ground; ``first``
+    when given, :func:`_first_row`), overridden by ``initial``, turned into
+    velocities through the water in ``environment``'s current."""
+    out = {**(first or _first_row(record)), **(initial or {})}
     if environment.current_speed:
         out["u"] -= environment.current_speed * np.cos(environment.current_direction - out["psi"])
         out["v"] -= environment.current_speed * np.sin(environment.current_direction - out["psi"])
@@ -237,11 +254,55 @@ class ReplayPlan:
     """
 
     def __init__(self, model: ManoeuvringModel, vessel: Vessel, record: pd.DataFrame,
-                 environment: Environment | None = None, external=None):
+                 environment: Environment | None = None, external=None, max_step: float = 0.1):
         self.environment = environment or record_environment(record)
         self.record = record
         self.vessel = vessel
-        self.inputs = _replay_inputs(model, vessel, record, self.environment, -1.0, external)
+        self.inputs = _replay_inputs(model, vessel, record, self.environment, -1.0, external, max_step)
+
+    def variant(self, record: pd.DataFrame | None = None, environment: Environment | None = None,
+                external=None) -> "ReplayPlan":
+        """The same replay with another rudder (``record``: the same time axis,
+        its ``delta`` and first row used), ``environment`` or constant or
+        per-step ``external`` forces (None: no external forces), without
+        preparing the record again: what a fit of a cause's parameters needs
+        at every trial."""
+        new = object.__new__(ReplayPlan)
+        new.vessel = self.vessel
+        new.record = self.record if record is None else record
+        if record is None:
+            new._first = self._first_values()
+        new.environment = self.environment if environment is None else environment
+        inputs = self.inputs
+        n_grid = inputs.cmd.shape[0]
+        grid = np.arange(n_grid) * inputs.step
+        ext = _external_rows(external, n_grid)
+        changes = {"env": new.environment.as_array(),
+                   "ext": np.zeros((0, 6)) if ext is None else np.ascontiguousarray(ext)}
+        if record is not None:
+            changes["cmd"] = _rudder_on_grid(record, grid)
+        new.inputs = SimulationInputs(**{**inputs.__dict__, **changes})
+        return new
+
+    def initial_state(self, initial: dict | None = None) -> np.ndarray:
+        """The integrator's initial state (7,) of a replay from the record's
+        first row overridden by ``initial`` (``u``, ``v`` over ground as
+        recorded, ``r``, ``x0``, ``y0``, ``psi``, ``delta``): what
+        :meth:`run_states` takes per set."""
+        return _state_vector(_replay_initial(self.record, self.environment, initial, self._first_values()),
+                             self.inputs.speed0)
+
+    def _first_values(self) -> dict:
+        if not hasattr(self, "_first"):
+            self._first = _first_row(self.record)
+        return self._first
+
+    def run_states(self, vectors: np.ndarray, states: np.ndarray):
+        """Many coefficient vectors, each from its own initial state (rows of
+        ``states``, :meth:`initial_state`); ``(states, diverged)`` as :meth:`run`."""
+        inputs = SimulationInputs(**{**self.inputs.__dict__, "x0": np.asarray(states, float)})
+        out, diverged = rk4_simulate_many(np.atleast_2d(vectors), *inputs.args())
+        return out[:, :: inputs.substeps], diverged
 
     def external_accelerations(self, accelerations: np.ndarray) -> np.ndarray:
         """What :meth:`run_one` takes as ``external`` for SI accelerations (steps, 3)

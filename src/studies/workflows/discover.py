@@ -248,6 +248,9 @@ def execute_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
                                                                           result["second"].params),
                           "validation_rmse": result["second"].validation_rmse}
                          if result.get("second") else None),
+        "pairs": [{"cause": f.cause.id, "score": float(f.score - best.score),
+                   "validation_rmse": f.validation_rmse,
+                   "parameters": f.cause.parameters(f.theta, f.params)} for f in result.get("pairs", [])],
         "fit": "output error" if result["output_error"] else "equation error",
         "candidate_terms": [t.name for t in result["candidates"]],
         "selected_terms": [t.name for t in result["terms"]],
