@@ -135,6 +135,18 @@ def test_excitation_preset_keeps_its_method_and_manoeuvre_settings(hydra):
     assert cfg.validate.manoeuvres == ["zigzag_20_20", "zigzag_like", "random", "circle"]
 
 
+def test_the_thesis_conventions_make_its_data_as_mss_does(hydra):
+    """conventions=zhu2021: the thesis' wind and GA fitness, and its records as MSS
+    zigzag.m makes them (Euler steps, the rudder laid at 9.5 s, starboard first)
+    differenced forward (eq. 3.9)."""
+    cfg = _typed("config", ["experiment=thesis_wind_speed", "conventions=zhu2021"])
+    assert (cfg.wind.convention, cfg.objective.simulation) == ("zhu2021", "closed_loop")
+    assert (cfg.data.scheme, cfg.data.derivative, cfg.manoeuvre.first_sign, cfg.manoeuvre.execute) == \
+        ("euler", "forward", -1, 9.5)
+    plain = _typed("config", ["experiment=thesis_wind_speed"])
+    assert (plain.data.scheme, plain.manoeuvre.first_sign, plain.manoeuvre.execute) == ("rk4", None, None)
+
+
 def test_roll_model_says_which_study_runs_it(hydra):
     assert _typed("config", ["model=roll"]).model.study == "roll_decay"
     for option in ("abkowitz", "symmetric", "simplified"):
@@ -155,6 +167,9 @@ BAD = [
     ("config", ["noise.measurement=5"], "noise.measurement must be <= 1.0"),
     ("config", ["validate.duration=-1"], "validate.duration must be positive"),
     ("config", ["data.derivative=spline"], "data.derivative must be one of"),
+    ("config", ["data.scheme=midpoint"], "data.scheme must be one of rk4, euler, got 'midpoint'"),
+    ("config", ["manoeuvre.first_sign=2"], "manoeuvre.first_sign must be 1 or -1, got 2"),
+    ("config", ["manoeuvre.execute=5000"], "manoeuvre.execute must be in [0, duration), got 5000.0"),
     ("config", ["kalman.iterations=-1"], "kalman.iterations must be >= 0"),
     ("config", ["model=roll", "model.terms=[b1,b7]"], "model.terms: unknown roll terms ['b7']"),
     ("discover", ["discover.holdout=0.9"], "discover.holdout must be in [0.05, 0.8], got 0.9"),

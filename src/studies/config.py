@@ -47,13 +47,17 @@ __all__ = [
     "CONF_DIR", "compose_settings", "DERIVATIVES", "WEIGHTINGS", "STUDIES", "ROLL_TERMS", "ROLL_DAMPING_TERMS",
     "MANOEUVRE_KINDS",
     "SVM_LOSSES", "SINDY_LIBRARIES", "BAYES_MOVES", "BAYES_DISCREPANCIES", "DISTURBANCE_SCALINGS",
+    "DATA_SCHEMES",
 ]
 
 #: the packaged config folder (``studies/conf``)
 CONF_DIR = Path(__file__).resolve().parent / "conf"
 
 #: ``data.derivative``: state/acceleration estimators
-DERIVATIVES = ("auto", "central", "savgol", "ekf", "ekf_kinematic")
+DERIVATIVES = ("auto", "central", "savgol", "forward", "ekf", "ekf_kinematic")
+#: ``data.scheme``: how the training records of a simulated study are integrated
+#: (:data:`studies.simulate.integrator.SCHEMES`)
+DATA_SCHEMES = ("rk4", "euler")
 #: ``identify.weights``: row weightings of the measured regression
 WEIGHTINGS = ("none", "speed", "record", "speed_record")
 #: ``model.study``: the study that runs a model
@@ -317,18 +321,27 @@ class Data:
         A record file or a list of them; None: simulate ``manoeuvre`` of
         ``vessel``.
     derivative : str
-        State/acceleration estimator: one of :data:`DERIVATIVES`.
+        State/acceleration estimator: one of :data:`DERIVATIVES`
+        (``forward``: the thesis' eq. 3.9, exact on records made by
+        forward Euler steps).
     resample : float or None
         Step [s] to resample measured records to, > 0; None: their own
         median step.
+    scheme : str
+        How simulated training records are integrated (:data:`DATA_SCHEMES`):
+        ``rk4`` (default) or ``euler``, forward Euler steps as the Marine
+        Systems Simulator's ``zigzag.m`` takes them (the thesis' data).
+        Validation manoeuvres and the trajectory objective simulate by RK4.
     """
 
     path: Any = None
     derivative: str = "auto"
     resample: Optional[float] = None
+    scheme: str = "rk4"
 
     def __post_init__(self):
         self.derivative = _choice("data.derivative", self.derivative, DERIVATIVES)
+        self.scheme = _choice("data.scheme", self.scheme, DATA_SCHEMES)
         if self.resample is not None:
             try:
                 step = float(self.resample)
@@ -1121,6 +1134,17 @@ class ManoeuvreConfig:
         Sampling step [s], in (0, duration].
     schedule : list of [t_start, t_end, value_deg] or None
         Heading reference (course) or commanded rudder (rudder) segments.
+    first_sign : int or None
+        Sign of the first rudder deflection (zigzag, turning): 1 (the
+        default) lays a positive rudder first, which turns the Mariner to
+        port (``Nd < 0``); -1 turns it to starboard first, as the Marine
+        Systems Simulator's ``zigzag.m`` does (its ``mariner.m`` takes the
+        command with the opposite sign).
+    execute : float or None
+        Time [s] the first rudder command is given (zigzag, turning), in
+        [0, duration); before it the rudder is held amidships. MSS
+        ``zigzag.m`` lays it when ``round(t)`` reaches its
+        ``t_rudderexecute``: 9.5 s for the 10 s of the thesis' call.
 
     None leaves the simulator's default.
     """
@@ -1132,6 +1156,8 @@ class ManoeuvreConfig:
     duration: Optional[float] = None
     dt: Optional[float] = None
     schedule: Optional[List[List[float]]] = None
+    first_sign: Optional[int] = None
+    execute: Optional[float] = None
 
     def __post_init__(self):
         where = f"(manoeuvre '{self.name}')"
@@ -1149,6 +1175,10 @@ class ManoeuvreConfig:
         if self.kind == "zigzag" and self.heading is not None and not self.heading > 0:
             raise ConfigError(f"manoeuvre.heading: zig-zag heading must be positive, "
                               f"got {self.heading} {where}")
+        if self.first_sign is not None and self.first_sign not in (1, -1):
+            raise ConfigError(f"manoeuvre.first_sign must be 1 or -1, got {self.first_sign} {where}")
+        if self.execute is not None and not (0 <= self.execute < (self.duration or math.inf)):
+            raise ConfigError(f"manoeuvre.execute must be in [0, duration), got {self.execute} {where}")
 
 
 def manoeuvre_config(name: str) -> ManoeuvreConfig:

@@ -1,9 +1,10 @@
 """State and acceleration estimation from a sampled record.
 
 Identification works on the inverse dynamics, so it needs accelerations.
-The thesis' forward difference (eq. 3.9) is exact only on data produced by a
-forward-Euler simulation; on anything else it leaves an O(dt) error that
-biases the regression. Two estimators are provided:
+The thesis' forward difference (eq. 3.9, ``forward``) is exact only on data
+produced by a forward-Euler simulation (the Marine Systems Simulator's, or
+``data.scheme=euler``); on anything else it leaves an O(dt) error that
+biases the regression. Besides it:
 
 ``central``
     Fourth-order central differences on a uniform grid (error O(dt^4));
@@ -48,7 +49,7 @@ __all__ = ["DerivativeEstimate", "estimate_derivatives", "noise_ratio", "choose_
 #: the velocities whose time derivatives are estimated
 STATE_COLUMNS = ("u", "v", "r")
 #: estimators of this module (``method=`` of :func:`estimate_derivatives`)
-MODEL_FREE_METHODS = ("auto", "central", "savgol")
+MODEL_FREE_METHODS = ("auto", "central", "savgol", "forward")
 
 
 @dataclass(frozen=True)
@@ -153,7 +154,7 @@ def estimate_derivatives(record, method: str = "auto", window: float | None = No
     record : DataFrame
         Data contract record (t, u, v, r, delta, psi, ...), uniformly
         sampled (see :mod:`studies.data.resample`).
-    method : {"auto", "central", "savgol"}
+    method : {"auto", "central", "savgol", "forward"}
     window : float or "auto", optional
         Savitzky-Golay window [s]; default 4 s or 11 samples, whichever is
         longer; ``"auto"`` chooses it per record by the discrepancy principle
@@ -167,6 +168,13 @@ def estimate_derivatives(record, method: str = "auto", window: float | None = No
     if method == "auto":
         method = "savgol" if max(noise_ratio(cols[c]) for c in STATE_COLUMNS) > 1e-3 else "central"
     n = len(t)
+    if method == "forward":
+        if n < 2:
+            raise ValueError("forward differences need at least 2 samples")
+        index = np.arange(n - 1)
+        rates = {c + "_dot": (cols[c][index + 1] - cols[c][index]) / dt for c in STATE_COLUMNS}
+        states = {c: x[index] for c, x in cols.items()}
+        return DerivativeEstimate(index, states, rates, "forward")
     if method == "central":
         if n < 5:
             raise ValueError("central differences need at least 5 samples")

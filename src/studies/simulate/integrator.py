@@ -20,14 +20,16 @@ Rudder modes (``mode``):
 
 0. ``cmd`` is the commanded rudder; the servo saturates at ``rudder_max``
    and follows ``delta_dot = (delta_c - delta) / T`` limited to the rate.
-1. zig-zag: ``params = [amplitude, heading_switch, yaw_sign, first_sign]``.
+1. zig-zag: ``params = [amplitude, heading_switch, yaw_sign, first_sign]``;
+   ``cmd`` is 1 from the execute time on (0 before it: rudder amidships).
 2. heading autopilot (PD): ``cmd`` is the heading reference,
    ``params = [kp, kd, yaw_sign]``; ``delta_c = yaw_sign (kp e - kd r)``.
 3. prescribed actual rudder: ``delta`` follows ``cmd`` exactly (linear
    between samples), for replaying a measured record.
 4. turning circle with pull-out: ``params = [amplitude, pullout_heading,
    yaw_sign]``; rudder to ``amplitude`` until the heading has changed by
-   ``pullout_heading`` (<= 0: never), then to zero.
+   ``pullout_heading`` (<= 0: never), then to zero; ``cmd`` as for the
+   zig-zag (the execute time).
 
 ``yaw_sign`` is the sign of the heading change a positive rudder gives
 (``sign(Nd)``, -1 for the Mariner).
@@ -46,6 +48,9 @@ from .monomials import coefficient_tuple, dense_coefficients, scaled_forces
 __all__ = ["rk4_simulate", "rk4_simulate_many", "N_STATES"]
 
 N_STATES = 7
+#: fixed-step schemes: classical RK4 (the default), or forward Euler, ``x += dt f(x)``, as
+#: the Marine Systems Simulator's ``zigzag.m`` (its ``euler2``) steps the ship (the thesis' data)
+SCHEMES = ("rk4", "euler")
 DIVERGED_SPEED_FACTOR = 5.0
 
 
@@ -99,14 +104,16 @@ def _derivatives(du, v, r, cpsi, spsi, delta, delta_c, prescribed_rate, prescrib
     return du_dot, v_dot, r_dot, x_dot, y_dot, r, delta_dot
 
 
-def _constants(mass, length, speed0, env, rho, servo, ext_gain: float = 0.0) -> tuple:
-    """Pack the constants of the right-hand side, reciprocals precomputed.
+def _constants(mass, length, speed0, env, rho, servo, ext_gain: float = 0.0,
+               scheme: str = "rk4") -> tuple:
+    """Pack the constants of the right-hand side, reciprocals precomputed,
+    and the integration scheme (:data:`SCHEMES`) as the last entry.
 
     The mass-matrix inverse is scaled so that ``U^2``-scaled prime forces give
     ``du_dot``, ``v_dot`` [m/s^2] and ``r_dot`` [rad/s^2] directly.
     """
     det = mass[1, 1] * mass[2, 2] - mass[1, 2] * mass[2, 1]
-    k = np.zeros(19)
+    k = np.zeros(20)
     k[0] = speed0
     k[1] = length
     k[2] = 1.0 / (mass[0, 0] * length)
@@ -125,6 +132,10 @@ def _constants(mass, length, speed0, env, rho, servo, ext_gain: float = 0.0) -> 
     k[16] = servo[1]
     k[17] = 1.0 / servo[2]
     k[18] = ext_gain
+    try:
+        k[19] = SCHEMES.index(scheme)
+    except ValueError:
+        raise ValueError(f"integration scheme must be one of {', '.join(SCHEMES)}, got {scheme!r}") from None
     return tuple(float(x) for x in k)
 
 
@@ -144,12 +155,16 @@ def _command(mode, cmd_i, psi, r, psi0, p0, p1, p2, memory):
     if mode == 0:
         return cmd_i, memory
     if mode == 1:
+        if cmd_i < 0.5:                 # before the execute time: rudder amidships
+            return 0.0, memory
         if memory * p2 * (psi - psi0) >= p1:
             memory = -memory
         return memory * p0, memory
     if mode == 2:
         return p2 * (p0 * (cmd_i - psi) - p1 * r), memory
     if mode == 4:
+        if cmd_i < 0.5:
+            return 0.0, memory
         if memory > 0.0 and p1 > 0.0 and abs(psi - psi0) >= p1:
             memory = 0.0
         return memory * p0, memory
@@ -163,8 +178,9 @@ _FAST = {"contract", "arcp", "nsz"}
 
 @njit(cache=True, error_model="numpy", fastmath=_FAST)
 def _integrate(cm, k, x0, dt, cmd, mode, params, wp, ext, out):
-    """RK4 over ``out.shape[0] - 1`` steps; ``ext`` with no rows means no
-    external forces. Returns -1, or the first step that left the physical range."""
+    """RK4 (or forward Euler, ``k[19] == 1``) over ``out.shape[0] - 1``
+    steps; ``ext`` with no rows means no external forces. Returns -1, or the
+    first step that left the physical range."""
     c = coefficient_tuple(cm)
     n = out.shape[0]
     s0, s1, s2, s3, s4, s5, s6 = x0[0], x0[1], x0[2], x0[3], x0[4], x0[5], x0[6]
@@ -180,6 +196,7 @@ def _integrate(cm, k, x0, dt, cmd, mode, params, wp, ext, out):
     speed0_2 = k[0] * k[0]
     h = 0.5 * dt
     sixth = dt / 6.0
+    euler = k[19] == 1.0
     for i in range(n - 1):
         dc, memory = _command(mode, cmd[i], s5, s2, psi0, p0, p1, p2, memory)
         rate = 0.0
@@ -194,25 +211,34 @@ def _integrate(cm, k, x0, dt, cmd, mode, params, wp, ext, out):
         sp = math.sin(s5)
         k1 = _derivatives(s0, s1, s2, cp, sp, s6, dc, rate, prescribed, c, k, wp,
                           e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
-        ca, sa = _small_rotation(h * k1[5])
-        k2 = _derivatives(s0 + h * k1[0], s1 + h * k1[1], s2 + h * k1[2], cp * ca - sp * sa,
-                          sp * ca + cp * sa, s6 + h * k1[6], dc, rate, prescribed, c, k, wp,
-                          e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
-        ca, sa = _small_rotation(h * k2[5])
-        k3 = _derivatives(s0 + h * k2[0], s1 + h * k2[1], s2 + h * k2[2], cp * ca - sp * sa,
-                          sp * ca + cp * sa, s6 + h * k2[6], dc, rate, prescribed, c, k, wp,
-                          e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
-        ca, sa = _small_rotation(dt * k3[5])
-        k4 = _derivatives(s0 + dt * k3[0], s1 + dt * k3[1], s2 + dt * k3[2], cp * ca - sp * sa,
-                          sp * ca + cp * sa, s6 + dt * k3[6], dc, rate, prescribed, c, k, wp,
-                          e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
-        s0 += sixth * (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0])
-        s1 += sixth * (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1])
-        s2 += sixth * (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2])
-        s3 += sixth * (k1[3] + 2.0 * (k2[3] + k3[3]) + k4[3])
-        s4 += sixth * (k1[4] + 2.0 * (k2[4] + k3[4]) + k4[4])
-        s5 += sixth * (k1[5] + 2.0 * (k2[5] + k3[5]) + k4[5])
-        s6 += sixth * (k1[6] + 2.0 * (k2[6] + k3[6]) + k4[6])
+        if euler:
+            s0 += dt * k1[0]
+            s1 += dt * k1[1]
+            s2 += dt * k1[2]
+            s3 += dt * k1[3]
+            s4 += dt * k1[4]
+            s5 += dt * k1[5]
+            s6 += dt * k1[6]
+        else:
+            ca, sa = _small_rotation(h * k1[5])
+            k2 = _derivatives(s0 + h * k1[0], s1 + h * k1[1], s2 + h * k1[2], cp * ca - sp * sa,
+                              sp * ca + cp * sa, s6 + h * k1[6], dc, rate, prescribed, c, k, wp,
+                              e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
+            ca, sa = _small_rotation(h * k2[5])
+            k3 = _derivatives(s0 + h * k2[0], s1 + h * k2[1], s2 + h * k2[2], cp * ca - sp * sa,
+                              sp * ca + cp * sa, s6 + h * k2[6], dc, rate, prescribed, c, k, wp,
+                              e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
+            ca, sa = _small_rotation(dt * k3[5])
+            k4 = _derivatives(s0 + dt * k3[0], s1 + dt * k3[1], s2 + dt * k3[2], cp * ca - sp * sa,
+                              sp * ca + cp * sa, s6 + dt * k3[6], dc, rate, prescribed, c, k, wp,
+                              e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
+            s0 += sixth * (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0])
+            s1 += sixth * (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1])
+            s2 += sixth * (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2])
+            s3 += sixth * (k1[3] + 2.0 * (k2[3] + k3[3]) + k4[3])
+            s4 += sixth * (k1[4] + 2.0 * (k2[4] + k3[4]) + k4[4])
+            s5 += sixth * (k1[5] + 2.0 * (k2[5] + k3[5]) + k4[5])
+            s6 += sixth * (k1[6] + 2.0 * (k2[6] + k3[6]) + k4[6])
         if prescribed:
             s6 = cmd[i + 1]
         u_tot = k[0] + s0
@@ -267,7 +293,7 @@ def _wind_tuple(wp):
 
 
 def rk4_simulate(coef, powers, dofs, mass, length, speed0, x0, dt, cmd, mode, params,
-                 env, wp, rho, ext, servo, ext_gain: float = 0.0):
+                 env, wp, rho, ext, servo, ext_gain: float = 0.0, scheme: str = "rk4"):
     """Integrate one parameter set; returns ``(states (n, 7), diverged_at)``.
 
     ``coef`` is the coefficient vector in the order of ``powers``/``dofs``;
@@ -278,7 +304,7 @@ def rk4_simulate(coef, powers, dofs, mass, length, speed0, x0, dt, cmd, mode, pa
     """
     n = cmd.shape[0]
     c = dense_coefficients(coef, powers, dofs)[0]
-    k = _constants(mass, length, speed0, env, rho, servo, float(ext_gain))
+    k = _constants(mass, length, speed0, env, rho, servo, float(ext_gain), scheme)
     out = np.empty((n, N_STATES))
     diverged = _integrate(c, k, np.asarray(x0, float), float(dt), cmd, int(mode),
                           np.asarray(params, float), _wind_tuple(wp), _ext_rows(ext, n), out)
@@ -305,7 +331,7 @@ PARALLEL_WORK = 200_000
 
 
 def rk4_simulate_many(coefs, powers, dofs, mass, length, speed0, x0, dt, cmd, mode, params,
-                      env, wp, rho, ext, servo, ext_gain: float = 0.0):
+                      env, wp, rho, ext, servo, ext_gain: float = 0.0, scheme: str = "rk4"):
     """Integrate many parameter sets in parallel (one row of ``coefs`` each).
 
     ``x0`` is one initial state (7,) for every set, or one per set
@@ -315,7 +341,7 @@ def rk4_simulate_many(coefs, powers, dofs, mass, length, speed0, x0, dt, cmd, mo
     """
     n = cmd.shape[0]
     cs = dense_coefficients(coefs, powers, dofs)
-    k = _constants(mass, length, speed0, env, rho, servo, float(ext_gain))
+    k = _constants(mass, length, speed0, env, rho, servo, float(ext_gain), scheme)
     x0s = np.asarray(x0, float)
     if x0s.ndim == 1:
         x0s = np.broadcast_to(x0s, (cs.shape[0], N_STATES))

@@ -71,6 +71,11 @@ class Manoeuvre:
         pull-out (turning) [deg].
     first_sign : int
         Sign of the first rudder deflection (zigzag, turning).
+    execute : float
+        Time [s] the first rudder command is given (zigzag, turning); before
+        it the rudder is held amidships, as MSS ``zigzag.m`` does until its
+        ``t_rudderexecute`` (it lays the rudder when ``round(t)`` reaches
+        that time: ``t_rudderexecute - 0.5`` s at a 0.1 s step).
     schedule : tuple of (t_start, t_end, value_deg)
         Heading reference (course) or commanded rudder (rudder) segments.
     kp, kd : float
@@ -87,6 +92,7 @@ class Manoeuvre:
     amplitude: float = 20.0
     heading: float = 20.0
     first_sign: int = 1
+    execute: float = 0.0
     schedule: tuple = field(default_factory=tuple)
     series: tuple = field(default_factory=tuple)
     kp: float = 1.0
@@ -105,6 +111,9 @@ class Manoeuvre:
             raise ConfigError(f"manoeuvre '{self.name}': rudder amplitude must be in (0, 90] deg")
         if self.kind == "zigzag" and not (self.heading > 0):
             raise ConfigError(f"manoeuvre '{self.name}': zig-zag heading must be positive")
+        if not (0.0 <= self.execute < self.duration):
+            raise ConfigError(f"manoeuvre '{self.name}': execute time must be in [0, duration), "
+                              f"got {self.execute}")
 
     @property
     def substeps(self) -> int:
@@ -134,15 +143,16 @@ class Manoeuvre:
         """(mode, cmd per integration step, params) for the compiled integrator."""
         times = self.step_times()
         params = np.zeros(4)
-        cmd = np.zeros(times.shape[0])
+        # zigzag and turning: 1 from the execute time on (half a step's tolerance for the grid)
+        executed = (times >= self.execute - 0.5 * self.step).astype(float)
         if self.kind == "zigzag":
             params[:] = [np.deg2rad(self.amplitude), np.deg2rad(self.heading), yaw_sign,
                          float(np.sign(self.first_sign) or 1)]
-            return 1, cmd, params
+            return 1, executed, params
         if self.kind == "turning":
             params[:3] = [np.deg2rad(self.amplitude) * (np.sign(self.first_sign) or 1),
                           np.deg2rad(self.heading), yaw_sign]
-            return 4, cmd, params
+            return 4, executed, params
         if self.kind == "course":
             params[:3] = [self.kp, self.kd, yaw_sign]
             return 2, self.schedule_values(times), params
@@ -206,8 +216,9 @@ def zigzag_of_record(record) -> Manoeuvre | None:
     amplitude is half the rudder's peak-to-peak angle to the degree, the
     execute heading the heading change [deg, to the degree] from the first
     sample at the rudder's first reversal, the first deflection's sign that
-    of the first rudder departure beyond half the amplitude; the duration and
-    sampling are the record's. A closed-loop simulation of it reverses the
+    of the first rudder departure beyond half the amplitude, the execute time
+    the last sample before the rudder first leaves amidships (0 when it
+    moves from the first sample); the duration and sampling are the record's. A closed-loop simulation of it reverses the
     rudder when the simulated heading has changed by the execute heading
     from the initial one, as an autopilot or helmsman does.
 
@@ -248,5 +259,10 @@ def zigzag_of_record(record) -> Manoeuvre | None:
         return None
     duration = float(t[-1] - t[0])
     dt = float(np.round(np.median(np.diff(t)), 9))
+    # the execute time: the last sample before the rudder first leaves amidships (by 1 % of the
+    # amplitude), when the record starts with it held there
+    moved = np.flatnonzero(np.abs(delta - delta[0]) > 0.01 * np.deg2rad(amplitude))
+    execute = float(np.round(t[moved[0] - 1] - t[0], 9)) if len(moved) and moved[0] > 1 \
+        and abs(delta[0]) < 0.01 * np.deg2rad(amplitude) else 0.0
     return Manoeuvre(str(record.attrs.get("name", "zigzag")), "zigzag", duration, dt,
-                     amplitude=amplitude, heading=heading, first_sign=first)
+                     amplitude=amplitude, heading=heading, first_sign=first, execute=execute)

@@ -117,7 +117,7 @@ def _to_record(states: np.ndarray, inputs: SimulationInputs, environment: Enviro
 
 def simulate(model: ManoeuvringModel, values: dict, vessel: Vessel, manoeuvre: Manoeuvre,
              environment: Environment | None = None, external: np.ndarray | None = None,
-             initial: dict | None = None) -> pd.DataFrame:
+             initial: dict | None = None, scheme: str = "rk4") -> pd.DataFrame:
     """Simulate ``manoeuvre`` with coefficient ``values`` of ``model``.
 
     Parameters
@@ -140,6 +140,10 @@ def simulate(model: ManoeuvringModel, values: dict, vessel: Vessel, manoeuvre: M
     initial : dict, optional
         Initial ``u`` (total), ``v``, ``r``, ``x0``, ``y0``, ``psi``,
         ``delta``; default straight at the vessel's speed.
+    scheme : str
+        ``rk4`` (default) or ``euler``: forward Euler steps, as the Marine
+        Systems Simulator's ``zigzag.m`` takes them
+        (:data:`~studies.simulate.integrator.SCHEMES`).
 
     Returns
     -------
@@ -151,7 +155,7 @@ def simulate(model: ManoeuvringModel, values: dict, vessel: Vessel, manoeuvre: M
     environment = environment or Environment()
     inputs = prepare(model, vessel, manoeuvre, environment, external,
                      model.rudder_yaw_sign(values), initial)
-    states, diverged = rk4_simulate(model.vector(values), *inputs.args())
+    states, diverged = rk4_simulate(model.vector(values), *inputs.args(), scheme=scheme)
     record = _to_record(states, inputs, environment)
     record.attrs["name"] = manoeuvre.name
     if diverged >= 0:
@@ -162,17 +166,17 @@ def simulate(model: ManoeuvringModel, values: dict, vessel: Vessel, manoeuvre: M
 def simulate_many(model: ManoeuvringModel, vectors: np.ndarray, vessel: Vessel,
                   manoeuvre: Manoeuvre, environment: Environment | None = None,
                   external: np.ndarray | None = None, yaw_sign: float = -1.0,
-                  initial: dict | None = None):
+                  initial: dict | None = None, scheme: str = "rk4"):
     """Simulate many coefficient vectors (rows, in model term order) in parallel.
 
-    ``initial`` is the initial state as for :func:`simulate` (velocities
-    through the water). Returns ``(t, states, diverged)``: sample times [s],
+    ``initial`` is the initial state and ``scheme`` the integration scheme
+    as for :func:`simulate` (velocities through the water). Returns ``(t, states, diverged)``: sample times [s],
     states ``(n_sets, n_samples, 7)`` in the integrator's order (du, v, r,
     x0, y0, psi, delta) at the record's sampling, and per set the first
     diverged integration step (-1 when bounded).
     """
     inputs = prepare(model, vessel, manoeuvre, environment, external, yaw_sign, initial)
-    states, diverged = rk4_simulate_many(np.atleast_2d(vectors), *inputs.args())
+    states, diverged = rk4_simulate_many(np.atleast_2d(vectors), *inputs.args(), scheme=scheme)
     states = states[:, :: inputs.substeps]
     t = np.arange(states.shape[1]) * manoeuvre.dt
     return t, states, diverged

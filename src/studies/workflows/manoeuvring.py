@@ -138,21 +138,23 @@ def simulate_training(vessel: Vessel, model: ManoeuvringModel, truth: dict, mano
     """Simulate a training record as a sensor would record it.
 
     The true wind acts; the record carries the wind speed with the
-    anemometer error (thesis eq. 4.1). With a disturbance level, a clean run
+    anemometer error (thesis eq. 4.1). ``settings.data_scheme`` integrates
+    it (``rk4``, or ``euler`` steps as MSS ``zigzag.m``). With a disturbance level, a clean run
     first gives the force scale of the bias and process noise (SVM paper eq.
     14, the bias sized by ``disturbance.scaling`` over this record's length).
     Measurement noise (Li et al. eq. 22) is added last.
     """
     env = settings.environment
+    scheme = settings.data_scheme
     external = None
     if settings.bias_level > 0 or settings.process_level > 0:
-        clean = simulate(model, truth, vessel, manoeuvre, env)
+        clean = simulate(model, truth, vessel, manoeuvre, env, scheme=scheme)
         primes = prime_states(clean["u"], clean["v"], clean["r"], clean["delta"], vessel)
         scale = np.max(np.abs(model.forces(primes, truth)), axis=0)
         n_steps = len(manoeuvre.step_times()) - 1
         external = disturbance_forces(n_steps, manoeuvre.step, scale, settings.bias_level,
                                       settings.process_level, rng, settings.bias_scaling)
-    record = simulate(model, truth, vessel, manoeuvre, env, external)
+    record = simulate(model, truth, vessel, manoeuvre, env, external, scheme=scheme)
     if "diverged_at" in record.attrs:
         raise RuntimeError(f"the reference simulation of {manoeuvre.name} diverged at "
                            f"t = {record.attrs['diverged_at']:.1f} s")
@@ -229,7 +231,7 @@ def prepare(cfg: RunConfig, root: Path | None = None, record: Recorder | None = 
 
 
 #: accepted ``data.derivative`` values
-DERIVATIVES = ("auto", "central", "savgol") + _measured.EKF_METHODS
+DERIVATIVES = ("auto", "central", "savgol", "forward") + _measured.EKF_METHODS
 
 
 def _is_measured_study(vessel: Vessel, paths, derivative: str, resample_dt) -> bool:

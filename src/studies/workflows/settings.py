@@ -54,6 +54,7 @@ class Settings:
     bias_level: float
     process_level: float
     bias_scaling: str
+    data_scheme: str
     seed: int
     data_paths: list
     validate_paths: list
@@ -76,6 +77,7 @@ def read_settings(cfg: RunConfig) -> Settings:
         bias_level=noise_level(cfg.disturbance.level or 0),
         process_level=noise_level(cfg.disturbance.process or 0),
         bias_scaling=str(cfg.disturbance.scaling),
+        data_scheme=str(getattr(cfg.data, "scheme", "rk4")),
         seed=int(cfg.seed),
         data_paths=as_path_list(cfg.data.path),
         validate_paths=as_path_list(cfg.validate.path),
