@@ -40,6 +40,7 @@ from ..identify.bayes import run_with_progress
 from .causes.base import Cause, Setup
 
 __all__ = ["Context", "CauseFit", "regression_fit", "scored_fit", "nominal_residuals", "fit_cause",
+           "kinematic_smoothing",
            "validate", "training_error", "posterior", "sample_intervals"]
 
 log = logging.getLogger(__name__)
@@ -221,6 +222,22 @@ def fit_cause(ctx: Context, cause: Cause) -> CauseFit:
     fit.undecidable = cause.undecidable(ctx)
     fit.seconds = time.perf_counter() - t0
     return fit
+
+
+def kinematic_smoothing(record):
+    """The record with its velocities and heading replaced by their EKF/RTS
+    estimates with a kinematic process model (positions, rudder and other
+    columns kept; :func:`studies.identify.kalman.ekf_derivatives`): states
+    consistent with the record's own track, estimated without a ship model."""
+    from ..identify.kalman import ekf_derivatives
+
+    est = ekf_derivatives(record)
+    out = record.iloc[est.index].copy()
+    for c in ("u", "v", "r", "psi"):
+        out[c] = est.states[c]
+    out.attrs = dict(record.attrs)
+    out.attrs["smoothed"] = "ekf"
+    return out.reset_index(drop=True)
 
 
 def smoothing_window(record) -> int:

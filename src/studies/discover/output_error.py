@@ -475,7 +475,7 @@ def _scale(refined: dict) -> tuple[float, float]:
     return max(s2, 1e-300), max(10.0, refined["n"] / tau)
 
 
-def output_error_scores(fits: list, scale: tuple | None = None) -> tuple | None:
+def output_error_scores(fits: list, scale: tuple | None = None, ctx: Context | None = None) -> tuple | None:
     """Score the refined fits by output error (BIC on the replay's residual).
 
     ``score = rss / s2 + k ln n_eff`` with ``rss`` the sum of squares of the
@@ -485,8 +485,10 @@ def output_error_scores(fits: list, scale: tuple | None = None) -> tuple | None:
     whose residual is whitest (shortest autocorrelation time; as with the
     equation-error score, the residual of a model that lacks an effect is
     correlated by that effect and would hide it). Differences are on the
-    2 ln Bayes-factor scale of the equation-error score. The equation-error
-    score is kept in ``refined["equation_score"]``. Returns the scale used
+    2 ln Bayes-factor scale of the equation-error score. With ``ctx`` a cause
+    chosen from many candidates also pays its search penalty
+    (:meth:`~studies.discover.causes.base.Cause.search_penalty`). The
+    equation-error score is kept in ``refined["equation_score"]``. Returns the scale used
     (None when no fit is refined).
     """
     refined = [f for f in fits if f.refined is not None]
@@ -498,6 +500,8 @@ def output_error_scores(fits: list, scale: tuple | None = None) -> tuple | None:
     for f in refined:
         f.refined.setdefault("equation_score", f.score)
         f.score = f.refined["rss"] / s2 + f.cause.n_params() * np.log(n_eff)
+        if ctx is not None:
+            f.score += f.cause.search_penalty(ctx)
     return scale
 
 

@@ -24,14 +24,13 @@ from ..data.resample import resample
 from ..discover import diagnostics as dg
 from ..discover.causes import Setup, compact_parameters
 from ..discover.diagnostics import explains
-from ..discover.fitting import Context, regression_fit, training_error
+from ..discover.fitting import Context, kinematic_smoothing, regression_fit, training_error
 from ..discover.report import (indistinguishable, plot_predictions, plot_ranking, plot_residuals,
                                write_discovery, write_report)
 from ..discover.confidence import certainty
 from ..discover.search import (EVIDENCE, breaks_down, held_out_evidence, named_on_held_out, not_named, search,
                                second_on_held_out_note)
 from ..errors import ConfigError
-from ..identify.kalman import ekf_derivatives
 from ..vessels import get_vessel
 from .manoeuvring import get_study_model
 from .measured import load_measured
@@ -47,16 +46,9 @@ log = logging.getLogger(__name__)
 def smooth_measured(record: pd.DataFrame) -> pd.DataFrame:
     """Velocities and heading of a measured record replaced by their EKF/RTS
     estimates (kinematic pass; positions and rudder kept): discovery then
-    fits every cause on consistent states, estimated once."""
-
-    est = ekf_derivatives(record)
-    out = record.iloc[est.index].copy()
-    for c in ("u", "v", "r", "psi"):
-        out[c] = est.states[c]
-    out["t"] = out["t"] - 0.0
-    out.attrs = dict(record.attrs)
-    out.attrs["smoothed"] = "ekf"
-    return out.reset_index(drop=True)
+    fits every cause on consistent states, estimated once
+    (:func:`studies.discover.fitting.kinematic_smoothing`)."""
+    return kinematic_smoothing(record)
 
 
 def holdout(records: list, share: float) -> tuple[list, list, str]:

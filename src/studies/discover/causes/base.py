@@ -228,3 +228,10 @@ class Cause:
     def n_params(self) -> int:
         """Number of parameters the cause adds (for the complexity penalty)."""
         return len(self.params)
+
+    def search_penalty(self, ctx) -> float:
+        """Extra score a cause chosen from many candidates pays (0 for a cause
+        given in advance): ``2 ln`` of the number of ways it could have been
+        chosen, the extended BIC of Chen & Chen (2008) with gamma 1, so that
+        the best of many candidate terms does not pass for evidence."""
+        return 0.0

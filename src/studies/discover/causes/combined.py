@@ -88,3 +88,6 @@ class Combined(Cause):
 
     def n_params(self):
         return self.first.n_params() + self.second.n_params()
+
+    def search_penalty(self, ctx):
+        return self.first.search_penalty(ctx) + self.second.search_penalty(ctx)

@@ -25,6 +25,9 @@ class MissingTerm(Cause):
         The added terms; their prime coefficients [-] are written under
         ``terms`` by name. No effect without terms (the cause is then not
         applicable); changes only :meth:`model`.
+
+    The terms are chosen from the whole library, so the score charges
+    :meth:`search_penalty` on top of each term's BIC price.
     """
 
     id = "missing_term"
@@ -47,6 +50,14 @@ class MissingTerm(Cause):
 
     def model(self, ctx, theta):
         return ctx.model.extended(self.terms, f"{ctx.model.name}+" + "+".join(self.params))
+
+    def search_penalty(self, ctx) -> float:
+        """``2 ln C(m, k)``: its ``k`` terms are the best of the ``m`` terms of
+        the extended library (:func:`extended_library`; Chen & Chen 2008)."""
+        from math import comb, log
+
+        m = len(extended_library(ctx.model, 3))
+        return 2.0 * log(comb(max(m, len(self.terms)), len(self.terms))) if self.terms else 0.0
 
     def parameters(self, theta, fitted=None):
         fitted = fitted or {}

@@ -1,0 +1,246 @@
+"""Scoring the refined causes by their prediction-error likelihood.
+
+The output-error fit (:mod:`.output_error`) replays windows of the training
+records and takes the model as exact between the windows' starts. Records
+with process noise (waves, gusts, whatever the model does not hold) drift
+off any replay; the replay's residual is then mostly that drift, correlated
+over minutes, and its sum of squares favours an extension that bends the
+replay towards one record's drift (a current, a wind) over the one that is
+right. Here every refined fit is scored instead by the likelihood of its
+one-sample-ahead predictions, from an extended Kalman filter whose process
+model is the simulator with the cause's wind, current, external forces and
+rudder, and whose white process noise absorbs the drift
+(:mod:`studies.identify.filter_error`). When the model is right its
+innovations are white, so the score is a plain BIC::
+
+    score = -2 ln L + k ln(n) + penalty
+
+with ``k`` the cause's own parameters, ``n`` the measured samples (six
+channels per sample of the thinned records) and, for terms chosen from the
+library, the search penalty of the extended BIC
+(:meth:`~studies.discover.causes.base.Cause.search_penalty`). The measurement-noise
+variances are the channels' noise levels at the records' resolution
+(:func:`.output_error.noise_levels`); the process noise's spectral densities
+on ``du``, ``v``, ``r`` are estimated by maximum likelihood on the baseline
+(their shape, three values) and every fit then gets its own overall scale by
+maximum likelihood, so an extension that explains the drift needs less of
+it. Differences are on the 2 ln Bayes-factor scale of the other scores.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import replace
+
+import numpy as np
+from scipy.optimize import minimize
+
+from ..data.resample import block_means
+from ..identify.filter_error import PredictionError
+from ..simulate.simulator import ReplayPlan
+from .fitting import CauseFit, Context
+
+__all__ = ["FilterScores"]
+
+log = logging.getLogger(__name__)
+
+
+def _measured(record) -> np.ndarray:
+    """``x0, y0, psi`` (unwrapped), ``u, v, r`` of a record as an (n, 6) array."""
+    return np.column_stack([record["x0"].to_numpy(float), record["y0"].to_numpy(float),
+                            np.unwrap(record["psi"].to_numpy(float)), record["u"].to_numpy(float),
+                            record["v"].to_numpy(float), record["r"].to_numpy(float)])
+
+
+class FilterScores:
+    """Prediction-error scores of refined fits on the training records of ``ctx``.
+
+    Parameters
+    ----------
+    ctx : Context
+        The vessel, the baseline model and the training records.
+    step : float
+        Sampling [s] the records are thinned to (block means), the filter's step.
+    sigma : ndarray (6,)
+        Noise standard deviations of ``x0, y0, psi, u, v, r`` at that sampling.
+    records : list of DataFrame, optional
+        The records scored (default the training records; the validation
+        records for :meth:`held_out`).
+    """
+
+    def __init__(self, ctx: Context, step: float, sigma: np.ndarray, records: list | None = None):
+        self.ctx = ctx
+        self.records = []
+        for rec in (ctx.train if records is None else records):
+            thin = block_means(rec, step)
+            thin.attrs = dict(rec.attrs)
+            self.records.append(thin)
+        self.step = float(np.median(np.diff(self.records[0]["t"].to_numpy(float))))
+        self.measured = [_measured(r) for r in self.records]
+        self.R = np.asarray(sigma, float) ** 2
+        self.n = int(sum(np.isfinite(z).sum() for z in self.measured))
+        self.q_shape = None
+        self._plain = {}
+        self._bare = replace(ctx, train=[])
+
+    def _plans(self, fit: CauseFit) -> list:
+        """Each training record's replay as the fit's cause reads it."""
+        setup = fit.cause.setup(self._bare, np.asarray(fit.theta, float))
+        model = setup.model
+        out = []
+        for i, rec in enumerate(self.records):
+            key = (i, id(model))
+            if key not in self._plain:
+                self._plain[key] = (model, ReplayPlan(model, self.ctx.vessel, rec, max_step=self.step))
+            seen = setup.sim_record(rec)
+            out.append(self._plain[key][1].variant(None if seen is rec else seen, setup.environment(rec),
+                                                   setup.external()))
+        return out
+
+    def _default_shape(self) -> np.ndarray:
+        """A starting shape of the process noise: per DOF, the square of a
+        hundredth of the records' acceleration (finite differences of the
+        thinned velocities), over a second."""
+        acc = [np.concatenate([np.diff(r[c].to_numpy(float)) / self.step for r in self.records])
+               for c in ("u", "v", "r")]
+        return np.array([max(np.sqrt(np.mean(a ** 2)) * 1e-2, 1e-12) ** 2 for a in acc])
+
+    def _likelihood(self, fit: CauseFit) -> PredictionError:
+        return PredictionError(self._plans(fit), self.measured, self.R,
+                               self.q_shape if self.q_shape is not None else self._default_shape())
+
+    def estimate_shape(self, fit: CauseFit, rounds: int = 2) -> np.ndarray:
+        """The process noise's three spectral densities by maximum likelihood
+        on ``fit`` (the baseline), kept as the shape every fit is scaled from;
+        and, alternately, the measurement-noise variances: each channel's
+        scaled by the variance of its standardised innovations, so that they
+        come out of unit variance (a noise level estimated by smoothing is off
+        when the noise is coloured or the signal sharp)."""
+        vector = fit.setup.model.vector(fit.params, 0.0)
+        q0 = self._default_shape()
+        for _ in range(rounds):
+            like = PredictionError(self._plans(fit), self.measured, self.R, q0)
+            _, a = like.fit(vector)
+
+            def cost(logs):
+                like.q0 = q0 * 10.0 ** np.asarray(logs)
+                ll = like.loglik(vector, 0.0)
+                return -ll if np.isfinite(ll) else 1e300
+
+            res = minimize(cost, np.full(3, a), method="Powell",
+                           options={"xtol": 0.05, "ftol": 1e-6, "maxfev": 150})
+            q0 = q0 * 10.0 ** res.x
+            spread = self._innovation_variance(like, vector, q0)
+            self.R = self.R * np.clip(spread, 0.1, 10.0)
+        self.q_shape = q0
+        log.info("process noise of the baseline: q = %s; measurement noise sd %s", np.array2string(q0, precision=3),
+                 np.array2string(np.sqrt(self.R), precision=3))
+        return self.q_shape
+
+    def _innovation_variance(self, like: PredictionError, vector: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """Per channel, the mean square of the standardised innovations over the records."""
+        from ..identify.filter_error import innovation_likelihood
+
+        sums, count = np.zeros(6), np.zeros(6)
+        for plan, z in zip(like.plans, like.measured):
+            ll, e, S = innovation_likelihood(plan, vector, z, self.R, q)
+            if not np.isfinite(ll):
+                return np.ones(6)
+            w2 = e * e / S
+            sums += np.nansum(w2, axis=0)
+            count += np.sum(np.isfinite(w2), axis=0)
+        return sums / np.maximum(count, 1)
+
+    def held_out(self, fits: list, training: "FilterScores") -> None:
+        """Keep in ``refined["filter"]["held_out_loglik"]`` the log-likelihood of
+        this scorer's records (the held-out ones) under every fit scored by
+        ``training``: how well each model predicts records it was not fitted
+        to, one sample ahead, whatever drift the process noise gives them.
+        The process noise has the shape estimated on the training records and
+        its scale, for every fit, the likeliest on these records: a scale
+        carried over from the training records would make a model that fits
+        them closely overconfident on a manoeuvre it extrapolates to, and
+        favour a poorer model that needed more process noise. -inf when a
+        prediction leaves the physical range."""
+        self.q_shape = training.q_shape
+        for f in fits:
+            info = (f.refined or {}).get("filter")
+            if info is None:
+                continue
+            ll, a = self._likelihood(f).fit(f.setup.model.vector(f.params, 0.0))
+            info["held_out_loglik"], info["held_out_log_q_scale"] = ll, a
+
+    def score(self, fits: list) -> None:
+        """Set ``score`` (``-2 ln L + k ln n``) of every refined fit, and keep
+        ``refined["filter"]``: the log-likelihood and the process noise's log10 scale."""
+        for f in fits:
+            if f.refined is None or f.setup.dynamics is not None:
+                continue
+            if self.q_shape is None:
+                self.estimate_shape(f)
+            ll, a = self._likelihood(f).fit(f.setup.model.vector(f.params, 0.0))
+            f.refined["filter"] = {"loglik": ll, "log_q_scale": a}
+            f.score = -2.0 * ll + f.cause.n_params() * np.log(self.n) + f.cause.search_penalty(self.ctx)
+
+    def refine(self, fit: CauseFit, max_nfev: int = 20, rounds: int = 2) -> CauseFit:
+        """``fit`` refined by the filter-error method: its coefficients and the
+        cause's parameters fitted to the training records' innovations (their
+        sum of squares, each over its standard deviation; the weak prior of
+        :mod:`.output_error` on the coefficients' relative changes), with the
+        process noise's scale held at the likeliest for the fit as it stands
+        and estimated again between ``rounds`` (``max_nfev`` evaluations in
+        all), then scored (:meth:`score`). The coefficients change where the
+        replay's drift had bent them."""
+        for _ in range(rounds):
+            fit = self._refine_once(fit, max(2, max_nfev // rounds))
+        self.score([fit])
+        return fit
+
+    def _refine_once(self, fit: CauseFit, max_nfev: int) -> CauseFit:
+        from scipy.optimize import least_squares
+
+        if self.q_shape is None:
+            self.estimate_shape(fit)
+        cause, model = fit.cause, fit.setup.model
+        names = [t.name for t in model.terms]
+        beta0 = model.vector(fit.params, 0.0)
+        beta_scale = np.maximum(np.abs(beta0), 1e-6)
+        theta0 = np.asarray(fit.theta, float)
+        nb, nt = len(beta0), len(theta0)
+        low, high = cause.bounds(self.ctx) if nt else (np.zeros(0), np.zeros(0))
+        span = np.where(np.isfinite(high - low), high - low, 0.0)
+        theta_scale = np.maximum(np.abs(theta0), np.maximum(1e-3 * span, 1e-9))
+        _, a = self._likelihood(fit).fit(beta0)
+        cache = {}
+
+        def like(theta):
+            key = tuple(np.round(theta, 15))
+            if key not in cache:
+                if len(cache) > 16:
+                    cache.clear()
+                cache[key] = self._likelihood(replace(fit, theta=np.asarray(theta, float)))
+            return cache[key]
+
+        def residuals(x):
+            beta = beta0 + x[:nb] * beta_scale
+            theta = theta0 + x[nb:] * theta_scale
+            return np.concatenate([like(theta).residuals(beta, a), x[:nb]])
+
+        lo = np.full(nb + nt, -np.inf)
+        hi = np.full(nb + nt, np.inf)
+        if nt:
+            lo[nb:] = (low - theta0) / theta_scale
+            hi[nb:] = (high - theta0) / theta_scale
+        x0 = np.clip(np.zeros(nb + nt), lo, hi)
+        res = least_squares(residuals, x0, bounds=(lo, hi), method="trf", x_scale=1.0, diff_step=1e-4,
+                            max_nfev=max_nfev, ftol=1e-4, xtol=1e-6)
+        beta = beta0 + res.x[:nb] * beta_scale
+        theta = theta0 + res.x[nb:] * theta_scale
+        out = replace(fit, theta=theta, params={**fit.params, **dict(zip(names, beta.tolist()))},
+                      setup=cause.setup(self.ctx, theta), validation={}, refined=dict(fit.refined or {}))
+        log.info("cause %-18s filter error: %d evaluations at process-noise scale 10^%.2f", cause.id, res.nfev, a)
+        return out
+
+    def initial_loglik(self, fit: CauseFit, log_scale: float) -> float:
+        """Log-likelihood of ``fit`` as it stands at a given process-noise scale (one filter pass)."""
+        return self._likelihood(fit).loglik(fit.setup.model.vector(fit.params, 0.0), log_scale)

@@ -1,0 +1,337 @@
+"""The prediction-error likelihood of a record under a model with process noise.
+
+An output-error fit replays a record from measured states and compares the
+replay with the measurement: it takes the model as exact between the
+states it starts from. Real records carry process noise (waves, gusts,
+what the model does not hold) that pushes the ship off any replay; an
+output-error residual is then mostly that drift, correlated over minutes,
+and an extension that bends its replay towards one record's drift (a
+current, a wind) can look better than the model that is right. The
+prediction-error method (the filter-error method of flight-test
+identification, Maine & Iliff 1986; Jategaonkar 2015 ch. 5) asks instead
+how well the model predicts each next sample from everything measured
+before, with an extended Kalman filter whose process model is the
+simulator's own right-hand side (the cause's wind, current, external
+forces and rudder included) and whose process noise absorbs the drift.
+Its innovations are white when the model is right, so their likelihood
+scores models without a correlation correction.
+
+State (6): ``du`` [m/s] surge perturbation through the water (``u = U0 +
+du``), ``v`` [m/s] sway through the water, ``r`` [rad/s], ``x0``, ``y0``
+[m], ``psi`` [rad]; the rudder is the record's, linear between samples.
+Process noise: white accelerations on ``du``, ``v``, ``r`` of spectral
+densities ``q`` [(m/s^2)^2/Hz, (m/s^2)^2/Hz, (rad/s^2)^2/Hz], ``Q_d =
+diag(q) dt`` on those states. Measurements (6): ``x0, y0, psi`` and the
+over-ground ``u, v`` (through the water plus the current seen in the body
+frame) and ``r``, with white noise of variances ``R``, processed one at a
+time. Mean propagated by one RK4 step per sample (the simulator's
+derivatives, :func:`studies.simulate.integrator._derivatives`), covariance
+by the second-order expansion of the transition with the finite-difference
+Jacobian of those derivatives.
+
+References
+----------
+Maine, R.E., Iliff, K.W. (1986). Application of parameter estimation to
+aircraft stability and control: the output-error approach. NASA RP-1168.
+
+Jategaonkar, R.V. (2015). Flight vehicle system identification, 2nd ed.
+AIAA, ch. 5 (filter error method).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+from scipy.optimize import minimize_scalar
+
+from ..simulate.integrator import _constants, _derivatives, _ext_rows, _wind_tuple
+from ..simulate.monomials import coefficient_tuple, dense_coefficients
+
+__all__ = ["N_FILTER", "innovation_likelihood", "PredictionError"]
+
+#: size of the filter's state (du, v, r, x0, y0, psi)
+N_FILTER = 6
+
+#: measured channels, in this order: x0, y0, psi, u, v, r
+_CHANNELS = 6
+
+
+@njit(cache=True, inline="always")
+def _step(s0, s1, s2, s3, s4, s5, d0, d1, dt, c, k, wp, e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext):
+    """One RK4 step of (du, v, r, x0, y0, psi), the rudder linear from ``d0`` to ``d1``."""
+    rate = (d1 - d0) / dt
+    h = 0.5 * dt
+    k1 = _derivatives(s0, s1, s2, math.cos(s5), math.sin(s5), d0, 0.0, rate, True, c, k, wp,
+                      e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
+    p5 = s5 + h * k1[5]
+    k2 = _derivatives(s0 + h * k1[0], s1 + h * k1[1], s2 + h * k1[2], math.cos(p5), math.sin(p5),
+                      d0 + h * rate, 0.0, rate, True, c, k, wp, e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
+    p5 = s5 + h * k2[5]
+    k3 = _derivatives(s0 + h * k2[0], s1 + h * k2[1], s2 + h * k2[2], math.cos(p5), math.sin(p5),
+                      d0 + h * rate, 0.0, rate, True, c, k, wp, e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
+    p5 = s5 + dt * k3[5]
+    k4 = _derivatives(s0 + dt * k3[0], s1 + dt * k3[1], s2 + dt * k3[2], math.cos(p5), math.sin(p5),
+                      d1, 0.0, rate, True, c, k, wp, e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
+    w = dt / 6.0
+    return (s0 + w * (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0]),
+            s1 + w * (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1]),
+            s2 + w * (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2]),
+            s3 + w * (k1[3] + 2.0 * (k2[3] + k3[3]) + k4[3]),
+            s4 + w * (k1[4] + 2.0 * (k2[4] + k3[4]) + k4[4]),
+            s5 + w * (k1[5] + 2.0 * (k2[5] + k3[5]) + k4[5]))
+
+
+@njit(cache=True, inline="always")
+def _rates(s0, s1, s2, s5, d, rate, c, k, wp, e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext):
+    """Continuous derivative of (du, v, r, x0, y0, psi) at one state."""
+    return _derivatives(s0, s1, s2, math.cos(s5), math.sin(s5), d, 0.0, rate, True, c, k, wp,
+                        e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
+
+
+@njit(cache=True)
+def _filter(cm, k, wp, cmd, ext, dt, z, R, q, s_init, P_init, innovations, variances):
+    """EKF over the samples of ``z`` (n, 6: x0, y0, psi, u, v, r over ground;
+    NaN = missing); ``cmd`` (n,) the rudder at the samples, ``ext`` (n - 1, 9)
+    or (0, 9) the external forces per step. Fills ``innovations`` and
+    ``variances`` (n, 6) with each scalar update's innovation and its
+    variance (NaN where not measured) and returns the log-likelihood; -inf
+    when the prediction leaves the physical range.
+
+    The covariance is propagated with ``F = I + J dt + (J dt)^2 / 2``, ``J``
+    the Jacobian of the continuous dynamics at the step's start (central
+    differences of the simulator's derivatives; the position and heading
+    columns only through the heading)."""
+    c = coefficient_tuple(cm)
+    n = z.shape[0]
+    has_ext = ext.shape[0] > 0
+    speed0_2 = k[0] * k[0]
+    limit = 5.0 * k[0]
+    s = s_init.copy()
+    P = P_init.copy()
+    J = np.zeros((N_FILTER, N_FILTER))
+    F = np.zeros((N_FILTER, N_FILTER))
+    FP = np.zeros((N_FILTER, N_FILTER))
+    H = np.zeros(N_FILTER)
+    ph = np.zeros(N_FILTER)
+    hstep = np.array([1e-6 * k[0], 1e-6 * k[0], 1e-8, 1.0, 1.0, 1e-7])
+    loglik = 0.0
+    e0 = e1 = e2 = e3 = e4 = e5 = g0 = g1 = g2 = 0.0
+    for i in range(n):
+        if i > 0:
+            if has_ext:
+                e0, e1, e2 = ext[i - 1, 0], ext[i - 1, 1], ext[i - 1, 2]
+                e3, e4, e5 = ext[i - 1, 3], ext[i - 1, 4], ext[i - 1, 5]
+                g0, g1, g2 = ext[i - 1, 6] * speed0_2, ext[i - 1, 7] * speed0_2, ext[i - 1, 8] * speed0_2
+            d0, d1 = cmd[i - 1], cmd[i]
+            rate = (d1 - d0) / dt
+            # Jacobian of the continuous dynamics (positions do not enter it)
+            for j in (0, 1, 2, 5):
+                h = hstep[j]
+                a0, a1, a2, a5 = s[0], s[1], s[2], s[5]
+                if j == 0:
+                    a0 += h
+                elif j == 1:
+                    a1 += h
+                elif j == 2:
+                    a2 += h
+                else:
+                    a5 += h
+                fp = _rates(a0, a1, a2, a5, d0, rate, c, k, wp, e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
+                b0, b1, b2, b5 = s[0], s[1], s[2], s[5]
+                if j == 0:
+                    b0 -= h
+                elif j == 1:
+                    b1 -= h
+                elif j == 2:
+                    b2 -= h
+                else:
+                    b5 -= h
+                fm = _rates(b0, b1, b2, b5, d0, rate, c, k, wp, e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
+                for a in range(N_FILTER):
+                    J[a, j] = (fp[a] - fm[a]) / (2.0 * h)
+            for a in range(N_FILTER):
+                J[a, 3] = 0.0
+                J[a, 4] = 0.0
+            # F = I + J dt + (J dt)^2 / 2
+            for a in range(N_FILTER):
+                for b in range(N_FILTER):
+                    acc = 0.0
+                    for m in range(N_FILTER):
+                        acc += J[a, m] * J[m, b]
+                    F[a, b] = J[a, b] * dt + 0.5 * acc * dt * dt
+                F[a, a] += 1.0
+            nxt = _step(s[0], s[1], s[2], s[3], s[4], s[5], d0, d1, dt, c, k, wp,
+                        e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
+            for a in range(N_FILTER):
+                s[a] = nxt[a]
+            # P = F P F^T + Q
+            for a in range(N_FILTER):
+                for b in range(N_FILTER):
+                    acc = 0.0
+                    for m in range(N_FILTER):
+                        acc += F[a, m] * P[m, b]
+                    FP[a, b] = acc
+            for a in range(N_FILTER):
+                for b in range(a, N_FILTER):
+                    acc = 0.0
+                    for m in range(N_FILTER):
+                        acc += FP[a, m] * F[b, m]
+                    P[a, b] = acc
+                    P[b, a] = acc
+            for a in range(3):
+                P[a, a] += q[a] * dt
+            u = k[0] + s[0]
+            if not (u > 0.0 and u < limit and abs(s[1]) < limit and abs(s[2]) < 1.0
+                    and math.isfinite(s[3]) and math.isfinite(s[4])):
+                return -np.inf
+        for j in range(_CHANNELS):
+            y = z[i, j]
+            if not math.isfinite(y):
+                innovations[i, j] = np.nan
+                variances[i, j] = np.nan
+                continue
+            cp = math.cos(s[5])
+            sp_ = math.sin(s[5])
+            uc = cp * k[11] + sp_ * k[12]
+            vc = cp * k[12] - sp_ * k[11]
+            for a in range(N_FILTER):
+                H[a] = 0.0
+            if j == 0:
+                pred = s[3]
+                H[3] = 1.0
+            elif j == 1:
+                pred = s[4]
+                H[4] = 1.0
+            elif j == 2:
+                pred = s[5]
+                H[5] = 1.0
+            elif j == 3:
+                pred = k[0] + s[0] + uc
+                H[0] = 1.0
+                H[5] = vc
+            elif j == 4:
+                pred = s[1] + vc
+                H[1] = 1.0
+                H[5] = -uc
+            else:
+                pred = s[2]
+                H[2] = 1.0
+            S = R[j]
+            for a in range(N_FILTER):
+                acc = 0.0
+                for b in range(N_FILTER):
+                    acc += P[a, b] * H[b]
+                ph[a] = acc
+                S += H[a] * acc
+            e = y - pred
+            innovations[i, j] = e
+            variances[i, j] = S
+            loglik += -0.5 * (math.log(2.0 * math.pi * S) + e * e / S)
+            for a in range(N_FILTER):
+                s[a] += ph[a] * e / S
+            for a in range(N_FILTER):
+                for b in range(N_FILTER):
+                    P[a, b] -= ph[a] * ph[b] / S
+    return loglik
+
+
+def innovation_likelihood(plan, vector: np.ndarray, measured: np.ndarray, R: np.ndarray, q: np.ndarray,
+                          initial: np.ndarray | None = None) -> tuple[float, np.ndarray, np.ndarray]:
+    """Prediction-error log-likelihood of one record replayed by ``plan``.
+
+    Parameters
+    ----------
+    plan : studies.simulate.simulator.ReplayPlan
+        The record's replay (its rudder, wind, current and external forces as
+        the cause reads them), prepared with one integration step per sample.
+    vector : ndarray
+        Prime coefficients in the plan's model order.
+    measured : ndarray (n, 6)
+        ``x0, y0`` [m], unwrapped ``psi`` [rad], over-ground ``u, v`` [m/s]
+        and ``r`` [rad/s] at the plan's samples.
+    R : ndarray (6,)
+        Measurement-noise variances of those channels.
+    q : ndarray (3,)
+        Process-noise spectral densities on ``du``, ``v``, ``r``.
+    initial : ndarray (6,), optional
+        Initial ``du, v, r, x0, y0, psi`` through the water (default: the
+        plan's start, the record's first row).
+
+    Returns
+    -------
+    (loglik, innovations (n, 6), variances (n, 6))
+    """
+    inputs = plan.inputs
+    if inputs.substeps != 1:
+        raise ValueError("the prediction-error filter takes one integration step per sample")
+    n = len(measured)
+    cm = dense_coefficients(np.asarray(vector, float), inputs.powers, inputs.dofs)[0]
+    k = _constants(inputs.mass, inputs.length, inputs.speed0, inputs.env, inputs.rho, inputs.servo)
+    cmd = np.ascontiguousarray(inputs.cmd[:n], float)
+    ext = _ext_rows(inputs.ext, len(inputs.cmd))
+    start = plan.initial_state()[:N_FILTER] if initial is None else np.asarray(initial, float)
+    R = np.asarray(R, float)
+    P0 = np.diag([max(R[3], 1e-12), max(R[4], 1e-12), max(R[5], 1e-16), max(R[0], 1e-12), max(R[1], 1e-12),
+                  max(R[2], 1e-16)])
+    innovations = np.empty((n, _CHANNELS))
+    variances = np.empty((n, _CHANNELS))
+    loglik = _filter(cm, k, _wind_tuple(inputs.wind), cmd, np.ascontiguousarray(ext[: max(n - 1, 0)]),
+                     float(inputs.step), np.ascontiguousarray(measured, float), R, np.asarray(q, float),
+                     np.ascontiguousarray(start, float), P0, innovations, variances)
+    return float(loglik), innovations, variances
+
+
+class PredictionError:
+    """The prediction-error likelihood of several records under one model and
+    cause, with the process-noise intensity estimated.
+
+    ``plans`` are the records' replays (one integration step per sample),
+    ``measured`` their measured channels (:func:`innovation_likelihood`), ``R``
+    the measurement-noise variances, ``q0`` the shape of the process noise
+    (spectral densities on ``du``, ``v``, ``r``): the filter uses ``q0 *
+    10**a`` and :meth:`fit` finds the ``a`` that maximises the likelihood.
+    """
+
+    def __init__(self, plans: list, measured: list, R: np.ndarray, q0: np.ndarray):
+        self.plans, self.measured = plans, measured
+        self.R, self.q0 = np.asarray(R, float), np.asarray(q0, float)
+
+    def loglik(self, vector: np.ndarray, log_scale: float) -> float:
+        """Summed log-likelihood of the records at process-noise scale ``10**log_scale``."""
+        q = self.q0 * 10.0 ** float(log_scale)
+        total = 0.0
+        for plan, z in zip(self.plans, self.measured):
+            ll, _, _ = innovation_likelihood(plan, vector, z, self.R, q)
+            if not np.isfinite(ll):
+                return -np.inf
+            total += ll
+        return total
+
+    def residuals(self, vector: np.ndarray, log_scale: float) -> np.ndarray:
+        """The records' innovations over their standard deviations (zero where a
+        channel is not measured; 1e3 everywhere when a prediction leaves the
+        physical range): the sum of their squares is ``-2 ln L`` less the
+        ``ln(2 pi S)`` terms, what a least-squares fit of the model to the
+        filter minimises (the filter-error method's Gauss-Newton form)."""
+        q = self.q0 * 10.0 ** float(log_scale)
+        parts = []
+        for plan, z in zip(self.plans, self.measured):
+            ll, e, S = innovation_likelihood(plan, vector, z, self.R, q)
+            if not np.isfinite(ll):
+                parts.append(np.full(z.size, 1e3))
+                continue
+            w = e / np.sqrt(S)
+            parts.append(np.nan_to_num(w.ravel(), nan=0.0))
+        return np.concatenate(parts)
+
+    def fit(self, vector: np.ndarray, bounds=(-4.0, 3.0)) -> tuple[float, float]:
+        """``(log-likelihood, log10 scale)`` at the process-noise scale that
+        maximises the likelihood (scipy's bounded scalar search)."""
+        def cost(a):
+            ll = self.loglik(vector, a)
+            return -ll if np.isfinite(ll) else 1e300
+
+        res = minimize_scalar(cost, bounds=bounds, method="bounded", options={"xatol": 0.02})
+        return -float(res.fun), float(res.x)
