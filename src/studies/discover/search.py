@@ -675,6 +675,8 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
         out["second"] = second_cause(out["pairs"], best)
     if not intervals:
         out["posterior"] = {}
+    elif scorer is not None and best is not baseline and (best.refined or {}).get("filter"):
+        out["posterior"] = scorer.posterior(best, steps=posterior_steps, seed=seed)
     elif best.refined is not None and best is not baseline:
         out["posterior"] = refined_posterior(ctx, best, steps=posterior_steps, seed=seed)
     else:
