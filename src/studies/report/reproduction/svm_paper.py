@@ -70,8 +70,10 @@ __all__ = ["EXPERIMENTS", "COMMANDS", "sections", "substitutions", "conventions"
            "cell_statistics", "averaged_models", "comparison", "COMPARISON_FILE", "LEGACY_SCALING"]
 
 EXPERIMENTS = ("svm_disturbance",)
-COMMANDS = ["studies run experiment=svm_disturbance",
-            "studies run experiment=svm_disturbance disturbance.scaling=per_second"]
+COMMANDS = ["studies run experiment=svm_disturbance 'seed=range(0,100)'",
+            "studies run experiment=svm_disturbance disturbance.scaling=per_second",
+            "studies run experiment=svm_disturbance 'seed=range(0,100)' "
+            "'train.manoeuvres=[zigzag_20_20_300,zigzag_15_15_300,zigzag_10_10_300]'"]
 #: the validation manoeuvre of Table 4
 MANOEUVRE = "turning_18"
 LEVELS = (1, 2, 3)
@@ -485,11 +487,19 @@ def _averaged_section(averaged: pd.DataFrame, setup: tuple, setups: list) -> str
         if row["diverged"]:
             rows[label] = [str(row["averaged"])] + ["diverged"] * len(TURNING_KEYS)
         else:
-            rows[label] = [str(row["averaged"])] + [f"{row[k]:+.1f}" if np.isfinite(row[k]) else "-"
-                                                    for k in TURNING_KEYS]
+            cells = []
+            for k in TURNING_KEYS:
+                text = f"{row[k]:+.1f}" if np.isfinite(row[k]) else "-"
+                lo, hi = row.get(f"{k}/scatter_lo", np.nan), row.get(f"{k}/scatter_hi", np.nan)
+                if np.isfinite(lo) and np.isfinite(hi):
+                    text += f" ({lo:+.1f} .. {hi:+.1f})"
+                cells.append(text)
+            rows[label] = [str(row["averaged"])] + cells
     table = pd.DataFrame(rows, index=["trials averaged"] + [LABELS[k] for k in TURNING_KEYS]).T
     return (f"**{_setup_label(setup, setups)}**: error [%] of the 18 deg turning circle of the mean "
-            "model (each coefficient averaged over the cell's trials) against the reference model.\n\n"
+            "model (each coefficient averaged over the cell's trials) against the reference model; in "
+            f"brackets the 5-95 % range of the same procedure over {PAPER_TRIALS} trials drawn from the "
+            f"cell's (bootstrap, {SCATTER_DRAWS} draws; cells of at least {MIN_SCATTER_TRIALS} trials).\n\n"
             + markdown_table(table, "level, method"))
 
 
