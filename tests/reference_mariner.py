@@ -98,16 +98,24 @@ def zigzag_record(amplitude_deg=20.0, heading_deg=20.0, duration=1500.0, dt=0.1)
             "u": U0 + states[:, 0], "v": states[:, 1], "r": states[:, 2], "delta": states[:, 6]}
 
 
-def turning_record(amplitude_deg=18.0, duration=1000.0, dt=0.5):
-    """Turning circle: the rudder commanded to ``amplitude_deg`` at t = 0 and
-    held (the Mariner turns to negative heading), sampled every ``dt``;
-    columns of the studies data contract, SI units."""
+def turning_record(amplitude_deg=18.0, duration=1000.0, dt=0.5, execute=0.0):
+    """Turning circle: the rudder commanded to ``amplitude_deg`` at t =
+    ``execute`` (amidships before it) and held (the Mariner turns to negative
+    heading), sampled every ``dt``; columns of the studies data contract, SI
+    units."""
     amp = np.deg2rad(amplitude_deg)
     t_out = np.arange(0.0, duration + dt / 2, dt)
-    sol = solve_ivp(lambda t, y: mariner(y, amp), (0.0, duration), np.zeros(7), method="RK45",
-                    rtol=1e-9, atol=1e-10, max_step=1.0, t_eval=t_out)
-    states = sol.y.T
-    return {"t": sol.t, "x0": states[:, 3], "y0": states[:, 4], "psi": states[:, 5],
+    x, pieces = np.zeros(7), []
+    for start, end, command in ((0.0, execute, 0.0), (execute, duration, amp)):
+        if end <= start:
+            continue
+        sol = solve_ivp(lambda t, y, c=command: mariner(y, c), (start, end), x, method="RK45",
+                        rtol=1e-9, atol=1e-10, max_step=1.0, dense_output=True)
+        inside = (t_out >= start) & ((t_out < end) if end < duration else (t_out <= end))
+        pieces.append(sol.sol(t_out[inside]).T)
+        x = sol.y[:, -1]
+    states = np.concatenate(pieces)
+    return {"t": t_out, "x0": states[:, 3], "y0": states[:, 4], "psi": states[:, 5],
             "u": U0 + states[:, 0], "v": states[:, 1], "r": states[:, 2], "delta": states[:, 6]}
 
 

@@ -162,6 +162,88 @@ def test_the_page_shows_both_readings_side_by_side(tmp_path, monkeypatch):
     assert (index.parent / "turning_18_mean_models_0.png").is_file()
 
 
+def test_the_reference_run_and_read_as_mss_turncircle_gives_the_papers_transfer_at_90_deg():
+    """Table 4's model reference is MSS ``turncircle.m``'s reading of a port
+    turn started soon after the run begins: the transfer at 90 deg within
+    0.2 % of the paper's 546 m (1 % short of the interpolated 552 m); to
+    starboard the steady radius is 5 % off, and with ``ExTurnCircle.m``'s
+    execute at 100 s the transfer is 10 % off."""
+    paper = published("svm_paper", "table4")
+    paper = paper[paper["level"] == 0].set_index("characteristic")["value_m"]
+    port = svm_paper.mss_reference(VESSEL)
+    assert port["transfer_m"] == pytest.approx(paper["transfer_m"], rel=0.002)
+    assert REFERENCE["transfer_m"] > 1.008 * paper["transfer_m"]
+    for key in ("steady_radius_m", "max_transfer_m", "tactical_diameter_m"):
+        assert port[key] == pytest.approx(paper[key], rel=0.001), key
+    starboard = svm_paper.mss_reference(VESSEL, side=-1)
+    assert abs(starboard["steady_radius_m"] / paper["steady_radius_m"] - 1) > 0.03
+    assert svm_paper.mss_reference(VESSEL, execute=100.0)["transfer_m"] < 0.92 * paper["transfer_m"]
+
+
+def test_the_scatter_of_the_averaged_model_shrinks_to_its_one_model_when_the_trials_agree():
+    """Bootstrap of the paper's procedure: trials that all identified the same
+    model (Nr 5 % too large) scatter nowhere, their range is that model's
+    error; half 5 % too large and half 5 % too small average to the
+    reference within a range that holds zero and lies inside the two, and
+    narrows with the number of trials averaged."""
+    model = abkowitz()
+    names = list(model.names)
+    high = np.array([TRUTH[n] * (1.05 if n == "Nr" else 1.0) for n in names])
+    low = np.array([TRUTH[n] * (0.95 if n == "Nr" else 1.0) for n in names])
+    manoeuvre = svm_paper._manoeuvre(FakeRun("a", 1, "svm", 0))
+    reference = svm_paper.turning_geometry(svm_paper._reference("mariner", manoeuvre))
+    same = svm_paper.averaged_scatter(np.vstack([high] * 6), model, VESSEL, manoeuvre, reference, draws=8)
+    one = svm_paper.turning_geometry(svm_paper.simulate(model, dict(zip(names, high)), VESSEL, manoeuvre))
+    single = 100 * (one["steady_radius_m"] / reference["steady_radius_m"] - 1)
+    assert abs(single) > 1.0
+    assert same["steady_radius_m/scatter_lo"] == pytest.approx(single, abs=1e-9)
+    assert same["steady_radius_m/scatter_hi"] == pytest.approx(single, abs=1e-9)
+    mixed = svm_paper.averaged_scatter(np.vstack([high] * 3 + [low] * 3), model, VESSEL, manoeuvre, reference,
+                                       draws=20)
+    lo, hi = mixed["steady_radius_m/scatter_lo"], mixed["steady_radius_m/scatter_hi"]
+    assert mixed["scatter_draws"] == 20 and mixed["scatter_trials"] == svm_paper.PAPER_TRIALS
+    assert lo < 0.0 < hi and hi - lo < abs(single)
+    # four trials average less of the scatter away than the paper's hundred
+    few = svm_paper.averaged_scatter(np.vstack([high] * 3 + [low] * 3), model, VESSEL, manoeuvre, reference,
+                                     trials=4, draws=20)
+    assert few["steady_radius_m/scatter_hi"] - few["steady_radius_m/scatter_lo"] > 2 * (hi - lo)
+
+
+S3 = "['zigzag_20_20_300', 'zigzag_15_15_300', 'zigzag_10_10_300']"
+
+
+def test_the_sign_of_the_radius_error_is_traced_to_the_training_excitation(tmp_path, monkeypatch):
+    """Two training sets whose averaged models err with opposite signs on the
+    steady radius: each is its own set-up, and the disagreement of the one
+    whose sign is not the paper's says the sign follows the training
+    excitation, with the 18 deg turn's speed loss beside each set's."""
+    monkeypatch.setattr(svm_paper, "systematic_source", lambda *args, **kwargs: "")
+    monkeypatch.setattr(svm_paper, "SCATTER_DRAWS", 0)
+    damped = dict(TRUTH, Nr=TRUTH["Nr"] * 1.05)          # more yaw damping: a wider circle
+    lively = dict(TRUTH, Nr=TRUTH["Nr"] * 0.95)
+    runs = []
+    for s in range(3):
+        runs.append(FakeRun(f"p{s}", 1, "ls", s, _errors(2.0), coefficients=damped))
+        s3 = FakeRun(f"q{s}", 1, "ls", s, _errors(-3.0), coefficients=lively)
+        s3.params["train.manoeuvres"] = S3
+        runs.append(s3)
+    trials = svm_paper.collect({"svm_disturbance": runs})
+    assert len(svm_paper._setups(trials)) == 2
+    averaged, _ = svm_paper.averaged_models(trials, tmp_path)
+    signs = {row["setup"][2]: np.sign(row["steady_radius_m"]) for row in averaged.to_dict("records")}
+    assert signs == {TRAIN: 1.0, S3: -1.0}
+    setups = svm_paper._setups(trials)
+    stats = svm_paper.cell_statistics(trials)
+    comp = svm_paper.comparison(stats, averaged)
+    found = svm_paper.disagreements(comp, stats, setups[0], trials, averaged, tmp_path, setups)
+    assert setups[0][2] == TRAIN and len(found) == 1
+    line = found[0]
+    assert line.startswith("NL1, LS: the averaged model's error has the opposite sign to the paper's for the steady")
+    assert "the sign of the systematic error follows the training excitation" in line
+    assert "zigzag_20_20_300" in line and "the 18 deg steady turn runs at u' -0.19" in line
+    assert "`train.manoeuvres=" in svm_paper._setup_label(setups[1], setups)
+
+
 def test_the_record_bias_is_small_beside_the_ships_forces_and_the_per_second_one_is_not():
     """Measured on the preset's training zig-zags: the NL1 bias's peak over the
     largest clean sway force or yaw moment (the report's table)."""
@@ -224,13 +306,14 @@ def test_a_reduced_svm_disturbance_sweep_shows_the_papers_findings(tmp_path):
 
 
 @pytest.mark.slow
-def test_the_systematic_turning_error_at_nl2_is_the_bias_s():
-    """The preset's training zig-zags, LS on six trials each: with the NL2
-    bias alone the 18 deg steady turning radius comes out larger in every
-    trial (by over 1 % in the median), with the NL1 process noise alone it
-    stays within 0.5 %; the report names the bias as the systematic part."""
+def test_the_systematic_turning_error_at_nl1_is_the_bias_s():
+    """The preset's training zig-zags, LS, four mirrored pairs each (a draw
+    and its mirror image, whose mean keeps what averaging over trials keeps):
+    with the NL1 bias alone the 18 deg steady turning radius comes out larger
+    in every pair (by over 1 % on average), with the NL1 process noise alone
+    it stays within 0.2 %; the report names the bias as the systematic part."""
     setup = ("record", "1", "['zigzag_10_10', 'zigzag_20_20_600', 'zigzag_30_30']", "savgol")
-    bias, noise = svm_paper.source_errors(setup, 2, seeds=6)
-    assert len(bias) == 6 and (bias > 0).all() and np.median(bias) > 1.0
-    assert abs(np.median(noise)) < 0.5
-    assert "the systematic part is the bias's" in svm_paper.systematic_source(setup, 2, seeds=6)
+    bias, noise = svm_paper.source_errors(setup, 1, seeds=4)
+    assert len(bias) == 4 and (bias > 0).all() and bias.mean() > 1.0
+    assert np.abs(noise).max() < 0.2
+    assert "the systematic part is the bias's" in svm_paper.systematic_source(setup, 1, seeds=4)

@@ -15,7 +15,8 @@ import pandas as pd
 import pytest
 
 import reference_mariner as ref
-from studies.analysis.characteristics import TURNING_KEYS, characteristics, steady_turn_rows, turning_geometry
+from studies.analysis.characteristics import (TURNING_KEYS, characteristics, mss_turncircle, steady_turn_rows,
+                                              turning_geometry)
 from studies.papers import published
 from studies.workflows.measured import steady_turn
 
@@ -71,6 +72,31 @@ def test_an_analytic_turn_gives_the_six_characteristics_in_closed_form(side):
     assert found["max_advance_m"] - found["advance_m"] == pytest.approx(R * (1 - np.cos(BETA)), abs=0.05)
 
 
+@pytest.mark.parametrize("side", [1.0, -1.0])
+def test_the_mss_reading_takes_the_first_sample_whose_heading_rounds_to_90_deg(side):
+    """MSS ``turncircle.m`` reads transfer and advance where the heading
+    change first rounds to 90 deg (89.5 deg: the track has turned 81.5 deg,
+    so R (1 - cos 81.5 deg), about 5 m short of the transfer at 90 deg), the
+    tactical diameter at 179.5 deg, the advances from the sample one step
+    before its ``t_rudderexecute``, the maxima over the run and the radius
+    from the last sample."""
+    record = analytic_turn(side, turned_deg=600.0, pullout_deg=720.0)
+    found = mss_turncircle(record, t_rudderexecute=20.0 + 0.05)     # x(Nrudder): the execute's sample
+    arc90, arc180 = np.deg2rad(89.5) - BETA, np.deg2rad(179.5) - BETA
+    expected = {"advance_m": R * np.sin(arc90), "transfer_m": R * (1 - np.cos(arc90)),
+                "tactical_diameter_m": R * (1 - np.cos(arc180)), "max_advance_m": R,
+                "max_transfer_m": 2 * R, "steady_radius_m": R}
+    for key, value in expected.items():
+        assert found[key] == pytest.approx(value, abs=0.5), key
+    interpolated = turning_geometry(record)
+    assert interpolated["transfer_m"] - found["transfer_m"] == pytest.approx(
+        R * (np.cos(arc90) - np.sin(BETA)), abs=0.5)
+    # the advances run from the sample one step before t_rudderexecute: 10 s earlier on the approach, 10 s longer
+    earlier = mss_turncircle(record, t_rudderexecute=10.0 + 0.05)
+    assert earlier["advance_m"] - found["advance_m"] == pytest.approx(10.0 * U, abs=1e-6)
+    assert earlier["transfer_m"] == found["transfer_m"]
+
+
 def test_the_maxima_are_those_of_the_first_circle_and_the_radius_needs_a_steady_phase():
     """Only the first 360 deg (or the part before the pull-out) makes the
     maxima; a turn that never reaches 360 deg has no steady radius, one that
@@ -116,6 +142,23 @@ def test_the_independent_simulator_reproduces_the_papers_model_reference(indepen
         assert found[key] == pytest.approx(paper[key], rel=0.002), key
     for key in ("max_advance_m", "advance_m", "transfer_m"):
         assert found[key] == pytest.approx(paper[key], rel=0.015), key
+
+
+@pytest.mark.slow
+def test_read_as_mss_turncircle_the_independent_turn_gives_the_papers_transfer_at_90_deg():
+    """The independent simulator's 18 deg turn as MSS ``ExTurnCircle.m`` runs
+    it (rudder commanded at round(t) = 1 s, sampled at 0.1 s, 700 s) and as
+    ``turncircle.m`` reads it: the transfer at 90 deg is the paper's 546 m
+    within 0.2 %, where the interpolated reading gives 1 % more; the steady
+    radius, maximum transfer and tactical diameter stay within 0.1 %."""
+    record = pd.DataFrame(ref.turning_record(18.0, duration=700.0, dt=0.1, execute=0.5))
+    found = mss_turncircle(record, t_rudderexecute=1.0)
+    table = published("svm_paper", "table4")
+    paper = table[table["level"] == 0].set_index("characteristic")["value_m"]
+    assert found["transfer_m"] == pytest.approx(paper["transfer_m"], rel=0.002)
+    assert turning_geometry(record)["transfer_m"] > 1.008 * paper["transfer_m"]
+    for key in ("steady_radius_m", "max_transfer_m", "tactical_diameter_m"):
+        assert found[key] == pytest.approx(paper[key], rel=0.001), key
 
 
 def test_the_steady_radius_is_the_radius_of_the_track(independent_turn):

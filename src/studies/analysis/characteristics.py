@@ -24,10 +24,16 @@ curvature of the origin's path in the steady turn, from the speed and yaw
 rate, which a drift of the circle's centre (current, a slowly varying
 external force) does not enter, as it would a circle fitted to the
 positions; in calm water both agree to 0.01 %. These six are the turning
-characteristics of Wang et al. (2021), Table 4.
+characteristics of Wang et al. (2021), Table 4. :func:`mss_turncircle` reads
+them as the Marine Systems Simulator's ``turncircle.m`` does, as that
+table's model reference was read (at 89.5 deg of heading, not interpolated to
+90 deg; the radius of the last sample).
 
 References
 ----------
+Fossen, T.I. (2001-2020). ``turncircle.m`` and ``ExTurnCircle.m``, Marine
+Systems Simulator (MSS), NTNU. https://github.com/cybergalactic/MSS
+
 IMO (2002). Standards for ship manoeuvrability, Resolution MSC.137(76).
 
 Wang, T., Li, G., Wu, B., Aesoy, V., Zhang, H. (2021). Parameter
@@ -41,7 +47,7 @@ import numpy as np
 import pandas as pd
 
 __all__ = ["zigzag_overshoots", "turning_geometry", "characteristics", "manoeuvre_kind",
-           "steady_turn_rows", "TURNING_KEYS"]
+           "steady_turn_rows", "mss_turncircle", "TURNING_KEYS"]
 
 #: the turning characteristics of :func:`turning_geometry` [m] (Wang et al. 2021, Table 4)
 TURNING_KEYS = ("steady_radius_m", "max_transfer_m", "max_advance_m", "transfer_m", "advance_m",
@@ -205,6 +211,53 @@ def turning_geometry(record: pd.DataFrame) -> dict:
         rate = np.abs(record["r"].to_numpy(float)[rows])
         out["steady_radius_m"] = float(np.median(speed / np.maximum(rate, 1e-12)))
     out["turn_direction"] = float(np.sign(psi[-1] - course))
+    return out
+
+
+def mss_turncircle(record: pd.DataFrame, t_rudderexecute: float) -> dict:
+    """The six characteristics as the Marine Systems Simulator's ``turncircle.m`` prints them [m].
+
+    Wang et al. (2021) Table 4 names its rows as ``turncircle.m`` prints
+    them ("Steady turning radius", ..., "Tactical diameter at 180 (deg)
+    heading"). That function reads them off its own Euler run of ``t_final``
+    seconds from a straight start at the origin, rudder commanded from the
+    first step at which ``round(t)`` reaches ``t_rudderexecute``, and:
+
+    - transfer and advance at 90 deg (tactical diameter at 180 deg) from the
+      first sample whose heading, rounded to whole degrees, reaches 90 (180)
+      deg, i.e. at 89.5 (179.5) deg, not interpolated to 90 (180) deg;
+    - advances from ``x(Nrudder)``, the sample at ``t_rudderexecute - h``
+      (``h`` the step), which is 0.5 - h s after the rudder command;
+    - the maxima over the whole run, ``max|y|`` and ``max|x| - x(Nrudder)``;
+    - the steady radius ``U / |r|`` of the last sample.
+
+    Heading and position are taken from the record's first sample, along
+    and across its course (``turncircle.m`` starts at the origin on course
+    0, where these are its ``x``, ``y`` and ``psi``). The record is the run
+    (``t_final`` its length, ``h`` its step), without a pull-out.
+    """
+    t = record["t"].to_numpy(float)
+    h = float(np.median(np.diff(t)))
+    psi = record["psi"].to_numpy(float)
+    dx = record["x0"].to_numpy(float) - float(record["x0"].iloc[0])
+    dy = record["y0"].to_numpy(float) - float(record["y0"].iloc[0])
+    x = dx * np.cos(psi[0]) + dy * np.sin(psi[0])
+    y = -dx * np.sin(psi[0]) + dy * np.cos(psi[0])
+    turned = np.rad2deg(np.abs(psi - psi[0]))
+    whole = np.floor(turned + 0.5)                     # MATLAB round of a non-negative number
+    origin = int(round(t_rudderexecute / h)) - 1       # x(Nrudder), MATLAB's 1-based index
+    out = {}
+    for angle, keys in ((90.0, ("advance_m", "transfer_m")), (180.0, (None, "tactical_diameter_m"))):
+        reached = np.flatnonzero(whole >= angle)
+        if len(reached):
+            i = reached[0]
+            if keys[0]:
+                out[keys[0]] = float(abs(x[i] - x[origin]))
+            out[keys[1]] = float(abs(y[i]))
+    speed = np.hypot(record["u"].to_numpy(float)[-1], record["v"].to_numpy(float)[-1])
+    out["steady_radius_m"] = float(speed / max(abs(float(record["r"].iloc[-1])), 1e-12))
+    out["max_transfer_m"] = float(np.max(np.abs(y)))
+    out["max_advance_m"] = float(abs(np.max(np.abs(x)) - x[origin]))
     return out
 
 

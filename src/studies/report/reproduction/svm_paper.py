@@ -5,9 +5,13 @@ of level NL1-NL3 with NL1 process noise (its Tables 2-3, eq. 12-14), 100
 trials per case, averages the identified coefficients over the trials and
 predicts an 18 deg turning circle with the averaged model (Table 4: six
 characteristics against the model reference). This module reads the
-preset's runs and gives, per set-up (``disturbance.scaling`` and whatever
-else differs between the stored runs), level and method:
+preset's runs and gives, per set-up (``disturbance.scaling``, the training
+manoeuvres and whatever else differs between the stored runs), level and
+method:
 
+- the model reference as the project computes it and as MSS ``turncircle.m``
+  runs and reads it (:func:`mss_reference`; Table 4's rows are that
+  function's printed lines), and what was measured about the rest;
 - the per-trial errors of the six characteristics (``turning_18/*_error_pct``
   of each run): median of the absolute error and range over the trials whose
   prediction stayed bounded and turned far enough for all six (450 deg: the
@@ -15,13 +19,20 @@ else differs between the stored runs), level and method:
   missing trials are counted, never averaged;
 - the paper's procedure: the mean of every coefficient over the cell's
   trials (each run's ``coefficients.csv``), the 18 deg turning circle
-  simulated with that mean model against the reference model;
+  simulated with that mean model against the reference model, and its
+  scatter over the paper's 100 trials (:func:`averaged_scatter`, a bootstrap
+  of the cell's trials);
 - both beside Table 4 (:mod:`studies.papers`, ``wang2021_table4.csv``)
   with the ratio to the paper's error and whether it is within twice it,
   whether the errors grow from NL1 to NL3, and a sentence per disagreement
-  with what the runs measure about it: whether the error keeps its sign
-  over the trials and survives the averaging (a systematic error, which
-  more trials do not remove) or scatters, and how it grows with the level.
+  with what the runs measure about it: whether the paper's value lies
+  within the scatter of its procedure, how the averaged model's error grew
+  with the level, whether the paper's models turn in proportions the
+  project's do, which part of the disturbance makes the steady-radius
+  error systematic (:func:`systematic_source`: LS on mirrored draws, b and
+  -b, whose mean keeps what averaging over trials keeps) and, when the
+  store holds set-ups trained on other zig-zags, whether its sign follows
+  the training excitation.
 
 Runs logged before ``disturbance.scaling`` existed read eq. 14 per
 square-root second: they count as ``per_second``.
@@ -40,7 +51,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ...analysis.characteristics import TURNING_KEYS, turning_geometry
+from ...analysis.characteristics import TURNING_KEYS, mss_turncircle, steady_turn_rows, turning_geometry
 from ...config import manoeuvre_config
 from ...environment.noise import NOISE_LEVELS, disturbance_forces
 from ...identify import build_problems
@@ -50,7 +61,7 @@ from ...models.abkowitz import abkowitz
 from ...models.registry import get_model
 from ...papers import published
 from ...plotting import pyplot
-from ...simulate import simulate
+from ...simulate import simulate, simulate_many
 from ...simulate.manoeuvres import Manoeuvre
 from ...vessels import get_vessel
 from ..tables import markdown_table, method_label
@@ -59,8 +70,10 @@ __all__ = ["EXPERIMENTS", "COMMANDS", "sections", "substitutions", "conventions"
            "cell_statistics", "averaged_models", "comparison", "COMPARISON_FILE", "LEGACY_SCALING"]
 
 EXPERIMENTS = ("svm_disturbance",)
-COMMANDS = ["studies run experiment=svm_disturbance",
-            "studies run experiment=svm_disturbance disturbance.scaling=per_second"]
+COMMANDS = ["studies run experiment=svm_disturbance 'seed=range(0,100)'",
+            "studies run experiment=svm_disturbance disturbance.scaling=per_second",
+            "studies run experiment=svm_disturbance 'seed=range(0,100)' "
+            "'train.manoeuvres=[zigzag_20_20_300,zigzag_15_15_300,zigzag_10_10_300]'"]
 #: the validation manoeuvre of Table 4
 MANOEUVRE = "turning_18"
 LEVELS = (1, 2, 3)
@@ -200,13 +213,17 @@ def _reference(vessel_name: str, manoeuvre: Manoeuvre, vessel=None):
     return simulate(full, {n: vessel.coefficients[n] for n in full.names}, vessel, manoeuvre)
 
 
-def averaged_models(trials: list, scratch: Path) -> tuple[pd.DataFrame, dict]:
+def averaged_models(trials: list, scratch: Path, draws: int | None = None) -> tuple[pd.DataFrame, dict]:
     """The paper's procedure per (set-up, level, method): the mean of each
     coefficient over the cell's finished trials (their ``coefficients.csv``;
     a trial whose own prediction diverged is averaged too, as the paper
     averages every trial), the 18 deg turning circle of that mean model and
-    its errors [%] against the reference model. Returns the table and the
-    records ``{(setup, level, method): (prediction, reference)}``."""
+    its errors [%] against the reference model; beside it the scatter of
+    that procedure over :data:`PAPER_TRIALS` trials (:func:`averaged_scatter`,
+    ``draws`` bootstrap draws, default :data:`SCATTER_DRAWS`; 0: none) as
+    ``<characteristic>/scatter_lo`` and ``/scatter_hi``. Returns the table
+    and the records ``{(setup, level, method): (prediction, reference)}``."""
+    draws = SCATTER_DRAWS if draws is None else draws
     cells = defaultdict(list)
     for t in trials:
         if t.run.status == "FINISHED":
@@ -220,7 +237,8 @@ def averaged_models(trials: list, scratch: Path) -> tuple[pd.DataFrame, dict]:
                 tables.append(pd.read_csv(local).set_index("name")["value"])
         if not tables:
             continue
-        mean = pd.concat(tables, axis=1).mean(axis=1)
+        coefficients = pd.concat(tables, axis=1)
+        mean = coefficients.mean(axis=1)
         run = group[0].run
         model = get_model(_param(run, "model.name", "abkowitz"))
         vessel_name = _param(run, "vessel.name", "mariner")
@@ -233,13 +251,59 @@ def averaged_models(trials: list, scratch: Path) -> tuple[pd.DataFrame, dict]:
                               manoeuvre)
         row = {"setup": cell[0], "level": cell[1], "method": cell[2], "averaged": len(tables),
                "diverged": "diverged_at" in prediction.attrs}
+        ref = turning_geometry(reference)
         if not row["diverged"]:
-            found, ref = turning_geometry(prediction), turning_geometry(reference)
+            found = turning_geometry(prediction)
             for key in TURNING_KEYS:
                 row[key] = (100.0 * (found[key] - ref[key]) / ref[key]) if key in found else np.nan
+        if draws and len(tables) >= MIN_SCATTER_TRIALS:
+            vectors = coefficients.reindex(list(model.names)).T.to_numpy(float)
+            row.update(averaged_scatter(vectors, model, get_vessel(vessel_name), manoeuvre, ref, draws=draws))
         rows.append(row)
         records[cell] = (prediction, reference)
     return pd.DataFrame(rows), records
+
+
+#: trials per case in the paper (section 4.3)
+PAPER_TRIALS = 100
+#: bootstrap draws of the averaged model, and the fewest trials a cell needs for them
+SCATTER_DRAWS = 100
+MIN_SCATTER_TRIALS = 5
+#: the share of the draws inside the scatter range (5-95 %)
+SCATTER_RANGE = (5.0, 95.0)
+
+
+def averaged_scatter(vectors: np.ndarray, model, vessel, manoeuvre: Manoeuvre, reference: dict,
+                     trials: int = PAPER_TRIALS, draws: int = SCATTER_DRAWS, seed: int = 0) -> dict:
+    """The trial-to-trial scatter of the paper's procedure: ``draws`` times,
+    ``trials`` of the cell's identified models drawn with replacement
+    (``vectors``, one row per trial in the model's term order), their
+    coefficients averaged and the 18 deg turning circle of that mean model
+    simulated; per characteristic the 5 and 95 % quantiles of its error [%]
+    against ``reference`` (``<key>/scatter_lo``, ``/scatter_hi``),
+    ``scatter_draws`` the draws whose mean model turned far enough and
+    ``scatter_trials`` the trials averaged."""
+    rng = np.random.default_rng(seed)
+    picks = rng.integers(0, len(vectors), size=(draws, trials))
+    means = vectors[picks].mean(axis=1)
+    sign = model.rudder_yaw_sign(dict(zip(model.names, vectors.mean(axis=0))))
+    t, states, diverged = simulate_many(model, means, vessel, manoeuvre, yaw_sign=sign)
+    found = []
+    for k in range(draws):
+        if diverged[k] >= 0:
+            continue
+        s = states[k]
+        record = pd.DataFrame({"t": t, "x0": s[:, 3], "y0": s[:, 4], "psi": s[:, 5], "u": vessel.speed + s[:, 0],
+                               "v": s[:, 1], "r": s[:, 2], "delta": s[:, 6]})
+        g = turning_geometry(record)
+        if all(key in g for key in TURNING_KEYS):
+            found.append([100.0 * (g[key] - reference[key]) / reference[key] for key in TURNING_KEYS])
+    out = {"scatter_draws": len(found), "scatter_trials": trials}
+    for i, key in enumerate(TURNING_KEYS):
+        values = np.array([f[i] for f in found])
+        lo, hi = np.percentile(values, SCATTER_RANGE) if len(values) else (np.nan, np.nan)
+        out[f"{key}/scatter_lo"], out[f"{key}/scatter_hi"] = float(lo), float(hi)
+    return out
 
 
 # ------------------------------------------------------------------ beside Table 4
@@ -292,9 +356,34 @@ def _ratio(x) -> str:
     return "-" if not np.isfinite(x) else f"{x:.2f}"
 
 
+#: how MSS ``ExTurnCircle.m`` runs ``turncircle.m``: Euler steps [s] and run length [s]; the rudder
+#: command time is the smallest ``t_rudderexecute`` [s] that leaves no straight run before the turn
+MSS_STEP, MSS_FINAL, MSS_EXECUTE = 0.1, 700.0, 1.0
+
+
+def mss_reference(vessel, side: int = 1, scheme: str = "euler", execute: float = MSS_EXECUTE,
+                  step: float = MSS_STEP, rudder_rate_deg: float | None = None) -> dict:
+    """The reference model's 18 deg turning circle run and read as MSS
+    ``turncircle.m`` does (:func:`~studies.analysis.characteristics.mss_turncircle`):
+    ``scheme`` steps of ``step`` s for :data:`MSS_FINAL` s from a straight
+    start, the rudder commanded to ``side`` (+1: a positive rudder, the
+    Mariner turns to port, as ``ExTurnCircle.m``'s negative ``ui``) from the
+    first step at which ``round(t)`` reaches ``execute``."""
+    if rudder_rate_deg is not None:
+        vessel = dataclasses.replace(vessel, rudder_rate=np.deg2rad(rudder_rate_deg))
+    first = min(k * step for k in range(int(execute / step) + 2) if np.floor(k * step + 0.5 + 1e-9) >= execute)
+    turn = Manoeuvre("turning_18_mss", "turning", MSS_FINAL, step, 18.0, 0.0, first_sign=side,
+                     execute=float(first), max_step=step)
+    full = abkowitz()
+    record = simulate(full, {n: vessel.coefficients[n] for n in full.names}, vessel, turn, scheme=scheme)
+    return mss_turncircle(record, execute)
+
+
 def _reference_section(trials: list) -> str:
     """The model reference: the paper's values beside the project's (logged by
-    every run as ``..._reference``), and the project's with a fast rudder."""
+    every run as ``..._reference``) and beside the project's read as MSS
+    ``turncircle.m`` reads a turning circle, with what was measured about
+    the rest (turning side, execute time, steps, steering gear)."""
     paper = _paper()
     ref = paper[paper["level"] == 0].set_index("characteristic")["value_m"]
     logged = {}
@@ -308,25 +397,58 @@ def _reference_section(trials: list) -> str:
     if not logged:
         return ""
     vessel = get_vessel(_param(trials[0].run, "vessel.name", "mariner"))
-    fast = turning_geometry(_reference(vessel.name, _manoeuvre(trials[0].run),
-                                       dataclasses.replace(vessel, rudder_rate=np.deg2rad(50.0))))
+    mss = mss_reference(vessel)
+    starboard = mss_reference(vessel, side=-1)
+    late = mss_reference(vessel, execute=100.0)
+    later = mss_reference(vessel, execute=10.0)
+    rk4 = mss_reference(vessel, scheme="rk4")
+    fine = mss_reference(vessel, step=0.05)
+    rates = {rate: mss_reference(vessel, rudder_rate_deg=rate) for rate in (10.0, 20.0)}
+
+    def pct(ours, key):
+        return 100 * (ours - ref[key]) / ref[key]
     rows = {}
     for key in TURNING_KEYS:
         ours = logged.get(key, np.nan)
-        rows[LABELS[key]] = [f"{ref[key]:.0f}", _fmt(ours), _fmt(100 * (ours - ref[key]) / ref[key], 2),
-                             _fmt(fast.get(key, np.nan))]
+        rows[LABELS[key]] = [f"{ref[key]:.0f}", _fmt(ours), _fmt(pct(ours, key), 2), _fmt(mss[key]),
+                             _fmt(pct(mss[key], key), 2)]
     table = pd.DataFrame(rows, index=["paper [m]", "project [m]", "difference [%]",
-                                      "project, rudder at 50 deg/s [m]"]).T
-    return ("The reference model's 18 deg turning circle (the project's, logged by every run as "
-            f"`{MANOEUVRE}/<characteristic>_reference`). The steady radius, maximum transfer and tactical "
-            "diameter agree to 0.1 %; advance and transfer at 90 deg and the maximum advance are about 1 % "
-            f"larger in the project. Measured: with the rudder laid at 50 deg/s instead of "
-            f"{np.rad2deg(vessel.rudder_rate):g} deg/s the project's advance falls by "
-            f"{logged['advance_m'] - fast['advance_m']:.0f} m and its transfer at 90 deg does not change, "
-            "so the advance difference is of the order of the rudder's motion at the start of the turn "
-            "(the paper does not give its steering gear), while the 1 % in the transfer at 90 deg is not "
-            "explained. Each error below is against the reference of its own source.\n\n"
-            + markdown_table(table, "characteristic"))
+                                      "project, read as MSS turncircle.m [m]", "difference, MSS reading [%]"]).T
+    offset = (mss["advance_m"] - ref["advance_m"], mss["max_advance_m"] - ref["max_advance_m"])
+    fast = max(rates)
+    return ("The reference model's 18 deg turning circle: the project's (logged by every run as "
+            f"`{MANOEUVRE}/<characteristic>_reference`: heading change interpolated to 90 and 180 deg from "
+            "the execute, the steady radius over the steady phase) and the same model run and read as the "
+            "Marine Systems Simulator's `turncircle.m` does (`studies.analysis.characteristics.mss_turncircle`), "
+            "whose printed lines the paper's Table 4 rows repeat word for word: Euler steps of "
+            f"{MSS_STEP:g} s for {MSS_FINAL:g} s (`ExTurnCircle.m`'s), the rudder commanded to port as "
+            f"`ExTurnCircle.m` does (a negative `ui`) from `round(t)` = {MSS_EXECUTE:g} s, the transfer and "
+            "advance read at the first sample whose heading rounds to 90 deg (89.5 deg), the tactical "
+            "diameter at 179.5 deg, the advances from the position at the execute time less one step, the "
+            "radius from the last sample.\n\n"
+            + markdown_table(table, "characteristic")
+            + "\nMeasured: the 1 % of the transfer at 90 deg is the reading: at 89.5 deg of heading the "
+            f"project's transfer is {mss['transfer_m']:.1f} m (the paper's {ref['transfer_m']:.0f}), "
+            f"interpolated to 90 deg {logged['transfer_m']:.1f} m, and the steady radius, maximum transfer and "
+            f"tactical diameter stay within {max(abs(pct(mss[k], k)) for k in ('steady_radius_m', 'max_transfer_m', 'tactical_diameter_m')):.2f} % "
+            "of the paper's. "
+            f"The paper turned to port: to starboard the same run has a steady radius of "
+            f"{starboard['steady_radius_m']:.1f} m and a transfer at 90 deg of {starboard['transfer_m']:.1f} m "
+            "(the Mariner's Y0, N0 terms make the turns unequal). Its rudder was laid soon after the start: "
+            "`ExTurnCircle.m`'s execute at 100 s lets those terms turn the ship before the rudder moves, and "
+            f"the transfer at 90 deg becomes {late['transfer_m']:.1f} m. "
+            f"Not explained: the advance at 90 deg and the maximum advance are {offset[0]:+.1f} m and "
+            f"{offset[1]:+.1f} m from the paper's (their difference {mss['max_advance_m'] - mss['advance_m']:.1f} m, "
+            f"the paper's {ref['max_advance_m'] - ref['advance_m']:.0f} m: one offset of both, "
+            f"{offset[0] / vessel.speed:.1f} s of the approach speed). It is not the Euler steps (RK4: "
+            f"advance {rk4['advance_m']:.1f} m), nor the step ({MSS_STEP / 2:g} s: {fine['advance_m']:.1f} m), "
+            f"and a later execute lengthens it ({later['advance_m']:.1f} m at 10 s); a faster steering gear than "
+            f"`mariner.m`'s {np.rad2deg(vessel.rudder_rate):g} deg/s shortens it ({rates[10.0]['advance_m']:.1f} m "
+            f"at 10 deg/s, {rates[fast]['advance_m']:.1f} m at {fast:g} deg/s, where only `mariner.m`'s 1 s lag "
+            f"of the rudder remains) without reaching {ref['advance_m']:.0f} m, and the paper gives no steering "
+            "gear. "
+            "Each error below is against the reference of its own source, so a difference of reading "
+            "that both references share does not enter them.\n")
 
 
 def _trial_section(stats: pd.DataFrame, setup: tuple, setups: list) -> str:
@@ -365,11 +487,19 @@ def _averaged_section(averaged: pd.DataFrame, setup: tuple, setups: list) -> str
         if row["diverged"]:
             rows[label] = [str(row["averaged"])] + ["diverged"] * len(TURNING_KEYS)
         else:
-            rows[label] = [str(row["averaged"])] + [f"{row[k]:+.1f}" if np.isfinite(row[k]) else "-"
-                                                    for k in TURNING_KEYS]
+            cells = []
+            for k in TURNING_KEYS:
+                text = f"{row[k]:+.1f}" if np.isfinite(row[k]) else "-"
+                lo, hi = row.get(f"{k}/scatter_lo", np.nan), row.get(f"{k}/scatter_hi", np.nan)
+                if np.isfinite(lo) and np.isfinite(hi):
+                    text += f" ({lo:+.1f} .. {hi:+.1f})"
+                cells.append(text)
+            rows[label] = [str(row["averaged"])] + cells
     table = pd.DataFrame(rows, index=["trials averaged"] + [LABELS[k] for k in TURNING_KEYS]).T
     return (f"**{_setup_label(setup, setups)}**: error [%] of the 18 deg turning circle of the mean "
-            "model (each coefficient averaged over the cell's trials) against the reference model.\n\n"
+            "model (each coefficient averaged over the cell's trials) against the reference model; in "
+            f"brackets the 5-95 % range of the same procedure over {PAPER_TRIALS} trials drawn from the "
+            f"cell's (bootstrap, {SCATTER_DRAWS} draws; cells of at least {MIN_SCATTER_TRIALS} trials).\n\n"
             + markdown_table(table, "level, method"))
 
 
@@ -481,25 +611,153 @@ def _growth_law(growth: float, level: int) -> str:
 
 def _transfer_over_diameter(stats_trials: list, setup: tuple) -> dict:
     """Maximum transfer over the steady turning diameter (2 x radius): the
-    paper's rows, the project's reference and its bounded trials of ``setup``."""
+    paper's rows, the project's reference and, per (level, method), the
+    ratios of its bounded trials of ``setup``."""
     paper = _paper().set_index(["level", "characteristic"])["value_m"]
     out = {"paper": {level: paper[(level, "max_transfer_m")] / (2 * paper[(level, "steady_radius_m")])
-                     for level in (0, *LEVELS)}}
-    ratios = []
+                     for level in (0, *LEVELS)}, "trials": defaultdict(list)}
     for t in stats_trials:
         m = t.run.metrics
         values = (m.get(f"{MANOEUVRE}/max_transfer_m"), m.get(f"{MANOEUVRE}/steady_radius_m"))
         if t.setup == setup and t.outcome == "bounded" and None not in values:
-            ratios.append(values[0] / (2 * values[1]))
+            out["trials"][(t.level, t.method)].append(values[0] / (2 * values[1]))
         ref = (m.get(f"{MANOEUVRE}/max_transfer_m_reference"), m.get(f"{MANOEUVRE}/steady_radius_m_reference"))
         if None not in ref:
             out["reference"] = ref[0] / (2 * ref[1])
-    out["trials"] = (min(ratios), max(ratios), len(ratios)) if ratios else None
     return out
 
 
+def _cell(frame: pd.DataFrame | None, setup: tuple, level: int, method: str) -> dict | None:
+    """The row of ``frame`` (averaged models) for one cell, or None."""
+    if frame is None or frame.empty:
+        return None
+    c = frame[(frame["setup"] == setup) & (frame["level"] == level) & (frame["method"] == method)]
+    return None if c.empty else c.iloc[0].to_dict()
+
+
+def _scatter_fact(key: str, avg: dict | None, theirs: float) -> str:
+    """The averaged model's scatter over :data:`PAPER_TRIALS` trials against the paper's error."""
+    if not avg or not np.isfinite(avg.get(f"{key}/scatter_lo", np.nan)):
+        return ""
+    lo, hi = avg[f"{key}/scatter_lo"], avg[f"{key}/scatter_hi"]
+    text = (f"the paper's procedure over {int(avg['scatter_trials'])} trials drawn from the project's "
+            f"{int(avg['averaged'])} (bootstrap, {int(avg['scatter_draws'])} mean models that turned far enough) "
+            f"gives {lo:+.1f} .. {hi:+.1f} % (5-95 %)")
+    if lo <= theirs <= hi:
+        return text + f", which holds the paper's {theirs:+.1f} %: the difference is the scatter of the trials"
+    text += (f"; the paper's {theirs:+.1f} % lies outside it: neither the number of trials nor their scatter "
+             "explains the difference, the set-ups differ")
+    if lo <= WITHIN * abs(theirs) <= hi or lo <= -WITHIN * abs(theirs) <= hi:
+        text += f", and whether the error is within {WITHIN:g} times the paper's is not settled by 100 trials"
+    return text
+
+
+def _growth_fact(key: str, averaged: pd.DataFrame | None, setup: tuple, level: int, method: str) -> str:
+    """How the averaged model's error grew from NL1, beside the paper's."""
+    first, here = _cell(averaged, setup, 1, method), _cell(averaged, setup, level, method)
+    if level == 1 or not first or not here or first.get("diverged") or here.get("diverged"):
+        return ""
+    a, b = first.get(key, np.nan), here.get(key, np.nan)
+    if not (np.isfinite(a) and np.isfinite(b)) or abs(a) < 0.1:
+        return ""
+    paper = _paper().set_index(["level", "characteristic"])["signed_pct"]
+    p1, pl = paper[(1, key)], paper[(level, key)]
+    growth = abs(b) / abs(a)
+    return (f"from NL1 the averaged model's error went {a:+.1f} -> {b:+.1f} % ({growth:.1f} times, "
+            f"{_growth_law(growth, level)}; k0 grew {NOISE_LEVELS[level] / NOISE_LEVELS[1]:g} times), "
+            f"the paper's {p1:+.1f} -> {pl:+.1f} % ({abs(pl) / abs(p1):.1f} times)")
+
+
+def _shape_fact(shape: dict, avg: dict | None, level: int, method: str) -> str:
+    """The paper's circle's proportion (maximum transfer over steady diameter)
+    beside the project's averaged model's and its trials' at ``level``."""
+    p, ref = shape["paper"][level], shape.get("reference", np.nan)
+    ratios = np.array(shape["trials"].get((level, method), []))
+    text = (f"the paper's NL{level} model has a maximum transfer {p:.2f} times its steady turning diameter, the "
+            f"reference {shape['paper'][0]:.2f} (the project's {ref:.2f})")
+    if avg and not avg.get("diverged") and np.isfinite(avg.get("max_transfer_m", np.nan)):
+        mine = ref * (1 + avg["max_transfer_m"] / 100) / (1 + avg["steady_radius_m"] / 100)
+        text += f", the project's averaged model {mine:.2f}"
+    if len(ratios):
+        beyond = int(np.sum(ratios >= p)) if p > ref else int(np.sum(ratios <= p))
+        text += (f", and {beyond} of the cell's {len(ratios)} bounded trials turn as far from the reference's "
+                 "proportion as the paper's model")
+    return text
+
+
+def _excitation_fact(setup: tuple, level: int, method: str, averaged: pd.DataFrame | None, setups: list) -> str:
+    """The averaged model of the set-ups that differ from ``setup`` only in
+    their training manoeuvres, beside it: whether the sign of the steady
+    radius error follows the training excitation, and how far the 18 deg
+    steady turn's speed loss lies from each training set's."""
+    here = _cell(averaged, setup, level, method)
+    others = [s for s in setups if s != setup and (s[0], s[1], s[3]) == (setup[0], setup[1], setup[3])]
+    rows = [(s, _cell(averaged, s, level, method)) for s in [setup] + others]
+    rows = [(s, a) for s, a in rows if a and not a.get("diverged") and np.isfinite(a.get("steady_radius_m", np.nan))]
+    if not here or len(rows) < 2:
+        return ""
+    turn = _turn_speed_loss()
+    parts = []
+    for s, a in rows:
+        lo = a.get("steady_radius_m/scatter_lo", np.nan)
+        scatter = (f" ({lo:+.1f} .. {a['steady_radius_m/scatter_hi']:+.1f} % over 100 trials)"
+                   if np.isfinite(lo) else "")
+        reach = _training_speed_loss(s)
+        parts.append(f"trained on {_train_label(s)} (lowest u' {reach:+.3f}) {a['steady_radius_m']:+.1f} %{scatter}")
+    signs = {np.sign(a["steady_radius_m"]) for _, a in rows if abs(a["steady_radius_m"]) >= SIGN_PCT / 2}
+    text = f"the averaged model's steady turning radius error, {'; '.join(parts)}; the 18 deg steady turn runs at u' {turn:+.3f}"
+    if len(signs) > 1:
+        text += (": the sign of the systematic error follows the training excitation (how far the turn's speed "
+                 "loss lies beyond the speeds the zig-zags reach, where the u'-terms are extrapolated), which the "
+                 "paper does not give for its disturbance runs (its Fig. 3)")
+    return text
+
+
+def _train_label(setup: tuple) -> str:
+    try:
+        names = ast.literal_eval(setup[2]) if setup[2] else []
+    except (ValueError, SyntaxError):
+        return setup[2]
+    return ", ".join(str(n) for n in names)
+
+
+def _turn_speed_loss() -> float:
+    """Prime surge velocity u' of the reference 18 deg turn's steady phase (median)."""
+    if "turn" not in _SPEED_CACHE:
+        turn = Manoeuvre.from_config({k: v for k, v in asdict(manoeuvre_config(MANOEUVRE)).items()
+                                      if v is not None})
+        record = _reference("mariner", turn)
+        rows = steady_turn_rows(record)
+        primes = prime_states(record["u"], record["v"], record["r"], record["delta"], get_vessel("mariner"))
+        _SPEED_CACHE["turn"] = float(np.median(primes[rows, 0]))
+    return _SPEED_CACHE["turn"]
+
+
+def _training_speed_loss(setup: tuple) -> float:
+    """The lowest prime surge velocity u' of the set-up's clean training records."""
+    try:
+        names = ast.literal_eval(setup[2]) if setup[2] else []
+    except (ValueError, SyntaxError):
+        names = []
+    lows = []
+    for name in names:
+        if str(name) not in _SPEED_CACHE:
+            manoeuvre, _ = _clean_force_scale(str(name))
+            vessel = get_vessel("mariner")
+            full = abkowitz()
+            clean = simulate(full, {n: vessel.coefficients[n] for n in full.names}, vessel, manoeuvre)
+            _SPEED_CACHE[str(name)] = float(prime_states(clean["u"], clean["v"], clean["r"], clean["delta"],
+                                                         vessel)[:, 0].min())
+        lows.append(_SPEED_CACHE[str(name)])
+    return min(lows) if lows else np.nan
+
+
+_SPEED_CACHE: dict = {}
+
+
 def disagreements(comp: pd.DataFrame, stats: pd.DataFrame, setup: tuple, trials: list | None = None,
-                  averaged: pd.DataFrame | None = None, scratch: Path | None = None) -> list:
+                  averaged: pd.DataFrame | None = None, scratch: Path | None = None,
+                  setups: list | None = None) -> list:
     """One sentence per cell (level, method) of ``setup`` that disagrees with
     Table 4: trials without a bounded prediction (at NL1 against the paper's
     7.4 %; at every level the paper mentions none), errors more than
@@ -507,18 +765,21 @@ def disagreements(comp: pd.DataFrame, stats: pd.DataFrame, setup: tuple, trials:
     averaged model whose error has the opposite sign to the paper's (both at
     least :data:`SIGN_PCT`).
     Each says what the runs measure about it: the bias's size against the
-    ship's forces, whether the error keeps its sign over the trials and
-    survives the averaging (systematic: more trials would not remove it) or
-    scatters, how it grows from NL1 against the paper's, for the steady
-    radius whether the paper's models turn as any project model does and,
-    when its error is systematic, which part of the disturbance makes it so
-    (:func:`systematic_source`, LS re-identified on bias-only and
-    process-noise-only trials), and for lost trials what the paper's
-    averaged model does here and how far their surge coefficients moved
-    (``averaged`` and the runs' coefficients in ``scratch``)."""
+    ship's forces; for a per-trial median beyond twice whose averaged model
+    (the paper's statistic) is within, that the median holds the scatter the
+    averaging takes out; whether the paper's value lies within the scatter
+    of its procedure over 100 trials (:func:`averaged_scatter`); how the
+    averaged model's error grew from NL1 against the paper's; whether the
+    paper's models turn in the proportions the project's do; for the steady
+    radius which part of the disturbance makes its error systematic
+    (:func:`systematic_source`, mirrored LS re-identifications) and, when
+    the store holds set-ups trained on other manoeuvres (``setups``),
+    whether its sign follows the training excitation; for lost trials what
+    the paper's averaged model does here and how far their surge
+    coefficients moved (``averaged`` and the runs' coefficients in
+    ``scratch``)."""
     sub = comp[comp["setup"] == setup]
     st = stats[stats["setup"] == setup]
-    paper = _paper()
     shape = _transfer_over_diameter(trials, setup) if trials else None
     out = []
     for row in st.to_dict("records"):
@@ -532,6 +793,7 @@ def disagreements(comp: pd.DataFrame, stats: pd.DataFrame, setup: tuple, trials:
                         & (np.sign(mean["project_pct"]) != np.sign(mean["paper_pct"]))]
         if not lost and bad.empty and opposite.empty:
             continue
+        avg = _cell(averaged, setup, level, method)
         parts = []
         if level == 1 and lost:
             parts.append(f"{lost} of {row['runs'] + row['missing']} trials have no bounded 18 deg turning "
@@ -558,52 +820,44 @@ def disagreements(comp: pd.DataFrame, stats: pd.DataFrame, setup: tuple, trials:
         facts = []
         involved = set(bad["characteristic"]) | set(opposite["characteristic"])
         peaks = bias_peaks(setup, level)
+        overwhelmed = bool(peaks) and max(peaks.values()) > 0.5
         if peaks:
             facts.append(f"the NL{level} bias peaks at {max(peaks.values()):.2f} times the largest clean sway "
                          "force or yaw moment of the training records (median of 20 draws)"
                          + (", a disturbance as large as the ship's own largest forces, which the "
-                            "identification cannot tell from the hydrodynamics" if max(peaks.values()) > 0.5 else ""))
-        base = st[(st["level"] == 1) & (st["method"] == method)]
-        enough = int(row["bounded"]) >= 3
+                            "identification cannot tell from the hydrodynamics" if overwhelmed else ""))
         for key in TURNING_KEYS:
-            if key not in involved or not enough:
+            if key not in involved:
                 continue
-            share = float(row[f"{key}/same_sign"])
-            trials_abs = float(row[f"{key}/median_abs"])
-            fact = (f"{LABELS[key]}: one sign in {100 * share:.0f} % of {int(row['bounded'])} trials"
-                    + (" (systematic: averaging more trials does not remove it)" if share >= SYSTEMATIC_SHARE
-                       else f" (scatter: {float(row[f'{key}/min']):+.1f} .. {float(row[f'{key}/max']):+.1f} %)"))
-            if level != 1 and len(base) and int(base["bounded"].iloc[0]) >= 3:
-                first = float(base[f"{key}/median_abs"].iloc[0])
-                p1 = float(paper[(paper["level"] == 1) & (paper["characteristic"] == key)]["signed_pct"].abs().iloc[0])
-                pl = float(paper[(paper["level"] == level) & (paper["characteristic"] == key)]["signed_pct"].abs().iloc[0])
-                if first > 0:
-                    growth = trials_abs / first
-                    fact += (f", grown {growth:.1f} times from NL1 ({_growth_law(growth, level)}; "
-                             f"the paper's {pl / p1:.1f} times)")
-            facts.append(fact)
-        overwhelmed = bool(peaks) and max(peaks.values()) > 0.5
+            theirs = float(mean[mean["characteristic"] == key]["paper_pct"].iloc[0]) if len(mean) else np.nan
+            fact = []
+            per_trial = bad[(bad["characteristic"] == key) & (bad["statistic"] == "trials")]
+            mine = mean[mean["characteristic"] == key]
+            if len(per_trial) and len(mine) and bool(mine["within"].iloc[0]):
+                fact.append(f"its per-trial median |error| ({float(per_trial['project_pct'].iloc[0]):.1f} %) holds the "
+                            "trial-to-trial scatter that the paper's averaging over trials takes out; the averaged "
+                            f"model, the paper's statistic, is within {WITHIN:g} times "
+                            f"({float(mine['ratio'].iloc[0]):.1f} times)")
+            if np.isfinite(theirs):
+                fact.append(_scatter_fact(key, avg, theirs))
+                fact.append(_growth_fact(key, averaged, setup, level, method))
+            fact = [f for f in fact if f]
+            if fact:
+                facts.append(f"{LABELS[key]}: " + ", ".join(fact))
         if shape and not overwhelmed and involved & {"steady_radius_m", "max_transfer_m",
                                                       "tactical_diameter_m", "transfer_m"}:
-            p = shape["paper"][level]
-            tr = shape["trials"]
-            if tr is not None:
-                facts.append(f"the paper's NL{level} model has a maximum transfer {p:.2f} times its steady turning "
-                             f"diameter, the reference {shape['paper'][0]:.2f} (the project's "
-                             f"{shape.get('reference', np.nan):.2f}) and the project's {tr[2]} bounded trials "
-                             f"{tr[0]:.2f} .. {tr[1]:.2f}"
-                             + (": no project trial turns with the paper's proportion of maximum "
-                                "transfer to steady radius, so none can match both of its errors"
-                                if p > tr[1] or p < tr[0] else ""))
+            facts.append(_shape_fact(shape, avg, level, method))
         if lost and averaged is not None:
             facts.append(_lost_cause(setup, level, method, trials or [], averaged, scratch))
-        if "steady_radius_m" in involved and enough and float(row["steady_radius_m/same_sign"]) >= SYSTEMATIC_SHARE:
+        if "steady_radius_m" in involved and int(row["bounded"]) >= 3 and not overwhelmed:
             source = systematic_source(setup, level, trials[0].run if trials else None)
             if source:
                 facts.append(source)
+            facts.append(_excitation_fact(setup, level, method, averaged, setups or [setup]))
         text = f"NL{level}, {method_label(method)}: " + "; ".join(parts) + "."
+        facts = [f for f in facts if f]
         if facts:
-            text += " Measured: " + "; ".join(f for f in facts if f) + "."
+            text += " Measured: " + "; ".join(facts) + "."
         out.append(text)
     return out
 
@@ -648,17 +902,19 @@ def _lost_cause(setup: tuple, level: int, method: str, trials: list, averaged: p
     return text
 
 
-#: seeds of the bias-only and process-noise-only trials that find what makes an error systematic
+#: pairs of mirrored draws of the bias-only and process-noise-only trials that find what makes an error
+#: systematic (each pair identifies with a disturbance and with its mirror image)
 SOURCE_SEEDS = 10
 _SOURCE_CACHE: dict = {}
 
 
 def _one_trial(setup: tuple, bias_level: int, process_level: int, seed: int, turn: Manoeuvre,
-               reference: dict) -> float | None:
-    """Steady turning radius error [%] of LS identified on the set-up's
-    training manoeuvres, each simulated with the given bias and process
-    noise levels (eq. 12-14, the set-up's scaling), the 18 deg turn of the
-    identified model against the reference's; None when a simulation diverged."""
+               reference: dict, sign: float = 1.0) -> dict | None:
+    """Errors [%] of the 18 deg turning circle of LS identified on the
+    set-up's training manoeuvres, each simulated with the given bias and
+    process noise levels (eq. 12-14, the set-up's scaling) multiplied by
+    ``sign`` (-1: the mirror image of the same draw), against the
+    reference's; None when a simulation diverged or the turn fell short."""
     names = ast.literal_eval(setup[2]) if setup[2] else []
     vessel = get_vessel("mariner")
     full = abkowitz()
@@ -668,8 +924,8 @@ def _one_trial(setup: tuple, bias_level: int, process_level: int, seed: int, tur
     for name in names:
         manoeuvre, scale = _clean_force_scale(str(name))
         n_steps = len(manoeuvre.step_times()) - 1
-        ext = disturbance_forces(n_steps, manoeuvre.step, scale, NOISE_LEVELS[bias_level],
-                                 NOISE_LEVELS[process_level], rng, setup[0])
+        ext = sign * disturbance_forces(n_steps, manoeuvre.step, scale, NOISE_LEVELS[bias_level],
+                                        NOISE_LEVELS[process_level], rng, setup[0])
         record = simulate(full, truth, vessel, manoeuvre, None, ext)
         if "diverged_at" in record.attrs:
             return None
@@ -681,60 +937,88 @@ def _one_trial(setup: tuple, bias_level: int, process_level: int, seed: int, tur
     if "diverged_at" in prediction.attrs:
         return None
     found = turning_geometry(prediction)
-    if "steady_radius_m" not in found:
+    if not all(key in found for key in TURNING_KEYS):
         return None
-    return 100.0 * (found["steady_radius_m"] - reference["steady_radius_m"]) / reference["steady_radius_m"]
+    return {key: 100.0 * (found[key] - reference[key]) / reference[key] for key in TURNING_KEYS}
 
 
-def _errors(setup: tuple, bias: int, noise: int, seeds: int, turn: Manoeuvre, reference: dict) -> list:
+def _pair_means(setup: tuple, bias: int, noise: int, seeds: int, turn: Manoeuvre, reference: dict) -> list:
+    """Per seed, the mean of the errors of a draw and of its mirror image
+    (both bounded): the part of the error that does not change sign with
+    the disturbance, which is what averaging over trials keeps."""
     key = (setup, bias, noise, seeds)
     if key not in _SOURCE_CACHE:
-        _SOURCE_CACHE[key] = [e for e in (_one_trial(setup, bias, noise, 1000 + s, turn, reference)
-                                          for s in range(seeds)) if e is not None]
+        means = []
+        for s in range(seeds):
+            plus = _one_trial(setup, bias, noise, 1000 + s, turn, reference)
+            minus = _one_trial(setup, bias, noise, 1000 + s, turn, reference, -1.0) if plus else None
+            if plus and minus:
+                means.append({k: 0.5 * (plus[k] + minus[k]) for k in TURNING_KEYS})
+        _SOURCE_CACHE[key] = means
     return _SOURCE_CACHE[key]
 
 
-def source_errors(setup: tuple, level: int, run=None, seeds: int = SOURCE_SEEDS) -> tuple:
-    """Steady turning radius errors [%] of LS trials on the set-up's training
-    manoeuvres with the NL``level`` bias alone and with the set-up's process
-    noise alone (``seeds`` each; diverged trials left out)."""
+def source_errors(setup: tuple, level: int, run=None, seeds: int = SOURCE_SEEDS,
+                  key: str = "steady_radius_m") -> tuple:
+    """Errors [%] of ``key`` (default the steady turning radius) of LS
+    trials on the set-up's training manoeuvres with the NL``level`` bias
+    alone and with the set-up's process noise alone: per seed the mean of
+    the draw and its mirror image (:func:`_pair_means`; ``seeds`` pairs each,
+    pairs with a diverged trial left out)."""
     process = int(float(setup[1] or 0))
     turn = _manoeuvre(run) if run is not None else Manoeuvre.from_config(
         {k: v for k, v in asdict(manoeuvre_config(MANOEUVRE)).items() if v is not None})
     reference = turning_geometry(_reference("mariner", turn))
-    return (np.array(_errors(setup, level, 0, seeds, turn, reference)),
-            np.array(_errors(setup, 0, process, seeds, turn, reference)))
+    return (np.array([p[key] for p in _pair_means(setup, level, 0, seeds, turn, reference)]),
+            np.array([p[key] for p in _pair_means(setup, 0, process, seeds, turn, reference)]))
+
+
+def _systematic(x: np.ndarray) -> bool:
+    """One sign in :data:`SYSTEMATIC_SHARE` of the pairs and a mean at least
+    twice its standard error."""
+    if len(x) < 3:
+        return False
+    share = max(np.mean(x > 0), np.mean(x < 0))
+    return bool(share >= SYSTEMATIC_SHARE and abs(x.mean()) >= 2 * x.std(ddof=1) / np.sqrt(len(x)))
+
+
+def _mean_se(x: np.ndarray) -> str:
+    return f"{x.mean():+.2f} +- {x.std(ddof=1) / np.sqrt(len(x)):.2f} %"
 
 
 def systematic_source(setup: tuple, level: int, run=None, seeds: int = SOURCE_SEEDS) -> str:
     """Which part of the disturbance makes the steady-radius error keep its
-    sign: LS trials (``seeds`` of them) with the bias of ``level`` alone and
-    with the set-up's process noise alone, the median error and its sign
-    share each, and which of the two carries it (its median at least three
-    times the other's and one sign in :data:`SYSTEMATIC_SHARE` of its
-    trials). A sentence, or "" when the set-up's training manoeuvres are
-    not known."""
+    sign over the trials: LS trials with the bias of ``level`` alone and with
+    the set-up's process noise alone, each drawn and mirrored (``seeds``
+    pairs; the pair's mean is the part of the error that averaging over
+    trials keeps), the mean of the pair means with its standard error and
+    their sign share each, and which of the two carries it
+    (:func:`_systematic`, and its mean at least three times the other's).
+    A sentence, or "" when the set-up's training manoeuvres are not known."""
     if not setup[2]:
         return ""
     process = int(float(setup[1] or 0))
     bias, noise = source_errors(setup, level, run, seeds)
-    if not len(bias) or not len(noise):
+    if len(bias) < 3 or len(noise) < 3:
         return ""
 
     def share(x):
         return float(max(np.mean(x > 0), np.mean(x < 0)))
-    text = (f"re-identified by LS on the same training manoeuvres ({seeds} seeds each), the steady turning "
-            f"radius error is {np.median(bias):+.1f} % with the NL{level} bias alone (one sign in "
-            f"{share(bias):.0%} of {len(bias)}) and {np.median(noise):+.1f} % with the NL{process} process noise "
-            f"alone (one sign in {share(noise):.0%} of {len(noise)})")
-    if abs(np.median(bias)) >= 3 * abs(np.median(noise)) and share(bias) >= SYSTEMATIC_SHARE:
+    text = (f"re-identified by LS on the same training manoeuvres, each disturbance drawn and mirrored (b and "
+            f"-b: the mean of the two keeps the part of the error that does not change sign with the "
+            f"disturbance, which averaging over trials keeps; {seeds} pairs each), the steady turning radius "
+            f"error is {_mean_se(bias)} with the NL{level} bias alone (one sign in {share(bias):.0%} of "
+            f"{len(bias)} pairs) and {_mean_se(noise)} with the NL{process} process noise alone (one sign in "
+            f"{share(noise):.0%} of {len(noise)})")
+    if _systematic(bias) and abs(bias.mean()) >= 3 * abs(noise.mean()):
         text += (": the systematic part is the bias's, which drives the states it is regressed against, so "
                  "the coefficients take up a part of it that keeps its sign over the trials")
-    elif abs(np.median(noise)) >= 3 * abs(np.median(bias)) and share(noise) >= SYSTEMATIC_SHARE:
+    elif _systematic(noise) and abs(noise.mean()) >= 3 * abs(bias.mean()):
         text += ": the systematic part is the process noise's"
     else:
-        text += (f": neither alone keeps one sign in {SYSTEMATIC_SHARE:.0%} of these trials, so which part of the "
-                 "disturbance gives the error its sign is not settled by them")
+        text += (": neither alone gives a mean of one sign at twice its standard error in "
+                 f"{SYSTEMATIC_SHARE:.0%} of the pairs, so which part of the disturbance gives the error its "
+                 "sign is not settled by them")
     return text
 
 
@@ -813,7 +1097,7 @@ def bias_peaks(setup: tuple, level: int, draws: int = 20) -> dict:
 def _disagreement_section(comp: pd.DataFrame, stats: pd.DataFrame, setup: tuple, setups: list,
                           mismatches: list, trials: list, averaged: pd.DataFrame | None = None,
                           scratch: Path | None = None) -> str:
-    found = disagreements(comp, stats, setup, trials, averaged, scratch)
+    found = disagreements(comp, stats, setup, trials, averaged, scratch, setups)
     for name in mismatches:
         found.append(f"Trend, {name}: the errors do not grow from NL1 to NL3 where the paper's do. "
                      + _bias_cause(setup, 1))
@@ -869,16 +1153,25 @@ def _figure(records: dict, setup: tuple, setups: list, out: Path, index: int) ->
 # ------------------------------------------------------------------ the page
 
 def substitutions(runs: dict) -> list:
+    trials = collect(runs)
+    per_cell = defaultdict(int)
+    for t in trials:
+        per_cell[(t.setup, t.level, t.method)] += 1
+    held = sorted(set(per_cell.values()))
+    held_text = ("the store holds " + (f"{held[0]}" if len(held) == 1 else f"{held[0]} to {held[-1]}")
+                 + " per cell") if held else "the store holds none"
     return [
         "Training excitation: the paper's multiple zig-zags of its Fig. 3 (not in the text; its section 3 "
         "used 20/20, 15/15 and 10/10 zig-zags sampled at 2 Hz over 900 s) are replaced by the preset's "
-        "zig-zags 10/10, 20/20 and 30/30 of 600 s each at 0.1 s, each simulated with its own disturbance.",
-        "Trials: 5 seeds per level and method instead of 100 (`seed=range(0,100)` runs the paper's number); "
-        "the per-trial median and range are shown beside the averaged model because 5 trials average less "
-        "of the trial-to-trial scatter away than 100.",
+        "zig-zags 10/10, 20/20 and 30/30 of 600 s each at 0.1 s, each simulated with its own disturbance; "
+        "`train.manoeuvres=[zigzag_20_20_300,zigzag_15_15_300,zigzag_10_10_300]` trains on the section-3 "
+        "zig-zags instead (300 s each, at 0.1 s), and each training set is reported as its own set-up.",
+        f"Trials: the preset runs 5 seeds per level and method, the paper 100 (`seed=range(0,100)`); {held_text}. "
+        "The per-trial median and range are shown beside the averaged model, and the averaged model's scatter "
+        f"over {PAPER_TRIALS} trials is measured by drawing them from the project's (bootstrap).",
         "Simulator: RK4 at 0.1 s of the Mariner model with the rudder servo of MSS `mariner.m` instead of "
-        "the Marine Systems Simulator; the reference values of the two agree within about 1 % (first "
-        "section).",
+        "the Marine Systems Simulator; run and read as MSS `turncircle.m` does, the reference turning circle "
+        "agrees with the paper's within 0.1 % except the two advances (first section).",
         "Methods: the paper's SVM (scikit-learn, linear kernel, grid search and cross-validation) is "
         "`method=svm` (linear epsilon-SVR on scaled columns, time-blocked cross-validation); least squares "
         "(`method=ls`), not in the paper, is shown beside it.",
