@@ -1295,6 +1295,12 @@ class DiscoverOptions:
     output_error : str or bool
         Refine by simulation (output error) before validating: ``auto``
         (noisy records), true or false.
+    score : str
+        How refined causes are scored and judged: ``prediction_error`` (the
+        extended Kalman filter's innovation likelihood with process noise,
+        the held-out records' one-step-ahead likelihood deciding) or
+        ``output_error`` (BIC on the replay's residual, the held-out windows'
+        replay error deciding).
     splits : bool
         Also hold out every record of data.path + validate.path in turn.
     """
@@ -1306,12 +1312,15 @@ class DiscoverOptions:
     second_cause: bool = True
     posterior_steps: int = 40
     output_error: Any = "auto"
+    score: str = "prediction_error"
     splits: bool = False
 
     def __post_init__(self):
         value = self.output_error
         if not isinstance(value, bool) and str(value).lower() not in ("auto", "true", "false"):
             raise ConfigError(f"discover.output_error must be auto, true or false, got {value!r}")
+        if self.score not in ("prediction_error", "output_error"):
+            raise ConfigError(f"discover.score must be prediction_error or output_error, got {self.score!r}")
         share = _number("discover.holdout", self.holdout)
         if not 0.05 <= share <= 0.8:
             raise ConfigError(f"discover.holdout must be in [0.05, 0.8], got {share}")

@@ -186,15 +186,16 @@ def hidden_pairs() -> list[str]:
             if frozenset({a, b}) not in EXCLUSIVE]
 
 
-def _any_missing_term(vessel, model, values, rng, clean) -> dict:
-    """A term drawn from the extended library of ``model`` (any DOF, up to third
-    order), its prime value set so that it changes its DOF's hydrodynamic force
-    by 5-15 % (RMS over the clean record ``clean``), with either sign."""
+def _any_missing_term(vessel, model, values, rng, clean, dof: str | None = None) -> dict:
+    """A term drawn from the extended library of ``model`` (up to third order;
+    any DOF, or only ``dof``'s: ``"X"``, ``"Y"`` or ``"N"``), its prime value
+    set so that it changes its DOF's hydrodynamic force by 5-15 % (RMS over
+    the clean record ``clean``), with either sign."""
     from ..identify.regression import prime_states
     from .causes.missing_term import extended_library
 
     primes = prime_states(clean["u"], clean["v"], clean["r"], clean["delta"], vessel)
-    library = extended_library(model, 3)
+    library = [t for t in extended_library(model, 3) if dof is None or t.dof == dof]
     term = library[int(rng.integers(len(library)))]
     force = sum(values[t.name] * t.feature(primes) for t in model.terms_of(term.dof))
     feature = term.feature(primes)
@@ -220,8 +221,9 @@ def hidden_records(vessel, cause: str, seed: int = 0, noise: float = 0.0,
     ``cause`` may be a pair ``"a+b"`` (:func:`hidden_pairs`): both act, drawn
     in that order, and ``truth`` is ``{a: {...}, b: {...}}``. ``missing``
     chooses the hidden term of ``missing_term``: ``"Nrrr"`` (a cubic yaw
-    damping, the development case) or ``"any"`` (:func:`_any_missing_term`:
-    any term of the extended library, any DOF, 5-15 % of its DOF's force).
+    damping, the development case), ``"any"`` (:func:`_any_missing_term`:
+    any term of the extended library, any DOF, 5-15 % of its DOF's force) or
+    ``"X"``, ``"Y"``, ``"N"`` (the same, drawn from that DOF's terms).
     ``scenario`` (:class:`Scenario`, e.g. :func:`draw_scenario`) sets the
     manoeuvres, their length and sampling and the process noise instead
     (``manoeuvres`` must then be None); the process noise is drawn from
@@ -233,8 +235,8 @@ def hidden_records(vessel, cause: str, seed: int = 0, noise: float = 0.0,
             "none" in parts or parts[0] == parts[1] or frozenset(parts) in EXCLUSIVE)):
         raise ConfigError(f"hidden cause {cause!r}: one of {', '.join(HIDDEN_CAUSES)} or a pair "
                           "of two others that can act together")
-    if missing not in ("Nrrr", "any"):
-        raise ConfigError(f"hidden missing term {missing!r}: 'Nrrr' or 'any'")
+    if missing not in ("Nrrr", "any", "X", "Y", "N"):
+        raise ConfigError(f"hidden missing term {missing!r}: 'Nrrr', 'any' or a DOF ('X', 'Y', 'N')")
     if scenario is not None and manoeuvres is not None:
         raise ConfigError("hidden records: give the manoeuvres or a scenario, not both")
     rng = np.random.default_rng(seed)
@@ -254,9 +256,10 @@ def hidden_records(vessel, cause: str, seed: int = 0, noise: float = 0.0,
                                 zigzag(10, 10, duration=600.0)]
     truths = {}
     for part in parts:
-        if part == "missing_term" and missing == "any":
+        if part == "missing_term" and missing != "Nrrr":
             clean = simulate(model, values, vessel, manoeuvres[0])
-            truths[part] = _any_missing_term(vessel, model, values, rng, clean)
+            truths[part] = _any_missing_term(vessel, model, values, rng, clean,
+                                             None if missing == "any" else missing)
         else:
             truths[part] = _draw(part, rng)
     wind = current = (0.0, 0.0)

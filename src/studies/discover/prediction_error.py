@@ -38,11 +38,15 @@ from scipy.optimize import minimize
 from ..data.resample import block_means
 from ..identify.filter_error import PredictionError
 from ..simulate.simulator import ReplayPlan
-from .fitting import CauseFit, Context
+from .fitting import CauseFit, Context, training_error
 
-__all__ = ["FilterScores"]
+__all__ = ["FilterScores", "REPLAY_GUARD"]
 
 log = logging.getLogger(__name__)
+
+#: a filter-error refinement is refused when its windowed replay of the training
+#: records errs more than this many times its start's
+REPLAY_GUARD = 2.0
 
 
 def _measured(record) -> np.ndarray:
@@ -191,8 +195,16 @@ class FilterScores:
         and estimated again between ``rounds`` (``max_nfev`` evaluations in
         all), then scored (:meth:`score`). The coefficients change where the
         replay's drift had bent them."""
+        start = fit
         for _ in range(rounds):
             fit = self._refine_once(fit, max(2, max_nfev // rounds))
+        before, after = training_error(self.ctx, start), training_error(self.ctx, fit)
+        if not after <= REPLAY_GUARD * before:
+            # coloured sensor noise taken for process noise lets the filter follow a model
+            # that no longer predicts: keep the start
+            log.info("cause %-18s filter error refused: its replay of the training records errs %.4g m "
+                     "against %.4g m", fit.cause.id, after, before)
+            fit = start
         self.score([fit])
         return fit
 

@@ -204,7 +204,12 @@ def write_report(out_dir: Path, discovery: dict, explanation: str, sections: lis
     if d.get("fit"):
         how = ("replays of the training records (output error)" if d["fit"] == "output error"
                else "the regression residual (equation error)")
-        verdict.append(f"\nCauses fitted and ranked by BIC on {how}.")
+        if d.get("score") == "prediction error":
+            verdict.append(f"\nCauses fitted to {how}, then refined and ranked by the prediction-error "
+                           "likelihood (an extended Kalman filter with process noise; extended BIC), "
+                           "judged on the held-out records' one-step-ahead likelihood.")
+        else:
+            verdict.append(f"\nCauses fitted and ranked by BIC on {how}.")
     if d.get("second_cause"):
         verdict.append(f"\nA second cause still gains: **{d['second_cause']['cause']}** "
                        f"(validation {d['second_cause']['validation_rmse']:.4g}).")

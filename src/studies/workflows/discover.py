@@ -121,7 +121,7 @@ def split_discoveries(study: DiscoverStudy, ctx, opts, main: dict, main_training
             split.horizon = ctx.horizon
             result = search(split, float(opts.terms_threshold), int(opts.max_terms), second=False,
                             seed=int(study.cfg.seed), output_error=opts.output_error,
-                            intervals=False)
+                            intervals=False, score=str(opts.score))
             own = training_error(split, result["best"])
         best, base = result["best"], result["baseline"]
         b, e = base.validation_rmse, best.validation_rmse
@@ -197,7 +197,7 @@ def execute_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
     ctx = Context(study.vessel, study.model, study.train, study.validation, derivative)
     ctx.horizon = float(opts.horizon) if opts.horizon else None
     result = search(ctx, float(opts.terms_threshold), int(opts.max_terms), bool(opts.second_cause),
-                    int(opts.posterior_steps), int(study.cfg.seed), opts.output_error)
+                    int(opts.posterior_steps), int(study.cfg.seed), opts.output_error, score=str(opts.score))
     best, baseline = result["best"], result["baseline"]
     # whole-record predictions for the figures and the characteristics
     full_base, full_best = baseline.whole, best.whole
@@ -244,6 +244,7 @@ def execute_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
                    "validation_rmse": f.validation_rmse,
                    "parameters": f.cause.parameters(f.theta, f.params)} for f in result.get("pairs", [])],
         "fit": "output error" if result["output_error"] else "equation error",
+        "score": result["score"],
         "candidate_terms": [t.name for t in result["candidates"]],
         "selected_terms": [t.name for t in result["terms"]],
         "notes": study.notes + [note for note in [named_on_held_out(best, baseline),
