@@ -17,6 +17,7 @@ from .causes import (Combined, MissingTerm, NoCause, Setup, compact_parameters, 
                      manoeuvring_causes)
 from .fitting import (CauseFit, Context, calibrate, fit_cause, kinematic_smoothing, posterior, regression_fit,
                       rescore, validate)
+from .kinematics import coloured_velocity_noise
 from .prediction_error import FilterScores
 from .output_error import (_nested_theta, needs_refinement, noise_levels, output_error_scores, refine, refine_cause,
                            refined_posterior, restart_from, score_terms, training_windows)
@@ -617,6 +618,12 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
     - output error (:mod:`.output_error`): every cause is then refined by
       replaying the training records and scored by BIC on the replay's
       residual; missing terms come from score tests at the refined baseline.
+      With ``score="prediction_error"`` (the default) the refined causes are
+      then scored, the best refined again, by the extended Kalman filter's
+      innovation likelihood (:mod:`.prediction_error`), and the held-out
+      records' one-step-ahead likelihood judges them; not when the
+      velocities carry coloured noise (:func:`.kinematics.coloured_velocity_noise`),
+      which the filter would take for process noise (``result["notes"]`` says so).
 
     Every fit is replayed on the validation records, in windows and whole. A
     cause is chosen over ``none`` only when its score is lower by
@@ -629,7 +636,13 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
     output_error = needs_refinement(ctx, output_error, noise_levels(ctx, ctx.train))
     windows = training_windows(ctx, ctx.train) if output_error else None
     sigma = noise_levels(ctx, ctx.train, windows[0].step) if windows else None
-    scale, scorer = None, None
+    scale, scorer, notes = None, None, []
+    if output_error and score == "prediction_error" and coloured_velocity_noise(ctx.train):
+        # the filter would take the sensors' coloured noise for process noise and follow any model
+        score = "output_error"
+        notes.append("velocity noise correlated over seconds (coloured): causes scored by output error, "
+                     "not by the prediction-error likelihood, which would take that noise for process noise")
+        log.info("coloured velocity noise: scored by output error")
     if output_error and score == "prediction_error":
         scorer = FilterScores(ctx, windows[0].step, sigma)
         scoring = scorer.score
@@ -659,7 +672,7 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
     else:
         best = min(gaining, key=lambda f: f.score) if gaining else baseline
     out = {"baseline": baseline, "fits": fits, "best": best, "terms": terms, "candidates": candidates,
-           "second": None, "output_error": output_error,
+           "second": None, "output_error": output_error, "notes": notes,
            "score": "prediction error" if scorer is not None else
            ("output error" if output_error else "equation error")}
     if second and best is not baseline and scorer is not None:

@@ -247,7 +247,7 @@ def execute_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
         "score": result["score"],
         "candidate_terms": [t.name for t in result["candidates"]],
         "selected_terms": [t.name for t in result["terms"]],
-        "notes": study.notes + [note for note in [named_on_held_out(best, baseline),
+        "notes": study.notes + result.get("notes", []) + [note for note in [named_on_held_out(best, baseline),
                                                   second_on_held_out_note(result.get("second"), best)]
                                 + [not_named(f, baseline) for f in ranked if f is not best] if note],
     }
