@@ -317,19 +317,18 @@ SECOND_HELD_OUT_GAIN = 0.25
 
 
 def second_candidates(fits: list, baseline: CauseFit, best: CauseFit) -> list:
-    """The causes tried on top of ``best``, at most :data:`SECOND_CANDIDATES`:
-    first those that alone explain the training records clearly better than
-    the baseline (score lower by :data:`EVIDENCE`), best score first, then
-    the others, best score first. A second effect may show only beside the
-    first: the baseline's own asymmetric terms absorb a rudder offset on
-    the training manoeuvres, so the offset alone does not beat it. Never
-    ``best`` itself, a pair, or a cause with its own dynamics."""
+    """The causes tried on top of ``best``, best score first, at most
+    :data:`SECOND_CANDIDATES`: those that alone explain the training records
+    clearly better than the baseline come first, and the others too. A second
+    effect may show only beside the first: the baseline's own asymmetric
+    terms absorb a rudder offset on the training manoeuvres, so the offset
+    alone does not beat it. Never ``best`` itself, a pair, or a cause with
+    its own dynamics."""
     if isinstance(best.cause, Combined) or best.cause.replaces_dynamics:
         return []
-    others = sorted((f for f in fits if f is not baseline and f.cause.id != best.cause.id
-                     and not f.cause.replaces_dynamics), key=lambda f: f.score)
-    clear = [f for f in others if f.score < baseline.score - EVIDENCE]
-    return (clear + [f for f in others if f not in clear])[:SECOND_CANDIDATES]
+    others = [f for f in fits if f is not baseline and f.cause.id != best.cause.id
+              and not f.cause.replaces_dynamics]
+    return sorted(others, key=lambda f: f.score)[:SECOND_CANDIDATES]
 
 
 def second_held_out(pair: CauseFit, best: CauseFit) -> bool:
