@@ -514,6 +514,8 @@ def _hydra(task, config_name: str, command: str, args: list[str]) -> int:
     sweep = _start_sweep(checked, command, args, root)
     try:
         app()
+        if interrupt.received() is not None:    # the launcher's own raise was dropped by Python
+            raise interrupt.Interrupted(interrupt.received())    # (it landed in a weakref callback)
         status = _sweep_summary(state, checked)
         _end_sweep(sweep, state, "FAILED" if status else "FINISHED")
         return status

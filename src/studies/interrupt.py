@@ -14,7 +14,10 @@ weakref callback or a ``__del__`` method, and a signal can arrive just then.
 So the signal stays pending until the code that handles the interruption
 calls :func:`acknowledge`; a signal still pending at the next store write
 (:func:`critical`) or at the end of the job is raised there, and the run is
-marked KILLED as if the first raise had gone through.
+marked KILLED as if the first raise had gone through. The lost raise itself
+is not printed (:func:`_quiet_lost_interrupt`, the process's
+``sys.unraisablehook``): it is not an error, and its traceback on stderr
+would read as one.
 
 The process that launches a sweep (see :mod:`studies.runtime.jobstate`) reacts to its
 first signal by stopping new jobs, forwarding SIGTERM to the processes that
@@ -27,6 +30,7 @@ from __future__ import annotations
 
 import contextlib
 import signal
+import sys
 import threading
 
 __all__ = ["Interrupted", "install", "critical", "deferred", "checkpoint", "job", "set_stopper",
@@ -79,6 +83,16 @@ def _handle(signum, frame) -> None:
     raise Interrupted(signum)
 
 
+def _quiet_lost_interrupt(unraisable, _previous=sys.unraisablehook) -> None:
+    """``sys.unraisablehook``: an :class:`Interrupted` that Python dropped
+    because it was raised inside a weakref callback or ``__del__`` is not
+    printed (it stays pending and is raised again, see the module's
+    docstring); any other unraisable exception goes to the previous hook."""
+    if isinstance(unraisable.exc_value, Interrupted):
+        return
+    _previous(unraisable)
+
+
 def install() -> bool:
     """Install the handlers (main thread only); True when they are active."""
     if _state["installed"]:
@@ -87,6 +101,7 @@ def install() -> bool:
         return False
     for sig in SIGNALS:
         signal.signal(sig, _handle)
+    sys.unraisablehook = _quiet_lost_interrupt
     _state["installed"] = True
     return True
 
