@@ -18,7 +18,12 @@ hands them to :func:`build_report`. The page holds:
 - trajectory and velocity overlays of every method against the reference at
   the two extreme conditions (Figs 4.4-4.12), redrawn from the runs'
   ``validation_<manoeuvre>.csv`` artifacts;
-- which method wins where (Table 5.1 style), generated from the numbers.
+- which method wins where (Table 5.1 style), generated from the numbers;
+- the predictive bands of ``method=bayes`` runs: per run and validation
+  record the coverage of the 50/80/90/95 % bands, width, interval score and
+  CRPS, pooled per discrepancy setting into a calibration figure and a
+  sentence on whether the bands can be trusted on these records
+  (:mod:`studies.report.calibration`).
 
 ``index.md`` is the page; ``index.html`` is the same Markdown rendered
 (CommonMark with tables, raw HTML from the store shown as text), with every
@@ -39,6 +44,7 @@ from markdown_it import MarkdownIt
 
 from ..analysis.metrics import DIVERGED_PENALTY
 from ..plotting import pyplot
+from .calibration import LEVELS, band_rows, calibration_sentences, plot_calibration, pooled_calibration
 from .tables import (condition_label, condition_number_table, condition_order, deviation_table,
                      divergence_table, fitness_table, mae_display, mae_table, markdown_table, method_label,
                      speed_mae_cells, winners)
@@ -338,6 +344,10 @@ def build_report(name: str, runs, report_dir, condition: str | None = None) -> P
             sections.append(("Which method wins where",
                              markdown_table(shown, "condition") + "\n" + text + "\n"))
 
+        bands = _band_section(items, key, out)
+        if bands:
+            sections.append(("Predictive bands and their calibration", bands))
+
         conditions = sorted({i["condition"] for i in finished}, key=lambda c: (_as_float(c), str(c)))
         extremes = [conditions[0], conditions[-1]] if len(conditions) > 1 else conditions
         overlay_md = []
@@ -368,6 +378,30 @@ def build_report(name: str, runs, report_dir, condition: str | None = None) -> P
     (out / "index.md").write_text(md)
     _write_html(out / "index.html", name, md)
     return out / "index.md"
+
+
+def _band_section(items: list[dict], key: str | None, out: Path) -> str:
+    """Per-record coverage of the predictive bands, pooled calibration, figure and verdicts."""
+    rows = band_rows(items)
+    if rows.empty:
+        return ""
+    pooled = pooled_calibration(rows)
+    plot_calibration(rows, pooled, out / "calibration.png")
+    table = pd.DataFrame({
+        "run": rows["run"], "condition": [condition_label(key, c) for c in rows["condition"]],
+        "record": rows["record"], "discrepancy": np.where(rows["discrepancy"], "yes", "no"),
+        **{f"{lv} %": rows[f"coverage_{lv}"].round(2) for lv in LEVELS},
+        "90 % width": rows["width"].round(3), "width / manoeuvre": rows["width_over_extent"].round(3),
+        "covered until [s]": rows["covered_until_s"].round(0),
+        "interval score": rows["interval_score"].round(3), "CRPS": rows["crps"].round(3),
+        "outside training": rows["outside_training"].round(2),
+        "trusted": np.where(rows["trusted"], "yes", "no")}).set_index("run")
+    text = "\n".join(f"- {s}" for s in calibration_sentences(pooled))
+    return ("Share of each validation record inside its 50/80/90/95 % predictive band (a manoeuvre: "
+            "the joint band of x0 and y0, width in metres; a roll decay: phi(t), width in degrees). "
+            "One record's coverage is close to all or nothing, because the prediction's errors are "
+            "correlated over the record: calibration is read from many records.\n\n"
+            + markdown_table(table, "run") + "\n" + text + "\n\n![calibration](calibration.png)\n")
 
 
 def _run_rows(items: list[dict], key: str | None) -> pd.DataFrame:
