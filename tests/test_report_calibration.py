@@ -92,3 +92,19 @@ def test_runs_without_bands_have_no_calibration_section(tmp_path):
     run = _BandRun(1, 0, "mmg", False, {})
     page = build_report("nobands", [run], tmp_path)
     assert "Predictive bands" not in page.read_text()
+
+
+def test_roll_decay_bands_are_pooled_on_their_own_with_widths_in_degrees():
+    run = _BandRun(1, 0, "roll", True, {})
+    run.metrics = {"decay_2/band/coverage_50": 0.52, "decay_2/band/coverage_80": 0.73,
+                   "decay_2/band/coverage_90": 0.79, "decay_2/band/coverage_95": 0.81,
+                   "decay_2/band/discrepancy": 1.0, "decay_2/band/width_deg": 1.37,
+                   "decay_2/band/width_over_amplitude": 0.13, "decay_2/band/trusted": 0.0}
+    manoeuvre = _BandRun(2, 0, "mmg", True, {"zz_10": (0.5, 0.8, 0.9, 0.95)})
+    items = [{"run": r, "method": "bayes", "condition": "0", "metrics": r.metrics, "status": r.status}
+             for r in (run, manoeuvre)]
+    pooled = pooled_calibration(band_rows(items))
+    assert sorted(pooled["what"]) == ["roll angle phi(t)", "track (x0, y0), joint band"]
+    roll = next(s for s in calibration_sentences(pooled) if s.startswith("roll"))
+    assert "over 1 validation record the" in roll and "79 %" in roll and "1.37 deg" in roll
+    assert "overconfident" in roll

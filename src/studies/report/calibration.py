@@ -152,7 +152,8 @@ def calibration_sentences(pooled: pd.DataFrame) -> list[str]:
         if p["width_over_extent"] >= 1.0:
             verdict += "; but wider than the manoeuvre itself, so of no use for prediction"
         unit = "deg" if str(p["what"]).startswith("roll") else "m"
-        out.append(f"{p['what']}, {_setting(p['discrepancy'], p['model'])}: over {p['records']} validation records the "
+        records = f"{p['records']} validation record" + ("s" if p["records"] != 1 else "")
+        out.append(f"{p['what']}, {_setting(p['discrepancy'], p['model'])}: over {records} the "
                    f"90 % band holds the measurement {100 * c90:.0f} % of the time on average "
                    f"({p['records_within']} of {p['records']} records within "
                    f"{100 * CALIBRATED[0]:.0f}-{100 * CALIBRATED[1]:.0f} %, {p['trusted']} trusted by their "
