@@ -21,7 +21,7 @@ hands them to :func:`build_report`. The page holds:
 - which method wins where (Table 5.1 style), generated from the numbers;
 - the predictive bands of ``method=bayes`` runs: per run and validation
   record the coverage of the 50/80/90/95 % bands, width, interval score and
-  CRPS, pooled per discrepancy setting into a calibration figure and a
+  CRPS, pooled per model and discrepancy setting into a calibration figure and a
   sentence on whether the bands can be trusted on these records
   (:mod:`studies.report.calibration`).
 

@@ -8,8 +8,8 @@ share of the record that its 50/80/90/95 % predictive bands hold
 (:mod:`studies.analysis.bands`). One record's coverage is close to all or
 nothing, because a prediction's errors are correlated over the whole record;
 calibration is judged over many records. This module gathers those numbers
-from the store into one table, pools them per discrepancy setting (the
-model taken as exact, or with ``method.discrepancy``), draws coverage
+from the store into one table, pools them per model and discrepancy setting
+(the model taken as exact, or with ``method.discrepancy``), draws coverage
 against the nominal level and says in words what the pooled coverage means.
 """
 
@@ -20,27 +20,35 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..analysis.bands import LEVELS as NOMINAL
+from ..analysis.bands import TRUSTED_COVERAGE as CALIBRATED
 from ..plotting import pyplot
 
-__all__ = ["LEVELS", "band_rows", "pooled_calibration", "plot_calibration", "calibration_sentences"]
+__all__ = ["LEVELS", "KINDS", "band_rows", "pooled_calibration", "plot_calibration", "calibration_sentences"]
 
-#: nominal levels of the bands [%]
-LEVELS = (50, 80, 90, 95)
-#: a 90 % band is called calibrated on pooled records when it holds the track this share of the time
-CALIBRATED = (0.80, 0.97)
+#: nominal levels of the bands [%], as the metrics name them (``coverage_joint_90``, ...)
+LEVELS = tuple(int(round(100 * level)) for level in NOMINAL)
+
+#: the two kinds of band: the banded quantity, its unit and its metric names after ``<record>/band/``
+#: (:mod:`studies.analysis.bands` for a manoeuvre, :mod:`studies.roll.bands` for a roll decay)
+KINDS = (
+    {"what": "track (x0, y0), joint band", "unit": "m", "coverage": "coverage_joint_{}",
+     "width": "width_xy_m", "width_over_extent": "width_over_extent",
+     "interval_score": "interval_score_xy_m", "crps": "crps_xy_m"},
+    {"what": "roll angle phi(t)", "unit": "deg", "coverage": "coverage_{}",
+     "width": "width_deg", "width_over_extent": "width_over_amplitude",
+     "interval_score": "interval_score_deg", "crps": "crps_deg"},
+)
 
 
 def _records(metrics: dict) -> list[str]:
     return sorted({k.split("/band/")[0] for k in metrics if "/band/" in k})
 
 
-def _coverage_keys(metrics: dict, record: str) -> tuple[str, str] | None:
-    """The coverage key pattern of a record and the kind of band it measures."""
-    if f"{record}/band/coverage_joint_90" in metrics:
-        return f"{record}/band/coverage_joint_{{}}", "track (x0, y0), joint band"
-    if f"{record}/band/coverage_90" in metrics:
-        return f"{record}/band/coverage_{{}}", "roll angle phi(t)"
-    return None
+def _kind(metrics: dict, record: str) -> dict | None:
+    """The kind of band (:data:`KINDS`) a record's metrics describe; None without bands."""
+    return next((kind for kind in KINDS
+                 if f"{record}/band/" + kind["coverage"].format(90) in metrics), None)
 
 
 def band_rows(items: list[dict]) -> pd.DataFrame:
@@ -48,10 +56,11 @@ def band_rows(items: list[dict]) -> pd.DataFrame:
 
     ``items`` are the report's run summaries (``run``, ``method``,
     ``condition``, ``metrics``, ``status``). Columns: run, condition,
-    method, record, what (the banded quantity), discrepancy (bool),
-    coverage_<level> for :data:`LEVELS` (shares 0-1), width (mean 90 % width:
-    metres of ``x0``/``y0``, degrees of roll), width_over_extent,
-    covered_until_s, interval_score, crps, outside_training, trusted.
+    method, model, record, what (the banded quantity), unit (of the widths
+    and scores: ``m`` of ``x0``/``y0``, ``deg`` of roll), discrepancy (bool),
+    coverage_<level> for :data:`LEVELS` (shares 0-1), width (mean 90 %
+    width), width_over_extent, covered_until_s, interval_score, crps,
+    outside_training, trusted.
     """
     rows = []
     for item in items:
@@ -59,24 +68,21 @@ def band_rows(items: list[dict]) -> pd.DataFrame:
             continue
         m = item["metrics"]
         for record in _records(m):
-            found = _coverage_keys(m, record)
-            if found is None:
+            kind = _kind(m, record)
+            if kind is None:
                 continue
-            pattern, what = found
-            roll = what.startswith("roll")
 
             def get(name, record=record):
                 return float(m.get(f"{record}/band/{name}", np.nan))
             row = {"run": item["run"].name, "condition": item["condition"], "method": item["method"],
-                   "model": str(item["run"].params.get("model.name", "")), "record": record, "what": what, "discrepancy": bool(get("discrepancy") == 1.0)}
+                   "model": str(item["run"].params.get("model.name", "")), "record": record,
+                   "what": kind["what"], "unit": kind["unit"], "discrepancy": get("discrepancy") == 1.0}
             for level in LEVELS:
-                row[f"coverage_{level}"] = float(m.get(pattern.format(level), np.nan))
-            row.update({"width": get("width_deg") if roll else get("width_xy_m"),
-                        "width_over_extent": get("width_over_amplitude") if roll else get("width_over_extent"),
-                        "covered_until_s": get("covered_until_s"),
-                        "interval_score": get("interval_score_deg") if roll else get("interval_score_xy_m"),
-                        "crps": get("crps_deg") if roll else get("crps_xy_m"),
-                        "outside_training": get("outside_training"), "trusted": get("trusted") == 1.0})
+                row[f"coverage_{level}"] = get(kind["coverage"].format(level))
+            for column in ("width", "width_over_extent", "interval_score", "crps"):
+                row[column] = get(kind[column])
+            row.update({"covered_until_s": get("covered_until_s"), "outside_training": get("outside_training"),
+                        "trusted": get("trusted") == 1.0})
             rows.append(row)
     return pd.DataFrame(rows)
 
@@ -87,7 +93,8 @@ def pooled_calibration(rows: pd.DataFrame) -> pd.DataFrame:
     have a 90 % coverage within :data:`CALIBRATED`, and the mean 90 % width."""
     out = []
     for (what, model, disc), group in rows.groupby(["what", "model", "discrepancy"], sort=True):
-        row = {"what": what, "model": model, "discrepancy": disc, "records": len(group)}
+        row = {"what": what, "unit": group["unit"].iloc[0], "model": model, "discrepancy": disc,
+               "records": len(group)}
         for level in LEVELS:
             row[f"coverage_{level}"] = float(group[f"coverage_{level}"].mean())
         c90 = group["coverage_90"]
@@ -151,12 +158,11 @@ def calibration_sentences(pooled: pd.DataFrame) -> list[str]:
             verdict = "calibrated at the 90 % level on these records"
         if p["width_over_extent"] >= 1.0:
             verdict += "; but wider than the manoeuvre itself, so of no use for prediction"
-        unit = "deg" if str(p["what"]).startswith("roll") else "m"
         records = f"{p['records']} validation record" + ("s" if p["records"] != 1 else "")
         out.append(f"{p['what']}, {_setting(p['discrepancy'], p['model'])}: over {records} the "
                    f"90 % band holds the measurement {100 * c90:.0f} % of the time on average "
                    f"({p['records_within']} of {p['records']} records within "
                    f"{100 * CALIBRATED[0]:.0f}-{100 * CALIBRATED[1]:.0f} %, {p['trusted']} trusted by their "
-                   f"own verdict), mean width {p['width']:.3g} {unit} ({100 * p['width_over_extent']:.0f} % of "
+                   f"own verdict), mean width {p['width']:.3g} {p['unit']} ({100 * p['width_over_extent']:.0f} % of "
                    f"the manoeuvre): {verdict}.")
     return out
