@@ -29,6 +29,7 @@ A second signal to the launcher stops the waiting at once.
 from __future__ import annotations
 
 import contextlib
+import functools
 import signal
 import sys
 import threading
@@ -83,14 +84,15 @@ def _handle(signum, frame) -> None:
     raise Interrupted(signum)
 
 
-def _quiet_lost_interrupt(unraisable, _previous=sys.unraisablehook) -> None:
+def _quiet_lost_interrupt(unraisable, previous) -> None:
     """``sys.unraisablehook``: an :class:`Interrupted` that Python dropped
     because it was raised inside a weakref callback or ``__del__`` is not
     printed (it stays pending and is raised again, see the module's
-    docstring); any other unraisable exception goes to the previous hook."""
+    docstring); any other unraisable exception goes to ``previous``, the
+    hook that was in place when the handlers were installed."""
     if isinstance(unraisable.exc_value, Interrupted):
         return
-    _previous(unraisable)
+    previous(unraisable)
 
 
 def install() -> bool:
@@ -101,7 +103,7 @@ def install() -> bool:
         return False
     for sig in SIGNALS:
         signal.signal(sig, _handle)
-    sys.unraisablehook = _quiet_lost_interrupt
+    sys.unraisablehook = functools.partial(_quiet_lost_interrupt, previous=sys.unraisablehook)
     _state["installed"] = True
     return True
 
