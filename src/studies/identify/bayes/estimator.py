@@ -265,7 +265,7 @@ class BayesianRegression:
                                        max_evaluations=self.discrepancy_evaluations,
                                        modules=getattr(objective, "modules", None))
         logger.info("bayes: model discrepancy (%s) sigma = %.3g m/s^2, %.3g m/s^2, %.3g rad/s^2, "
-                    "tau = %.1f s", found.kind, *found.sigma, found.tau)
+                    "tau = %.1f s, %.1f s, %.1f s", found.kind, *found.sigma, *found.taus)
         out = Identification()
         out.samples["discrepancy"] = found.as_sample()
         out.metrics.update(found.metrics(objective.vessel))
