@@ -1,15 +1,15 @@
 """Velocities checked against the record's own track: coloured noise is told
-from white noise, on an analytic turn, on the noise families and on the MARIN
-KVLCC2 records."""
+from white noise, and velocities derived from the track from measured ones,
+on an analytic turn, on the noise families and on the MARIN KVLCC2 records."""
 
 import numpy as np
 import pandas as pd
 import pytest
-from scipy.signal import lfilter
+from scipy.signal import lfilter, savgol_filter
 
 from conftest import marin_file
-from studies.discover.kinematics import (coloured_velocity_noise, integration_mismatch,
-                                         kinematic_noise_levels)
+from studies.discover.kinematics import (coloured_velocity_noise, derived_share, derived_velocities,
+                                         integration_mismatch, kinematic_noise_levels)
 
 
 def _steady_turn(n: int = 6001, dt: float = 0.1) -> pd.DataFrame:
@@ -79,3 +79,67 @@ def test_the_marin_records_are_not_called_coloured():
     records = load_measured([marin_file(m) for m in ("zz_10", "zz_20", "tc_35")])
     for i in range(3):
         assert not coloured_velocity_noise([r for j, r in enumerate(records) if j != i])
+
+
+def _derived(record: pd.DataFrame, scheme: str, seed: int) -> pd.DataFrame:
+    """White noise on the track and heading (0.1 m, 0.2 deg) and ``u, v, r``
+    derived from them by ``scheme``: ``backward`` differences, ``central``
+    differences smoothed by a 3 s moving average, or the derivative of a
+    1.5 s quadratic Savitzky-Golay fit; rotated into body axes with the noisy heading."""
+    rng = np.random.default_rng(seed)
+    out = record.copy()
+    dt = float(record["t"].iloc[1] - record["t"].iloc[0])
+    for col, s in (("x0", 0.1), ("y0", 0.1), ("psi", np.deg2rad(0.2))):
+        out[col] = record[col] + s * rng.standard_normal(len(record))
+
+    def rate(x):
+        if scheme == "backward":
+            return np.diff(x, prepend=2.0 * x[0] - x[1]) / dt
+        if scheme == "central":
+            d = np.gradient(x, dt)
+            n = int(round(3.0 / dt)) | 1
+            return np.convolve(d, np.ones(n) / n, mode="same")
+        return savgol_filter(x, int(round(1.5 / dt)) | 1, 2, deriv=1, delta=dt, mode="interp")
+
+    north, east, r = (rate(out[c].to_numpy(float)) for c in ("x0", "y0", "psi"))
+    psi = out["psi"].to_numpy(float)
+    out["u"] = north * np.cos(psi) + east * np.sin(psi)
+    out["v"] = -north * np.sin(psi) + east * np.cos(psi)
+    out["r"] = r
+    return out
+
+
+@pytest.mark.parametrize("scheme", ["backward", "central", "savgol"])
+def test_velocities_derived_from_the_track_are_told_from_measured_ones(scheme):
+    """Three ways of deriving velocities from a noisy track (none the
+    ``gnss`` family's): called derived, most of each velocity's noise
+    explained by the track's; measured velocities with noise of their own
+    (white or coloured) are not, and nothing is explained beyond chance."""
+    turn = _steady_turn(n=4001)
+    derived = _derived(turn, scheme, 11)
+    assert derived_velocities([derived])
+    assert np.nanmedian(derived_share(derived)) > 0.8, derived_share(derived)
+    for coloured in (False, True):
+        measured = _noisy(turn, coloured, 11)
+        assert not derived_velocities([measured])
+        assert np.all(derived_share(measured) < 0.1), derived_share(measured)
+
+
+def test_a_record_without_noise_is_not_called_derived():
+    assert not derived_velocities([_steady_turn()])
+
+
+@pytest.mark.parametrize("family", ["white_all", "gnss", "li2023", "quantised_rudder", "ar1"])
+def test_noise_families_derived(vessel, family):
+    from studies.discover.hidden import hidden_records
+
+    records, _ = hidden_records(vessel, "none", seed=7, noise=0.03, noise_family=family)
+    assert derived_velocities(records[:2]) is (family == "gnss")
+
+
+def test_the_marin_records_velocities_are_not_called_derived():
+    from studies.workflows.measured import load_measured
+
+    records = load_measured([marin_file(m) for m in ("zz_10", "zz_20", "tc_35")])
+    assert not derived_velocities(records)
+    assert all(np.nanmax(derived_share(r)) < 0.5 for r in records)

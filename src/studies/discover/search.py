@@ -17,7 +17,7 @@ from .causes import (Combined, MissingTerm, NoCause, Setup, compact_parameters, 
                      manoeuvring_causes)
 from .fitting import (CauseFit, Context, calibrate, fit_cause, kinematic_smoothing, posterior, regression_fit,
                       rescore, validate)
-from .kinematics import coloured_velocity_noise
+from .kinematics import coloured_velocity_noise, derived_velocities
 from .prediction_error import FilterScores
 from .output_error import (_nested_theta, needs_refinement, noise_levels, output_error_scores, refine, refine_cause,
                            refined_posterior, restart_from, score_terms, training_windows)
@@ -622,7 +622,9 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
       innovation likelihood (:mod:`.prediction_error`), and the held-out
       records' one-step-ahead likelihood judges them; not when the
       velocities carry coloured noise (:func:`.kinematics.coloured_velocity_noise`),
-      which the filter would take for process noise (``result["notes"]`` says so).
+      which the filter would take for process noise, or are derived from the
+      track (:func:`.kinematics.derived_velocities`), which the filter would
+      take for independent sensors (``result["notes"]`` says so).
 
     Every fit is replayed on the validation records, in windows and whole. A
     cause is chosen over ``none`` only when its score is lower by
@@ -642,6 +644,14 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
         notes.append("velocity noise correlated over seconds (coloured): causes scored by output error, "
                      "not by the prediction-error likelihood, which would take that noise for process noise")
         log.info("coloured velocity noise: scored by output error")
+    elif output_error and score == "prediction_error" and derived_velocities(ctx.train):
+        # the filter takes the velocity channels for independent sensors: derived ones repeat the
+        # track's noise, filtered, and their innovations weigh it twice
+        score = "output_error"
+        notes.append("velocities derived from the track (their noise is a filtered copy of the position and "
+                     "heading noise): causes scored by output error, not by the prediction-error likelihood, "
+                     "which takes them for independent sensors")
+        log.info("velocities derived from the track: scored by output error")
     if output_error and score == "prediction_error":
         scorer = FilterScores(ctx, windows[0].step, sigma)
         scoring = scorer.score
