@@ -56,9 +56,14 @@ COLOURED_RATIO = 3.0
 COLOURED_SHARE = 0.002
 
 
+def _noise(x: np.ndarray, n: int) -> np.ndarray:
+    """``x`` minus its cubic Savitzky-Golay smoothing over ``n`` samples (``4 < n < len(x)``)."""
+    return x - savgol_filter(x, n, 3, mode="interp")
+
+
 def _white(x: np.ndarray, n: int) -> float:
-    """Standard deviation of ``x`` minus its cubic Savitzky-Golay smoothing over ``n`` samples."""
-    return float(np.std(x - savgol_filter(x, n, 3, mode="interp"))) if 4 < n < len(x) else 0.0
+    """Standard deviation of :func:`_noise` (0 when ``n`` does not fit the record)."""
+    return float(np.std(_noise(x, n))) if 4 < n < len(x) else 0.0
 
 
 def _earth_rates(record) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -144,9 +149,8 @@ def derived_share(record, lag: float = DERIVED_LAG) -> np.ndarray:
     positions = (record["x0"].to_numpy(float), record["y0"].to_numpy(float),
                  np.unwrap(record["psi"].to_numpy(float)))
     for j, (position, rate) in enumerate(zip(positions, (north, east, r))):
-        ep = position - savgol_filter(position, n, 3, mode="interp")
-        ev = rate - savgol_filter(rate, n, 3, mode="interp")
-        y = ev[rows]
+        ep = _noise(position, n)
+        y = _noise(rate, n)[rows]
         if not np.std(y) > NOISE_FLOOR * max(float(np.std(rate)), 1e-300):
             continue  # no noise to explain: numerical residue of the smoothing
         lagged = np.column_stack([ep[rows + i] for i in range(-k, k + 1)])
