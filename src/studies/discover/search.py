@@ -602,6 +602,23 @@ def _candidate_fits(ctx: Context, threshold: float, max_terms: int, refined: boo
     return fits, terms, candidates
 
 
+def _velocities_misread(records) -> str | None:
+    """Why the prediction-error likelihood would misread the records'
+    velocities, as the note that says so (None when it would not): coloured
+    noise (:func:`.kinematics.coloured_velocity_noise`), which the filter
+    takes for process noise and follows with any model; or velocities derived
+    from the track (:func:`.kinematics.derived_velocities`), which it takes
+    for independent sensors, weighing the track's noise twice."""
+    if coloured_velocity_noise(records):
+        return ("velocity noise correlated over seconds (coloured): causes scored by output error, "
+                "not by the prediction-error likelihood, which would take that noise for process noise")
+    if derived_velocities(records):
+        return ("velocities derived from the track (their noise is a filtered copy of the position and "
+                "heading noise): causes scored by output error, not by the prediction-error likelihood, "
+                "which takes them for independent sensors")
+    return None
+
+
 def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: bool = True,
            posterior_steps: int = 40, seed: int = 0, output_error="auto", intervals: bool = True,
            score: str = "prediction_error") -> dict:
@@ -638,20 +655,11 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
     windows = training_windows(ctx, ctx.train) if output_error else None
     sigma = noise_levels(ctx, ctx.train, windows[0].step) if windows else None
     scale, scorer, notes = None, None, []
-    if output_error and score == "prediction_error" and coloured_velocity_noise(ctx.train):
-        # the filter would take the sensors' coloured noise for process noise and follow any model
+    misread = _velocities_misread(ctx.train) if output_error and score == "prediction_error" else None
+    if misread is not None:
         score = "output_error"
-        notes.append("velocity noise correlated over seconds (coloured): causes scored by output error, "
-                     "not by the prediction-error likelihood, which would take that noise for process noise")
-        log.info("coloured velocity noise: scored by output error")
-    elif output_error and score == "prediction_error" and derived_velocities(ctx.train):
-        # the filter takes the velocity channels for independent sensors: derived ones repeat the
-        # track's noise, filtered, and their innovations weigh it twice
-        score = "output_error"
-        notes.append("velocities derived from the track (their noise is a filtered copy of the position and "
-                     "heading noise): causes scored by output error, not by the prediction-error likelihood, "
-                     "which takes them for independent sensors")
-        log.info("velocities derived from the track: scored by output error")
+        notes.append(misread)
+        log.info("%s", misread)
     if output_error and score == "prediction_error":
         scorer = FilterScores(ctx, windows[0].step, sigma)
         scoring = scorer.score
