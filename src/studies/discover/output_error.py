@@ -225,8 +225,8 @@ class _Problem:
         self.beta_scale = np.maximum(np.abs(self.beta0), 1e-6)
         self.theta0 = np.asarray(fit.theta, float)
         low, high = self.cause.bounds(ctx) if len(self.theta0) else (np.zeros(0), np.zeros(0))
-        span = np.where(np.isfinite(high - low), high - low, 0.0)
-        self.theta_scale = np.maximum(np.abs(self.theta0), np.maximum(1e-3 * span, 1e-9))
+        self.theta_scale = np.maximum(np.abs(self.theta0), self.cause.scales(ctx)) if len(self.theta0) \
+            else np.zeros(0)
         self.low, self.high = low, high
         self.state_scale = np.asarray(sigma, float)
         self.nb, self.nt, self.nw = len(self.beta0), len(self.theta0), len(windows)
@@ -365,19 +365,26 @@ def _inherited_start(ctx: Context, fit: CauseFit, parent: CauseFit, windows: lis
 
 def refine_cause(ctx: Context, fit: CauseFit, parent: CauseFit, windows: list[Window],
                  sigma: np.ndarray, own: bool = True) -> CauseFit:
-    """The cause of the equation-error ``fit`` refined by output error from two
-    starts, the better kept: its own equation-error solution (coefficients and
-    parameters together: when the effect is large, the baseline's
-    coefficients are bent by it and only the cause's own go with its
-    parameters), and the refined ``parent``'s coefficients (the baseline's)
+    """The cause of the equation-error ``fit`` refined by output error from
+    several starts, the best kept: its own equation-error solution
+    (coefficients and parameters together: when the effect is large, the
+    baseline's coefficients are bent by it and only the cause's own go with
+    its parameters); the refined ``parent``'s coefficients (the baseline's)
     with the best of a few values of the cause's parameters
     (:func:`_inherited_start`; no effect among them, so the refined cause
-    does not end worse than the parent). A cost after one replay does not
-    tell which start ends lower (the windows' initial states fitted to one
-    set of coefficients do not suit the other), so both are refined
-    (``own=False``: the second only)."""
+    does not end worse than the parent); and the parent's coefficients with
+    each of the cause's small effects
+    (:meth:`~studies.discover.causes.base.Cause.nudges`). A cost after one
+    replay does not tell which start ends lower (the windows' initial states
+    fitted to one set of coefficients do not suit the other), so each is
+    refined (``own=False``: all but the first)."""
     inherited = refine(ctx, _inherited_start(ctx, fit, parent, windows, sigma), windows, sigma,
                        states=parent.refined["states"])
+    params = {**fit.params, **{k: v for k, v in parent.params.items() if k in fit.params}}
+    for theta in (fit.cause.nudges(ctx) if len(fit.theta) else []):
+        nudged = refine(ctx, replace(fit, params=params, theta=np.asarray(theta, float)), windows, sigma,
+                        states=parent.refined["states"])
+        inherited = nudged if nudged.refined["cost"] < inherited.refined["cost"] else inherited
     if not own:
         return inherited
     own = refine(ctx, fit, windows, sigma)

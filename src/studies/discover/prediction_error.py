@@ -220,8 +220,7 @@ class FilterScores:
         theta0 = np.asarray(fit.theta, float)
         nb, nt = len(beta0), len(theta0)
         low, high = cause.bounds(self.ctx) if nt else (np.zeros(0), np.zeros(0))
-        span = np.where(np.isfinite(high - low), high - low, 0.0)
-        theta_scale = np.maximum(np.abs(theta0), np.maximum(1e-3 * span, 1e-9))
+        theta_scale = np.maximum(np.abs(theta0), cause.scales(self.ctx)) if nt else np.zeros(0)
         _, a = self._likelihood(fit).fit(beta0)
         cache = {}
 

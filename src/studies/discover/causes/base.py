@@ -194,6 +194,30 @@ class Cause:
         """Lower and upper bounds of :attr:`nl_params` (arrays; unbounded by default)."""
         return (np.full(len(self.nl_params), -np.inf), np.full(len(self.nl_params), np.inf))
 
+    #: the size of a small effect of an unbounded parameter, by name (units of the parameter)
+    typical: dict = {}
+
+    def nudges(self, ctx) -> list[np.ndarray]:
+        """Small effects of either sign from which the output-error refinement
+        also starts, beside no effect (none by default). For a cause the
+        baseline's coefficients can partly absorb, the refinement started at
+        no effect from them may stay in their valley; started a little away,
+        it leaves it. Which start ends lower is told only after refining."""
+        return []
+
+    def scales(self, ctx) -> np.ndarray:
+        """The unit in which the output-error and filter-error refinements move
+        each of :attr:`nl_params` when its start is near no effect (and the
+        step of their finite differences, a ten-thousandth of it): a thousandth
+        of its bounded range, or :attr:`typical` for an unbounded parameter.
+        Without it a parameter started at zero would move in steps of 1e-9
+        and its finite-difference derivative would be rounding noise: the fit
+        would stay at no effect."""
+        low, high = self.bounds(ctx)
+        span = np.where(np.isfinite(high - low), high - low, 0.0)
+        typical = np.array([float(self.typical.get(n, 0.0)) for n in self.nl_params])
+        return np.maximum(np.maximum(1e-3 * span, typical), 1e-9)
+
     def transform(self, record: pd.DataFrame, theta) -> pd.DataFrame:
         """The training record as the hydrodynamics saw it (the record itself by default)."""
         return record

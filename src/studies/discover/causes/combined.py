@@ -47,6 +47,9 @@ class Combined(Cause):
         (l1, h1), (l2, h2) = self.first.bounds(ctx), self.second.bounds(ctx)
         return np.concatenate([l1, l2])[: len(self.nl_params)], np.concatenate([h1, h2])[: len(self.nl_params)]
 
+    def scales(self, ctx):
+        return np.concatenate([self.first.scales(ctx), self.second.scales(ctx)])[: len(self.nl_params)]
+
     def transform(self, record, theta):
         a, b = self._split(theta)
         return self.second.transform(self.first.transform(record, a), b)

@@ -30,6 +30,8 @@ class EnvironmentalBias(Cause):
     id = "environmental_bias"
     params = ("bx", "by", "bn")
     no_effect = {"bx": 0.0, "by": 0.0, "bn": 0.0}
+    #: a small bias: a prime force about that of a fifth of a degree of the Mariner's rudder
+    typical = {"bx": 1e-5, "by": 1e-5, "bn": 5e-6}
     explanation = ("A slowly varying earth-fixed force and moment (waves' drift, wind or current loads "
                    "lumped together; Wang et al. 2021 eq. 12) pushes the ship the same way whatever its "
                    "heading, so its body-fixed effect turns with the heading.")
