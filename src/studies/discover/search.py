@@ -218,16 +218,25 @@ def _pair_start(best: CauseFit, other: CauseFit):
 def _pair(ctx: Context, best: CauseFit, other: CauseFit, windows, sigma) -> CauseFit:
     """``best`` and ``other`` at once, from :func:`_pair_start`: refined by output
     error when ``windows`` are given (from ``best``'s window states), else
-    fitted by regression from that start."""
+    fitted by regression from that start. Refined also from ``best``'s
+    solution with ``other``'s own parameters (and its added coefficients),
+    the lower cost kept: from no effect the second effect may stay at none."""
     cause, theta, params = _pair_start(best, other)
+    first, second = _pair_order(best, other)
     if windows is None:
         # by regression the coefficients are re-solved: the two causes' own solutions are a second start
-        first, second = _pair_order(best, other)
         return fit_cause(ctx, Combined(first.cause, second.cause,
                                        starts=[theta, np.concatenate([first.theta, second.theta])]))
     combo = fit_cause(ctx, cause)
-    combo = replace(combo, theta=theta, params={**combo.params, **params}, setup=cause.setup(ctx, theta))
-    return refine(ctx, combo, windows, sigma, states=best.refined["states"])
+    start = replace(combo, theta=theta, params={**combo.params, **params}, setup=cause.setup(ctx, theta))
+    out = refine(ctx, start, windows, sigma, states=best.refined["states"])
+    if not len(other.theta) and all(other.params.get(n, 0.0) == 0.0 for n in params if n not in best.params):
+        return out
+    theta = np.concatenate([f.theta for f in (first, second)])
+    own = {n: other.params.get(n, 0.0) for n in other.cause.params if n not in best.params}
+    started = replace(start, theta=theta, params={**start.params, **own}, setup=cause.setup(ctx, theta))
+    again = refine(ctx, started, windows, sigma, states=best.refined["states"])
+    return again if again.refined["cost"] < out.refined["cost"] else out
 
 
 def _filter_pair(ctx: Context, scorer: FilterScores, best: CauseFit, other: CauseFit) -> CauseFit:
@@ -235,7 +244,10 @@ def _filter_pair(ctx: Context, scorer: FilterScores, best: CauseFit, other: Caus
     (:meth:`.prediction_error.FilterScores.refine`) from ``best``'s solution
     with ``other``'s parameters at the start that the filter finds likeliest
     among no effect, ``other``'s own solution and its starting grid (a
-    current or a wind at no effect has no direction to move along)."""
+    current or a wind at no effect has no direction to move along), and from
+    ``other``'s own solution too, the better refined kept: the likeliest
+    start is nearly always no effect (the first cause's coefficients and
+    states suit it), and refined from there the second effect may stay at none."""
     first, second = _pair_order(best, other)
     cause = Combined(first.cause, second.cause)
     bare = replace(ctx, train=[])
@@ -245,17 +257,20 @@ def _filter_pair(ctx: Context, scorer: FilterScores, best: CauseFit, other: Caus
     added = [name for name in other.cause.params if name not in best.params and name in other.params]
     values = [{name: 0.0 for name in added}, {name: other.params[name] for name in added}] if added else [{}]
     scale = (best.refined or {}).get("filter", {}).get("log_q_scale", 0.0)
-    trials = []
-    for own in options:
+    trials, own = [], None
+    for i, theta_other in enumerate(options):
         for extra in values:
-            theta = np.concatenate([best.theta, own] if first is best else [own, best.theta])
+            theta = np.concatenate([best.theta, theta_other] if first is best else [theta_other, best.theta])
             params = {**{n: 0.0 for n in other.cause.params if n not in best.params}, **best.params, **extra}
             fit = CauseFit(cause, theta, params, np.zeros(3), setup=cause.setup(bare, theta),
                            refined=dict(best.refined or {}))
             ll = scorer.initial_loglik(fit, scale)
             trials.append((ll if np.isfinite(ll) else -np.inf, len(trials), fit))
+            if i == (1 if len(other.theta) else 0) and extra is values[-1]:
+                own = fit
     _, _, start = max(trials, key=lambda x: (x[0], -x[1]))
-    out = scorer.refine(start, max_nfev=FILTER_EVALUATIONS)
+    starts = [start] if own is None or own is start or not (len(other.theta) or added) else [start, own]
+    out = min((scorer.refine(f, max_nfev=FILTER_EVALUATIONS) for f in starts), key=lambda f: f.score)
     out.setup = cause.setup(ctx, out.theta)
     return out
 
