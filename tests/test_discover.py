@@ -338,6 +338,36 @@ def test_a_near_miss_is_explained_and_a_winner_is_not():
     assert not_named(base, base) is None
 
 
+def test_strong_training_evidence_names_a_cause_the_held_out_records_do_not_show():
+    """A cause whose training score is lower by 50 (five times the evidence of 10)
+    is named although it predicts the held-out windows no better: the held-out
+    manoeuvre may barely excite it. Not when a held-out replay diverges, when
+    the training records cannot decide for it, or with less evidence; the
+    note says it was named on the training records alone."""
+    from studies.discover.causes import NoCause, RudderOffset
+    from studies.discover.fitting import CauseFit
+    from studies.discover.search import _gains, named_on_training, training_decides
+
+    def fit(cause, score, windowed, diverged=()):
+        f = CauseFit(cause, np.array([0.007]) if cause.params else np.zeros(0), {}, np.ones(3), score)
+        f.validation, f.whole = {"position_rmse": windowed}, {"diverged": list(diverged)}
+        return f
+
+    base = fit(NoCause(), 0.0, 100.0)
+    strong = fit(RudderOffset(), -60.0, 104.0)
+    assert training_decides(strong, base) and not _gains(strong, base)
+    note = named_on_training(strong, base)
+    assert note.startswith("rudder_offset is named on the training records' evidence (score lower by 60.0"), note
+    assert "it predicts them no better (104 against the baseline's 100 m)" in note, note
+    assert not training_decides(fit(RudderOffset(), -45.0, 104.0), base)              # short of 50
+    assert not training_decides(fit(RudderOffset(), -60.0, 104.0, ["zz_20"]), base)  # loses the ship
+    undecided = fit(RudderOffset(), -60.0, 104.0)
+    undecided.undecidable = ("a turn to one side", "a turning circle to the other side")
+    assert not training_decides(undecided, base)
+    assert named_on_training(fit(RudderOffset(), -60.0, 90.0), base) is None          # held-out records agree
+    assert named_on_training(base, base) is None
+
+
 @pytest.mark.slow
 def test_another_simulator_is_judged_against_the_held_out_record(tmp_path, vessel, hidden_none_11):
     """simulation.path with manoeuvring records: another simulator's run of the held-out

@@ -499,6 +499,45 @@ def _gains(fit: CauseFit, reference: CauseFit) -> bool:
             and not breaks_down(fit, reference))
 
 
+#: training evidence (lower score, 2 ln of the likelihood ratio) on which a cause is named
+#: although the held-out records do not show it: five times :data:`EVIDENCE`
+STRONG_EVIDENCE = 5.0 * EVIDENCE
+
+
+def training_decides(fit: CauseFit, reference: CauseFit) -> bool:
+    """The training records alone name ``fit`` over ``reference``: score lower
+    by :data:`STRONG_EVIDENCE`, decidable on them, no validation record's
+    whole replay diverging where the reference's does not (:func:`breaks_down`),
+    and not a cause that replaces the dynamics (judged on held-out records,
+    see :func:`_gains`). The held-out manoeuvre may barely excite a real effect
+    (a side force on a zig-zag, a current on a short record), or excite it
+    where the refined baseline's other coefficients have absorbed it: then it
+    predicts them no better, and without this an effect the training records
+    show beyond doubt would be refused. Used for the first cause only; a
+    second cause still needs :func:`_gains` or :func:`second_held_out`."""
+    return (not fit.undecidable and not fit.cause.replaces_dynamics
+            and fit.score < reference.score - STRONG_EVIDENCE and not breaks_down(fit, reference))
+
+
+def named_on_training(fit: CauseFit, reference: CauseFit) -> str | None:
+    """The note that says a cause was named on the training records' evidence
+    alone (:func:`training_decides`, not :func:`_gains`), and why the held-out
+    records do not confirm it; None otherwise."""
+    if fit is reference or _gains(fit, reference) or not training_decides(fit, reference):
+        return None
+    b, v = reference.validation_rmse, fit.validation_rmse
+    held = _held_out_likelihoods(fit, reference)
+    if held is not None and v < b:
+        why = (f"their prediction-error likelihood does not favour it (2 ln of its ratio "
+               f"{2.0 * (held[0] - held[1]):.1f}), although its replay of them is closer "
+               f"({v:.4g} against the baseline's {b:.4g} m)")
+    else:
+        why = f"it predicts them no better ({v:.4g} against the baseline's {b:.4g} m)"
+    return (f"{fit.cause.id} is named on the training records' evidence ({_score_change(reference, fit)}; "
+            f"{STRONG_EVIDENCE:g} needed without the held-out records' support); the held-out records do "
+            f"not confirm it: {why}. A manoeuvre that excites it more would.")
+
+
 def _held_out_likelihoods(fit: CauseFit, reference: CauseFit) -> tuple | None:
     """The held-out records' prediction-error log-likelihoods of ``fit`` and
     ``reference`` (:meth:`.prediction_error.FilterScores.held_out`), or None
@@ -663,7 +702,9 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
     :data:`EVIDENCE`, its windowed prediction error on the validation
     records is lower than the baseline's, and its whole replay of no
     validation record diverges where the baseline's does not
-    (:func:`breaks_down`); among those, the lowest score wins. The winner's
+    (:func:`breaks_down`), or when its score is lower by
+    :data:`STRONG_EVIDENCE` and no validation record diverges
+    (:func:`training_decides`); among those, the lowest score wins. The winner's
     90 % intervals come from emcee unless ``intervals`` is false.
     """
     output_error = needs_refinement(ctx, output_error, noise_levels(ctx, ctx.train))
@@ -697,7 +738,7 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
                  f" (diverges on {', '.join(fit.whole['diverged'])})" if fit.whole["diverged"] else "",
                  fit.seconds)
     baseline = fits[0]
-    gaining = [f for f in fits if f is not baseline and _gains(f, baseline)]
+    gaining = [f for f in fits if f is not baseline and (_gains(f, baseline) or training_decides(f, baseline))]
     if any(f.cause.replaces_dynamics for f in gaining):
         # scores on different models' residuals do not compare: the held-out error decides
         best = min(gaining, key=lambda f: f.validation_rmse)
