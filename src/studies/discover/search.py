@@ -257,13 +257,15 @@ def _filter_pair(ctx: Context, scorer: FilterScores, best: CauseFit, other: Caus
     added = [name for name in other.cause.params if name not in best.params and name in other.params]
     values = [{name: 0.0 for name in added}, {name: other.params[name] for name in added}] if added else [{}]
     scale = (best.refined or {}).get("filter", {}).get("log_q_scale", 0.0)
+    # a pair holding a cause the training records cannot decide is not decided either
+    undecidable = cause.undecidable(ctx)
     trials, own = [], None
     for i, theta_other in enumerate(options):
         for extra in values:
             theta = np.concatenate([best.theta, theta_other] if first is best else [theta_other, best.theta])
             params = {**{n: 0.0 for n in other.cause.params if n not in best.params}, **best.params, **extra}
             fit = CauseFit(cause, theta, params, np.zeros(3), setup=cause.setup(bare, theta),
-                           refined=dict(best.refined or {}))
+                           refined=dict(best.refined or {}), undecidable=undecidable)
             ll = scorer.initial_loglik(fit, scale)
             trials.append((ll if np.isfinite(ll) else -np.inf, len(trials), fit))
             if i == (1 if len(other.theta) else 0) and extra is values[-1]:
