@@ -368,6 +368,37 @@ def test_strong_training_evidence_names_a_cause_the_held_out_records_do_not_show
     assert named_on_training(base, base) is None
 
 
+def test_held_out_windows_name_a_cause_the_training_score_barely_shows():
+    """A cause that lowers the training score by less than 10 (coloured noise
+    leaves few effective samples) is named when it predicts every one of 8
+    held-out windows better and their error by 25 % or more; not when the
+    training score rises, when the gain is smaller, when the windows are
+    split, or when a held-out replay diverges."""
+    from studies.discover.causes import NoCause, RudderOffset
+    from studies.discover.fitting import CauseFit
+    from studies.discover.search import held_out_decides, named_on_held_out_windows
+
+    def fit(cause, score, windows, diverged=()):
+        f = CauseFit(cause, np.array([0.007]) if cause.params else np.zeros(0), {}, np.ones(3), score)
+        w = np.asarray(windows, float)
+        f.validation = {"position_rmse": float(np.sqrt(np.mean(w ** 2))), "windows": list(w)}
+        f.whole = {"diverged": list(diverged)}
+        return f
+
+    base = fit(NoCause(), 0.0, [10.0, 12.0, 9.0, 11.0, 10.0, 13.0, 8.0, 10.0])
+    plain = fit(RudderOffset(), -3.0, [6.0, 7.0, 5.0, 7.0, 6.0, 8.0, 5.0, 6.0])
+    assert held_out_decides(plain, base)
+    note = named_on_held_out_windows(plain, base)
+    assert note.startswith("rudder_offset is named on the held-out records: it predicts 8 of 8"), note
+    assert "score lower by only 3.0" in note
+    assert not held_out_decides(fit(RudderOffset(), 1.0, [6.0, 7.0, 5.0, 7.0, 6.0, 8.0, 5.0, 6.0]), base)
+    assert not held_out_decides(fit(RudderOffset(), -3.0, [9.0, 11.0, 8.0, 10.0, 9.0, 12.0, 7.0, 9.0]), base)
+    assert not held_out_decides(fit(RudderOffset(), -3.0, [6.0, 7.0, 5.0, 14.0, 6.0, 15.0, 5.0, 12.0]), base)
+    assert not held_out_decides(fit(RudderOffset(), -3.0, [6.0, 7.0, 5.0, 7.0, 6.0, 8.0, 5.0, 6.0], ["zz_20"]),
+                                base)
+    assert named_on_held_out_windows(base, base) is None
+
+
 @pytest.mark.slow
 def test_another_simulator_is_judged_against_the_held_out_record(tmp_path, vessel, hidden_none_11):
     """simulation.path with manoeuvring records: another simulator's run of the held-out

@@ -521,6 +521,38 @@ def training_decides(fit: CauseFit, reference: CauseFit) -> bool:
             and fit.score < reference.score - STRONG_EVIDENCE and not breaks_down(fit, reference))
 
 
+def held_out_decides(fit: CauseFit, reference: CauseFit) -> bool:
+    """The held-out records name ``fit`` over ``reference`` when the training
+    records lower its score, but by less than the evidence needed: its
+    windowed validation error lower by :data:`SECOND_HELD_OUT_GAIN` in a
+    significant majority of the windows (:func:`held_out_evidence`,
+    :data:`HELD_OUT_P`), decidable on the training records, no held-out
+    replay diverging (:func:`breaks_down`); the rule that names a second
+    cause (:func:`second_held_out`). Records whose noise is coloured are
+    scored on few effective samples, and an effect they show plainly on the
+    held-out manoeuvre may lower the training score by only a few units."""
+    if fit.undecidable or fit.cause.replaces_dynamics or not fit.score < reference.score:
+        return False
+    if breaks_down(fit, reference):
+        return False
+    _, _, p = held_out_evidence(fit, reference)
+    return p < HELD_OUT_P and fit.validation_rmse < (1.0 - SECOND_HELD_OUT_GAIN) * reference.validation_rmse
+
+
+def named_on_held_out_windows(fit: CauseFit, reference: CauseFit) -> str | None:
+    """The note that says a cause was named on the held-out windows
+    (:func:`held_out_decides`) although its training evidence falls short;
+    None otherwise."""
+    if (fit is reference or fit.cause.replaces_dynamics or _gains(fit, reference)
+            or training_decides(fit, reference) or not held_out_decides(fit, reference)):
+        return None
+    better, n, p = held_out_evidence(fit, reference)
+    return (f"{fit.cause.id} is named on the held-out records: it predicts {better} of {n} validation windows "
+            f"better than the baseline ({fit.validation_rmse:.4g} against {reference.validation_rmse:.4g} m, "
+            f"Wilcoxon signed-rank p = {p:.2g}); the training records alone do not show it "
+            f"({_score_change(reference, fit, 'only ')}; {EVIDENCE:g} needed)")
+
+
 def named_on_training(fit: CauseFit, reference: CauseFit) -> str | None:
     """The note that says a cause was named on the training records' evidence
     alone (:func:`training_decides`, not :func:`_gains`), and why the held-out
@@ -706,7 +738,9 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
     validation record diverges where the baseline's does not
     (:func:`breaks_down`), or when its score is lower by
     :data:`STRONG_EVIDENCE` and no validation record diverges
-    (:func:`training_decides`); among those, the lowest score wins. The winner's
+    (:func:`training_decides`), or when its score is lower and the held-out
+    windows show it plainly (:func:`held_out_decides`); among those, the
+    lowest score wins. The winner's
     90 % intervals come from emcee unless ``intervals`` is false.
     """
     output_error = needs_refinement(ctx, output_error, noise_levels(ctx, ctx.train))
@@ -740,7 +774,8 @@ def search(ctx: Context, threshold: float = 0.1, max_terms: int = 3, second: boo
                  f" (diverges on {', '.join(fit.whole['diverged'])})" if fit.whole["diverged"] else "",
                  fit.seconds)
     baseline = fits[0]
-    gaining = [f for f in fits if f is not baseline and (_gains(f, baseline) or training_decides(f, baseline))]
+    gaining = [f for f in fits if f is not baseline and (_gains(f, baseline) or training_decides(f, baseline)
+                                                          or held_out_decides(f, baseline))]
     if any(f.cause.replaces_dynamics for f in gaining):
         # scores on different models' residuals do not compare: the held-out error decides
         best = min(gaining, key=lambda f: f.validation_rmse)

@@ -28,8 +28,9 @@ from ..discover.fitting import Context, kinematic_smoothing, regression_fit, tra
 from ..discover.report import (indistinguishable, plot_predictions, plot_ranking, plot_residuals,
                                write_discovery, write_report)
 from ..discover.confidence import certainty
-from ..discover.search import (EVIDENCE, breaks_down, held_out_evidence, named_on_held_out, named_on_training,
-                               not_named, search, second_on_held_out_note)
+from ..discover.search import (EVIDENCE, breaks_down, held_out_evidence, named_on_held_out,
+                               named_on_held_out_windows, named_on_training, not_named, search,
+                               second_on_held_out_note)
 from ..errors import ConfigError
 from ..vessels import get_vessel
 from .manoeuvring import get_study_model
@@ -249,6 +250,7 @@ def execute_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
         "selected_terms": [t.name for t in result["terms"]],
         "notes": study.notes + result.get("notes", []) + [note for note in [named_on_held_out(best, baseline),
                                                   named_on_training(best, baseline),
+                                                  named_on_held_out_windows(best, baseline),
                                                   second_on_held_out_note(result.get("second"), best)]
                                 + [not_named(f, baseline) for f in ranked if f is not best] if note],
     }
