@@ -399,6 +399,33 @@ def test_held_out_windows_name_a_cause_the_training_score_barely_shows():
     assert named_on_held_out_windows(base, base) is None
 
 
+def test_a_missing_term_is_not_named_second_on_the_held_out_records_alone():
+    """A second cause named on the held-out windows alone (25 % better in a
+    significant majority) may be a rudder offset the baseline absorbed in
+    training, not a missing term: terms the training records do not show are
+    noise fitted there."""
+    from studies.discover.causes import Combined, Current, MissingTerm, RudderOffset, extended_library
+    from studies.discover.fitting import CauseFit
+    from studies.discover.search import second_held_out
+    from studies.models.abkowitz import abkowitz
+
+    def fit(cause, windows):
+        f = CauseFit(cause, np.zeros(len(cause.nl_params)), {}, np.ones(3), 0.0)
+        w = np.asarray(windows, float)
+        f.validation = {"position_rmse": float(np.sqrt(np.mean(w ** 2))), "windows": list(w)}
+        f.whole = {"diverged": []}
+        return f
+
+    best = fit(Current(), [10.0, 12.0, 9.0, 11.0, 10.0, 13.0, 8.0, 10.0])
+    better = [6.0, 7.0, 5.0, 7.0, 6.0, 8.0, 5.0, 6.0]
+    assert second_held_out(fit(Combined(Current(), RudderOffset()), better), best)
+    term = MissingTerm([extended_library(abkowitz(), 3)[0]])
+    assert not second_held_out(fit(Combined(Current(), term), better), best)
+    # the first cause a missing term, the second a rudder offset: judged on the held-out records
+    first = fit(term, [10.0, 12.0, 9.0, 11.0, 10.0, 13.0, 8.0, 10.0])
+    assert second_held_out(fit(Combined(RudderOffset(), term), better), first)
+
+
 @pytest.mark.slow
 def test_another_simulator_is_judged_against_the_held_out_record(tmp_path, vessel, hidden_none_11):
     """simulation.path with manoeuvring records: another simulator's run of the held-out

@@ -354,8 +354,14 @@ def second_held_out(pair: CauseFit, best: CauseFit) -> bool:
     significant majority of windows (:func:`held_out_evidence`), losing none.
     A second effect the training records alone cannot show (the baseline's
     own asymmetric terms absorb a rudder offset on the training manoeuvres,
-    not on others) is named this way."""
+    not on others) is named this way. Never a missing term added to ``best``:
+    its terms are chosen from a library by the training records, and terms
+    they do not show are noise fitted there, whose coefficients may still
+    bend the replay of another manoeuvre by a quarter."""
     if pair.undecidable or breaks_down(pair, best):
+        return False
+    parts = (getattr(pair.cause, "first", None), getattr(pair.cause, "second", None))
+    if any(isinstance(c, MissingTerm) and c.id != best.cause.id for c in parts):
         return False
     _, _, p = held_out_evidence(pair, best)
     return p < HELD_OUT_P and pair.validation_rmse < (1.0 - SECOND_HELD_OUT_GAIN) * best.validation_rmse
