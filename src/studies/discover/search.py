@@ -271,7 +271,7 @@ def _filter_pair(ctx: Context, scorer: FilterScores, best: CauseFit, other: Caus
             if i == (1 if len(other.theta) else 0) and extra is values[-1]:
                 own = fit
     _, _, start = max(trials, key=lambda x: (x[0], -x[1]))
-    starts = [start] if own is None or own is start or not (len(other.theta) or added) else [start, own]
+    starts = [start] if own is None or own is start else [start, own]
     out = min((scorer.refine(f, max_nfev=FILTER_EVALUATIONS) for f in starts), key=lambda f: f.score)
     out.setup = cause.setup(ctx, out.theta)
     return out
@@ -363,8 +363,15 @@ def second_held_out(pair: CauseFit, best: CauseFit) -> bool:
     parts = (getattr(pair.cause, "first", None), getattr(pair.cause, "second", None))
     if any(isinstance(c, MissingTerm) and c.id != best.cause.id for c in parts):
         return False
-    _, _, p = held_out_evidence(pair, best)
-    return p < HELD_OUT_P and pair.validation_rmse < (1.0 - SECOND_HELD_OUT_GAIN) * best.validation_rmse
+    return _plainly_better_held_out(pair, best)
+
+
+def _plainly_better_held_out(fit: CauseFit, reference: CauseFit) -> bool:
+    """``fit``'s windowed validation error lower than ``reference``'s by
+    :data:`SECOND_HELD_OUT_GAIN`, in a significant majority of the windows
+    (:func:`held_out_evidence`, :data:`HELD_OUT_P`)."""
+    _, _, p = held_out_evidence(fit, reference)
+    return p < HELD_OUT_P and fit.validation_rmse < (1.0 - SECOND_HELD_OUT_GAIN) * reference.validation_rmse
 
 
 def second_cause(pairs: list, best: CauseFit) -> CauseFit | None:
@@ -539,10 +546,7 @@ def held_out_decides(fit: CauseFit, reference: CauseFit) -> bool:
     held-out manoeuvre may lower the training score by only a few units."""
     if fit.undecidable or fit.cause.replaces_dynamics or not fit.score < reference.score:
         return False
-    if breaks_down(fit, reference):
-        return False
-    _, _, p = held_out_evidence(fit, reference)
-    return p < HELD_OUT_P and fit.validation_rmse < (1.0 - SECOND_HELD_OUT_GAIN) * reference.validation_rmse
+    return not breaks_down(fit, reference) and _plainly_better_held_out(fit, reference)
 
 
 def named_on_held_out_windows(fit: CauseFit, reference: CauseFit) -> str | None:
