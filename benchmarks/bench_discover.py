@@ -2,7 +2,7 @@
 hidden effects.
 
 Hit rate: over seeds (magnitudes drawn at random per seed, see
-:mod:`studies.discover.hidden`), the fraction of discoveries that name the
+:mod:`studies.scenarios.hidden`), the fraction of discoveries that name the
 right cause with the parameter within 20 % (angles within 0.2 rad). Set
 ``STUDIES_BENCH_SEEDS`` (default 2; 0 leaves the manoeuvring causes out) and ``STUDIES_BENCH_NOISE`` (default
 "0,0.05") to choose the effort; the runs use all cores. Roll decays
@@ -30,13 +30,13 @@ Hidden effects beyond the development cases: ``STUDIES_BENCH_MISSING=any``
 hides, for ``missing_term``, a term drawn from the whole extended library
 (any DOF, 5-15 % of its DOF's force, either sign) instead of the cubic yaw
 damping ``Nrrr``; ``STUDIES_BENCH_PAIRS=1`` adds every pair of causes that
-can act together (:func:`studies.discover.hidden.hidden_pairs`; or a
+can act together (:func:`studies.scenarios.hidden.hidden_pairs`; or a
 comma-separated list ``a+b,c+d``): a pair is a hit when the verdict names
 both with both parameters right.
 
 Scenarios: ``STUDIES_BENCH_SCENARIOS=varied`` (the default) draws, per seed,
 how the records are made besides the effect and the sensor noise
-(:func:`studies.discover.hidden.draw_scenario`): sampling 0.1, 0.2 or 0.5 s,
+(:func:`studies.scenarios.hidden.draw_scenario`): sampling 0.1, 0.2 or 0.5 s,
 records of 400-900 s, which turning circle and zig-zag train (either side)
 and which manoeuvre validates, process noise in half the cases;
 ``fixed`` keeps the development set-up (a 20/20 zig-zag and a 35 deg
@@ -62,7 +62,7 @@ from hydra import initialize_config_module
 from joblib import Parallel, delayed
 
 from studies.config import compose_settings
-from studies.discover.hidden import (HIDDEN_CAUSES, HIDDEN_ROLL_CAUSES, draw_scenario, hidden_pairs,
+from studies.scenarios.hidden import (HIDDEN_CAUSES, HIDDEN_ROLL_CAUSES, draw_scenario, hidden_pairs,
                                      hidden_records, hidden_roll_decays, parameters_match, write_records)
 from studies.environment.sensor_noise import check_sensor_noise
 from studies.vessels import get_vessel

@@ -113,9 +113,9 @@ def good_frame():
 
 @pytest.fixture(scope="session")
 def hidden_none_11(vessel):
-    """``(records, truth)`` of :func:`studies.discover.hidden.hidden_records` with
+    """``(records, truth)`` of :func:`studies.scenarios.hidden.hidden_records` with
     nothing hidden, seed 11, no noise: zig-zag 20/20, turning circle, zig-zag 10/10."""
-    from studies.discover.hidden import hidden_records
+    from studies.scenarios.hidden import hidden_records
 
     return hidden_records(vessel, "none", seed=11)
 

@@ -28,6 +28,7 @@ LAYERS = [
     ("roll", {"roll"}),
     ("report", {"report"}),
     ("discover", {"discover"}),
+    ("scenarios", {"scenarios"}),
     ("studies", {"workflows"}),
     ("runtime", {"runtime"}),
     ("command line", {"cli", "cli_help", "config_check", "progress", "bench", "__main__", "<root>"}),

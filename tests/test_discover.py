@@ -13,7 +13,7 @@ import pytest
 from hydra import initialize_config_module
 
 from conftest import SHARED_DATA, marin_file
-from studies.discover.hidden import hidden_records, hidden_roll_decays, parameters_match, write_records
+from studies.scenarios.hidden import hidden_records, hidden_roll_decays, parameters_match, write_records
 from studies.errors import ConfigError
 from studies.config import compose_settings
 from studies.workflows.kinds import execute_discover, prepare_discover
@@ -481,7 +481,7 @@ def test_propeller_side_force_is_named_from_turning_circles_to_both_sides(tmp_pa
     starboard, with 2 % measurement noise, judged against the symmetric baseline:
     ``propeller_asymmetry`` is named with both parameters within 20 %, not a rudder
     offset or asymmetric polynomial terms."""
-    from studies.discover.hidden import turning_to_starboard
+    from studies.scenarios.hidden import turning_to_starboard
     from studies.simulate import turning, zigzag
 
     mans = [zigzag(20, 20, duration=600.0), turning(35, pullout=0.0, duration=600.0),
@@ -517,7 +517,7 @@ def test_propeller_asymmetry_is_not_named_from_a_turn_to_one_side(tmp_path, vess
 
 def test_turning_sides_reads_steady_turns(vessel):
     from studies.discover.causes.propeller_asymmetry import turning_sides
-    from studies.discover.hidden import turning_to_starboard
+    from studies.scenarios.hidden import turning_to_starboard
     from studies.simulate import simulate, turning, zigzag
     from studies.models import abkowitz
 

@@ -9,7 +9,7 @@ import pytest
 from studies.discover.causes import NoCause, RudderOffset, extended_library
 from studies.errors import ConfigError
 from studies.discover.fitting import Context, calibrate, fit_cause, validate
-from studies.discover.hidden import hidden_records
+from studies.scenarios.hidden import hidden_records
 from studies.discover.output_error import needs_refinement, refine, refined_posterior, score_terms
 from studies.discover.search import TERM_TRIALS, search, terms_by_output_error
 from studies.models.abkowitz import abkowitz
@@ -120,7 +120,7 @@ def test_a_side_force_the_baseline_absorbs_is_found_from_a_small_start(vessel):
     come out within 20 %. Turning circles to both sides, 3 % white noise on
     every channel."""
     from studies.discover.causes import PropellerAsymmetry
-    from studies.discover.hidden import parameters_match, turning_to_starboard
+    from studies.scenarios.hidden import parameters_match, turning_to_starboard
     from studies.discover.output_error import refine_cause
     from studies.models.registry import symmetric
     from studies.simulate import turning

@@ -14,7 +14,7 @@ within 20 % (angles within 0.2 rad); the seeds are not the development ones
 
 import pytest
 
-from studies.discover.hidden import hidden_records, parameters_match
+from studies.scenarios.hidden import hidden_records, parameters_match
 from test_discover import _discover
 
 LEVEL = 0.03
@@ -91,7 +91,7 @@ def test_strong_training_evidence_names_a_cause_the_held_out_turn_does_not_confi
     confirm it. It is named on the training evidence, with its force within
     20 %, and the notes say so; with the held-out records' confirmation
     required, ``none`` was named."""
-    from studies.discover.hidden import draw_scenario
+    from studies.scenarios.hidden import draw_scenario
 
     cause = "environmental_bias"
     records, truth = hidden_records(vessel, cause, seed=100, noise=LEVEL, noise_family="white_all",

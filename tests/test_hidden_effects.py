@@ -4,7 +4,7 @@ missing terms drawn from the whole library, refusals. No discovery runs here."""
 import numpy as np
 import pytest
 
-from studies.discover.hidden import HIDDEN_CAUSES, hidden_pairs, hidden_records
+from studies.scenarios.hidden import HIDDEN_CAUSES, hidden_pairs, hidden_records
 from studies.errors import ConfigError
 from studies.identify.regression import prime_states
 from studies.models import abkowitz

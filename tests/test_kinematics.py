@@ -66,7 +66,7 @@ def test_kinematic_levels_see_the_coloured_noise():
 @pytest.mark.parametrize("family, coloured", [("white_all", False), ("gnss", False), ("li2023", False),
                                               ("quantised_rudder", False), ("ar1", True)])
 def test_noise_families(vessel, family, coloured):
-    from studies.discover.hidden import hidden_records
+    from studies.scenarios.hidden import hidden_records
 
     records, _ = hidden_records(vessel, "none", seed=7, noise=0.03, noise_family=family)
     assert coloured_velocity_noise(records[:2]) is coloured
@@ -131,7 +131,7 @@ def test_a_record_without_noise_is_not_called_derived():
 
 @pytest.mark.parametrize("family", ["white_all", "gnss", "li2023", "quantised_rudder", "ar1"])
 def test_noise_families_derived(vessel, family):
-    from studies.discover.hidden import hidden_records
+    from studies.scenarios.hidden import hidden_records
 
     records, _ = hidden_records(vessel, "none", seed=7, noise=0.03, noise_family=family)
     assert derived_velocities(records[:2]) is (family == "gnss")

@@ -16,7 +16,7 @@ from hydra import initialize_config_module
 
 from conftest import SHARED_DATA
 from studies.config import compose_settings
-from studies.discover.hidden import (hidden_roll_decays_at_speed, hidden_roll_speed_series,
+from studies.scenarios.hidden import (hidden_roll_decays_at_speed, hidden_roll_speed_series,
                                      parameters_match)
 from studies.discover.roll import ROLL_CAUSES, cause_terms, model_params
 from studies.roll.decay import find_extrema

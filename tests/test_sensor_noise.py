@@ -137,7 +137,7 @@ def test_bad_family_or_level_is_refused(record, family, level, match):
 
 
 def test_hidden_records_refuse_a_bad_family_before_simulating(vessel):
-    from studies.discover.hidden import hidden_records
+    from studies.scenarios.hidden import hidden_records
 
     with pytest.raises(ConfigError, match="noise family must be one of"):
         hidden_records(vessel, "rudder_offset", seed=1, noise=0.03, noise_family="coloured")

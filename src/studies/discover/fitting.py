@@ -39,7 +39,7 @@ from ..identify import LeastSquares, build_problems
 from ..identify.bayes import run_with_progress
 from .causes.base import Cause, Setup
 
-__all__ = ["Context", "CauseFit", "regression_fit", "scored_fit", "nominal_residuals", "fit_cause",
+__all__ = ["Context", "CauseFit", "regression_fit", "setup_problems", "scored_fit", "nominal_residuals", "fit_cause",
            "kinematic_smoothing",
            "validate", "training_error", "posterior", "sample_intervals"]
 
@@ -60,6 +60,9 @@ class Context:
     n_eff: float = 1.0
     tau: float = 1.0
     horizon: float | None = 120.0
+    #: the baseline's dynamics when it is not the polynomial regression of ``model`` (an MMG
+    #: baseline: :class:`studies.discover.causes.propulsion.MMGDynamics`); None: ``model``'s own
+    dynamics: object | None = None
 
 
 @dataclass
@@ -86,33 +89,54 @@ class CauseFit:
         return float(self.validation.get("position_rmse", np.inf))
 
 
-def regression_fit(ctx: Context, setup: Setup):
-    """LS on the setup's records; returns (params incl. fixed, prime residual per DOF, problems)."""
+def setup_problems(ctx: Context, setup: Setup) -> tuple[dict, float]:
+    """The setup's regression problems ``{dof: RegressionProblem}`` with its
+    external forces (earth-fixed bias, body force) moved into ``y``, and the
+    factor that turns their prime units into the Abkowitz prime units of the
+    scores (1, or ``d / L`` for the MMG model's ``0.5 rho L d U^2``).
+
+    Problems may carry prior rows after their data rows (``n_data``)."""
     if setup.dynamics is not None:
-        return setup.dynamics.regression_fit(ctx, setup)
-    problems = build_problems(setup.model, ctx.vessel, setup.fit_records, ctx.derivative, setup.fixed)
+        problems, ratio = setup.dynamics.problems(ctx, setup)
+    else:
+        problems, ratio = build_problems(setup.model, ctx.vessel, setup.fit_records, ctx.derivative,
+                                         setup.fixed), 1.0
     if setup.bias is not None:
-        bx, by, bn = setup.bias
+        bx, by, bn = np.asarray(setup.bias, float) / ratio
         for dof, p in problems.items():
-            psi = p.states["psi"]
+            n = int(getattr(p, "n_data", p.n_rows))
+            psi = p.states["psi"][:n]
             if dof == "X":
-                p.y = p.y - (np.cos(psi) * bx + np.sin(psi) * by)
+                p.y[:n] = p.y[:n] - (np.cos(psi) * bx + np.sin(psi) * by)
             elif dof == "Y":
-                p.y = p.y - (-np.sin(psi) * bx + np.cos(psi) * by)
+                p.y[:n] = p.y[:n] - (-np.sin(psi) * bx + np.cos(psi) * by)
             else:
-                p.y = p.y - bn
+                p.y[:n] = p.y[:n] - bn
     if setup.body is not None:
+        speed0 = ctx.vessel.speed
         for k, dof in enumerate(("X", "Y", "N")):
-            p, speed0 = problems[dof], ctx.vessel.speed
-            p.y = p.y - setup.body[k] * speed0 ** 2 / (p.states["u"] ** 2 + p.states["v"] ** 2)
+            p = problems[dof]
+            n = int(getattr(p, "n_data", p.n_rows))
+            s = p.states
+            p.y[:n] = p.y[:n] - setup.body[k] / ratio * speed0 ** 2 / (s["u"][:n] ** 2 + s["v"][:n] ** 2)
+    return problems, ratio
+
+
+def regression_fit(ctx: Context, setup: Setup):
+    """LS on the setup's records; returns (params incl. fixed, prime residual per DOF, problems).
+
+    Residuals are those of the data rows, in Abkowitz prime units
+    (:func:`setup_problems`)."""
+    problems, ratio = setup_problems(ctx, setup)
     ls = LeastSquares()
     params = dict(setup.fixed)
     residuals = []
     for dof in ("X", "Y", "N"):
         p = problems[dof]
+        n = int(getattr(p, "n_data", p.n_rows))
         coef = ls.fit_one(p) if p.theta.shape[1] else np.zeros(0)
         params.update(dict(zip(p.names, coef.tolist())))
-        residuals.append(p.y - p.theta @ coef if p.theta.shape[1] else p.y)
+        residuals.append((p.y[:n] - p.theta[:n] @ coef if p.theta.shape[1] else p.y[:n]) * ratio)
     return params, residuals, problems
 
 

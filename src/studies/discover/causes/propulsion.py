@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 
 from ...identify.kalman import estimate_derivatives
-from ...identify.ls import LeastSquares
 from ...identify.mmg_regression import mmg_problems
 from ...models.mmg import MMGParameters, mmg
 from ...simulate.mmg import replay_mmg
@@ -51,21 +50,14 @@ class MMGDynamics:
             out.append(self._estimates[key][1])
         return out
 
-    def regression_fit(self, ctx, setup: Setup):
-        """``(params, prime residuals per DOF in the baseline's units, problems)``."""
+    def problems(self, ctx, setup: Setup) -> tuple[dict, float]:
+        """``({dof: RegressionProblem}, d / L)``: the MMG hull regression of the
+        setup's records (data rows, then the prior's rows), and the factor that
+        turns its prime units into the baseline's."""
         estimates = self.estimates(setup.fit_records, ctx.derivative)
         problems = mmg_problems(self.model, self.vessel, self.modules, setup.fit_records, estimates,
                                 self.vessel.coefficients, PRIOR_SCALE, PRIOR_FLOOR)
-        ls = LeastSquares()
-        params, residuals = {}, []
-        ratio = self.vessel.draught / self.vessel.length
-        for dof in ("X", "Y", "N"):
-            p = problems[dof]
-            coef = ls.fit_one(p)
-            params.update(dict(zip(p.names, coef.tolist())))
-            n = getattr(p, "n_data", p.n_rows)
-            residuals.append((p.y[:n] - p.theta[:n] @ coef) * ratio)
-        return params, residuals, problems
+        return problems, self.vessel.draught / self.vessel.length
 
     def replay(self, params: dict, record):
         return replay_mmg(self.model, params, self.vessel, record, self.modules)

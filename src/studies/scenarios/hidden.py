@@ -192,7 +192,7 @@ def _any_missing_term(vessel, model, values, rng, clean, dof: str | None = None)
     set so that it changes its DOF's hydrodynamic force by 5-15 % (RMS over
     the clean record ``clean``), with either sign."""
     from ..identify.regression import prime_states
-    from .causes.missing_term import extended_library
+    from ..discover.causes.missing_term import extended_library
 
     primes = prime_states(clean["u"], clean["v"], clean["r"], clean["delta"], vessel)
     library = [t for t in extended_library(model, 3) if dof is None or t.dof == dof]
