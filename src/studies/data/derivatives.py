@@ -49,7 +49,7 @@ __all__ = ["DerivativeEstimate", "estimate_derivatives", "noise_ratio", "choose_
 #: the velocities whose time derivatives are estimated
 STATE_COLUMNS = ("u", "v", "r")
 #: estimators of this module (``method=`` of :func:`estimate_derivatives`)
-MODEL_FREE_METHODS = ("auto", "central", "savgol", "forward")
+MODEL_FREE_METHODS = ("auto", "central", "savgol", "forward", "recorded")
 
 
 @dataclass(frozen=True)
@@ -154,7 +154,9 @@ def estimate_derivatives(record, method: str = "auto", window: float | None = No
     record : DataFrame
         Data contract record (t, u, v, r, delta, psi, ...), uniformly
         sampled (see :mod:`studies.data.resample`).
-    method : {"auto", "central", "savgol", "forward"}
+    method : {"auto", "central", "savgol", "forward", "recorded"}
+        ``"recorded"`` takes the record's own ``u_dot, v_dot, r_dot`` columns
+        (e.g. a smoother's estimates), every row.
     window : float or "auto", optional
         Savitzky-Golay window [s]; default 4 s or 11 samples, whichever is
         longer; ``"auto"`` chooses it per record by the discrepancy principle
@@ -163,8 +165,17 @@ def estimate_derivatives(record, method: str = "auto", window: float | None = No
         Savitzky-Golay polynomial order.
     """
     t = record["t"].to_numpy(float)
-    dt = uniform_step(t)
     cols = {c: record[c].to_numpy(float) for c in ("u", "v", "r", "delta", "psi")}
+    if method == "recorded":
+        missing = [c + "_dot" for c in STATE_COLUMNS if c + "_dot" not in record]
+        if missing:
+            raise ValueError(f"derivative method 'recorded' needs the columns {missing} in the record")
+        index = np.arange(len(t))
+        index = index[~_near_rudder_corners(cols["delta"])]
+        return DerivativeEstimate(index, {c: x[index] for c, x in cols.items()},
+                                  {c + "_dot": record[c + "_dot"].to_numpy(float)[index]
+                                   for c in STATE_COLUMNS}, "recorded")
+    dt = uniform_step(t)
     if method == "auto":
         method = "savgol" if max(noise_ratio(cols[c]) for c in STATE_COLUMNS) > 1e-3 else "central"
     n = len(t)

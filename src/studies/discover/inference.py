@@ -84,10 +84,10 @@ log = logging.getLogger(__name__)
 #: directions (from which the wind comes) of the wind signatures [rad]
 WIND_DIRECTIONS = np.deg2rad(np.arange(0.0, 360.0, 22.5))
 #: passes of identification and model-based smoothing (:func:`smooth_with_baseline`)
-SMOOTHING_ITERATIONS = 3
+SMOOTHING_ITERATIONS = 0
 #: the smoother's settings: no sensor-bias states, which would take the baseline's errors (and
 #: a cause's effect) for slowly drifting velocity sensors and keep the states on the baseline
-SMOOTHER = KalmanSettings(bias=False)
+SMOOTHER = KalmanSettings(bias=False, scale_grid=tuple(10.0 ** np.arange(-3.0, 1.01, 1.0)))
 #: reference wind speed of the wind signatures [m/s]
 WIND_REFERENCE = 10.0
 
@@ -162,7 +162,7 @@ class Inference:
         """The verdict id of a model: its causes' ids joined by ``+`` in catalogue order, or ``none``."""
         if not model:
             return "none"
-        return "+".join(self.variants[i].cause.id for i in model)
+        return "+".join(sorted((self.variants[i].cause.id for i in model), key=_catalogue_order))
 
     @property
     def confidence(self) -> float:
@@ -197,8 +197,8 @@ def smooth_with_baseline(ctx: Context, records: list, settings: KalmanSettings |
     current = [_kinematic(r, settings) for r in records]
     vessel = ctx.dynamics.vessel if ctx.dynamics is not None else ctx.vessel
     modules = ctx.dynamics.modules if ctx.dynamics is not None else None
-    for _ in range(max(int(iterations), 1)):
-        thin = Context(ctx.vessel, ctx.model, current, [], "central", dynamics=ctx.dynamics)
+    for _ in range(int(iterations)):
+        thin = Context(ctx.vessel, ctx.model, current, [], "recorded", dynamics=ctx.dynamics)
         params, _, _ = regression_fit(thin, _baseline_setup(thin))
         values = {n: params.get(n, 0.0) for n in ctx.model.names}
         out = []
@@ -210,14 +210,21 @@ def smooth_with_baseline(ctx: Context, records: list, settings: KalmanSettings |
                             "smoothing is kept", rec.attrs.get("name"), exc)
                 out.append(last)
                 continue
-            sm = rec.copy()
-            for name, idx in (("x0", 0), ("y0", 1), ("psi", 2), ("u", 3), ("v", 4), ("r", 5)):
-                sm[name] = res.states[:, idx]
-            sm.attrs = dict(rec.attrs)
-            sm.attrs["smoothed"] = "ekf_model"
-            out.append(sm)
+            out.append(_smoothed(rec, res))
         current = out
     return current
+
+
+def _smoothed(record: pd.DataFrame, res) -> pd.DataFrame:
+    """The record with the smoother's states and accelerations (``u_dot, v_dot, r_dot``)."""
+    sm = record.copy()
+    for name, idx in (("x0", 0), ("y0", 1), ("psi", 2), ("u", 3), ("v", 4), ("r", 5)):
+        sm[name] = res.states[:, idx]
+    for j, name in enumerate(("u_dot", "v_dot", "r_dot")):
+        sm[name] = res.rates[:, j]
+    sm.attrs = dict(record.attrs)
+    sm.attrs["smoothed"] = "ekf_model"
+    return sm
 
 
 def _kinematic(record: pd.DataFrame, settings: KalmanSettings) -> pd.DataFrame:
@@ -226,6 +233,8 @@ def _kinematic(record: pd.DataFrame, settings: KalmanSettings) -> pd.DataFrame:
     out = record.iloc[est.index].copy()
     for c in ("u", "v", "r", "psi"):
         out[c] = est.states[c]
+    for c in ("u", "v", "r"):
+        out[c + "_dot"] = est.rates[c + "_dot"]
     out.attrs = dict(record.attrs)
     out.attrs["smoothed"] = "ekf"
     return out.reset_index(drop=True)
@@ -248,13 +257,14 @@ class _Design:
 
     Data rows are prime forces at the nominal speed in Abkowitz prime units,
     each DOF's divided by the baseline's residual RMS ``sigma``; prior rows
-    (the MMG regression's) come last, with ``dof`` 3 and ``fold`` -1.
+    (the MMG regression's) come last, with ``dof`` 3.
     """
 
     x: np.ndarray             # (N, p) the model's columns, block diagonal over the DOFs
     y: np.ndarray             # (N,)
     dof: np.ndarray           # (N,) DOF of each row (3: prior rows)
-    fold: np.ndarray          # (N,) fold of each row (-1: prior rows, in every fold's training)
+    block: np.ndarray         # (N,) the DOF whose coefficients each row bears on (prior rows too)
+    starts: np.ndarray        # (4,) first column of each DOF's block of columns, then the end
     sigma: np.ndarray         # (3,) the row weights' inverse per DOF
     coef: dict                # the model's coefficients, fitted on all rows
     names: list               # the coefficient of each column
@@ -262,20 +272,6 @@ class _Design:
     nominal: list             # per DOF: the nominal-speed factor of the data rows
     n_data: list              # data rows per DOF
     residual: np.ndarray      # weighted data-row residual of the fit on all rows
-
-
-def _folds(record: np.ndarray, block: int) -> np.ndarray:
-    """Fold of each row: every record is cut into contiguous blocks of
-    ``block`` rows (several of the residual's correlation times), and block
-    ``j`` goes to fold ``j mod FOLDS``, so that every fold holds short stretches
-    of every manoeuvre and its training rows surround them. (Holding out whole
-    records or long stretches would judge how a polynomial model extrapolates
-    to motions it has not seen, which swamps what a cause explains.)"""
-    fold = np.empty_like(record)
-    for r in np.unique(record):
-        rows = np.flatnonzero(record == r)
-        fold[rows] = (np.arange(len(rows)) // max(int(block), 1) + int(r)) % FOLDS
-    return fold
 
 
 def _design(ctx: Context, setup: Setup, sigma: np.ndarray | None = None) -> _Design:
@@ -309,26 +305,26 @@ def _design(ctx: Context, setup: Setup, sigma: np.ndarray | None = None) -> _Des
     sigma = fitted_sigma if sigma is None else sigma
     n_cols = sum(r[1].shape[1] for r in rows)
     starts = np.cumsum([0] + [r[1].shape[1] for r in rows])
-    xs, ys, dofs, folds, prior_x, prior_y = [], [], [], [], [], []
+    xs, ys, dofs, blocks, prior_x, prior_y, prior_b = [], [], [], [], [], [], []
     for k, (y, theta, names, n, _, record, _) in enumerate(rows):
         x = np.zeros((len(y), n_cols))
         x[:, starts[k]:starts[k + 1]] = theta
         xs.append(x[:n] / sigma[k])
         ys.append(y[:n] / sigma[k])
         dofs.append(np.full(n, k))
-        folds.append(record)
+        blocks.append(np.full(n, k))
         if len(y) > n:
             prior_x.append(x[n:] / sigma[k])
             prior_y.append(y[n:] / sigma[k])
+            prior_b.append(np.full(len(y) - n, k))
     xs += prior_x
     ys += prior_y
+    blocks += prior_b
     n_prior = sum(len(v) for v in prior_y)
     dofs.append(np.full(n_prior, 3))
-    folds.append(np.full(n_prior, -1))
     names = [name for r in rows for name in r[2]]
-    block = BLOCK_TAUS * max(integrated_time(r) for r in resid)
-    folds = [_folds(f, block) if k < 3 else f for k, f in enumerate(folds)]
-    return _Design(np.vstack(xs), np.concatenate(ys), np.concatenate(dofs), np.concatenate(folds), sigma,
+    return _Design(np.vstack(xs), np.concatenate(ys), np.concatenate(dofs), np.concatenate(blocks), starts,
+                   sigma,
                    coef, names, [r[6] for r in rows], [r[4] for r in rows], [r[3] for r in rows],
                    np.concatenate([r / sigma[k] for k, r in enumerate(resid)]))
 
@@ -478,75 +474,66 @@ def _log_prior(models: list, variants: list) -> np.ndarray:
     return out
 
 
-class _Folds:
-    """Gram pieces per fold and DOF, for the cross-validated likelihood of any
-    subset of the columns (:meth:`loglik`)."""
+class _Residualised:
+    """The cause columns and the target with the baseline's columns projected
+    out, DOF by DOF (QR; Frisch-Waugh-Lovell), so that every model is a small,
+    well-conditioned least-squares problem in its cause columns alone: the
+    normal equations of the whole design (40 ill-conditioned polynomial
+    columns) would lose the digits that the models differ by.
 
-    def __init__(self, x: np.ndarray, y: np.ndarray, dof: np.ndarray, fold: np.ndarray):
-        self.ids = [int(f) for f in np.unique(fold[fold >= 0])]
-        prior = fold < 0
-        self.g0, self.b0 = x[prior].T @ x[prior], x[prior].T @ y[prior]
-        self.pieces = {}
-        for f in self.ids:
-            for k in range(3):
-                rows = (fold == f) & (dof == k)
-                xf = x[rows]
-                self.pieces[f, k] = (xf.T @ xf, xf.T @ y[rows], float(y[rows] @ y[rows]), int(rows.sum()))
-        self.gk = {k: sum(self.pieces[f, k][0] for f in self.ids) for k in range(3)}
-        self.bk = {k: sum(self.pieces[f, k][1] for f in self.ids) for k in range(3)}
-        self.yk = {k: sum(self.pieces[f, k][2] for f in self.ids) for k in range(3)}
-        self.nk = {k: sum(self.pieces[f, k][3] for f in self.ids) for k in range(3)}
-        self.g = self.g0 + sum(self.gk.values())
-        self.b = self.b0 + sum(self.bk.values())
-        self.ridge = 1e-10 * np.trace(self.g) / max(len(self.g), 1)
+    :meth:`rss` gives the per-DOF residual sums of squares of the data rows
+    for any subset of the cause columns, :meth:`fit` their coefficients.
+    """
 
-    def _solve(self, g, b):
-        try:
-            return np.linalg.solve(g + self.ridge * np.eye(len(g)), b)
-        except np.linalg.LinAlgError:
-            return np.linalg.lstsq(g, b, rcond=None)[0]
+    def __init__(self, design: "_Design", extra: np.ndarray | None = None):
+        extra = np.zeros((len(design.y), 0)) if extra is None else extra
+        y, x = design.y.copy(), extra.copy()
+        for k in range(3):
+            rows = design.block == k
+            base = design.x[rows][:, design.starts[k]:design.starts[k + 1]]
+            if base.shape[1]:
+                q, _ = np.linalg.qr(base)
+                y[rows] -= q @ (q.T @ y[rows])
+                x[rows] -= q @ (q.T @ x[rows])
+        self.g, self.b = x.T @ x, x.T @ y
+        self.pieces = []
+        for k in range(3):
+            rows = design.dof == k
+            xk, yk = x[rows], y[rows]
+            self.pieces.append((xk.T @ xk, xk.T @ yk, float(yk @ yk)))
+        self.n = float(np.mean([int((design.dof == k).sum()) for k in range(3)]))
 
     def fit(self, idx: np.ndarray) -> np.ndarray:
-        """Coefficients of the columns ``idx`` fitted on every fold."""
-        return self._solve(self.g[np.ix_(idx, idx)], self.b[idx])
+        """Coefficients of the cause columns ``idx``."""
+        if not len(idx):
+            return np.zeros(0)
+        g = self.g[np.ix_(idx, idx)]
+        try:
+            return np.linalg.solve(g, self.b[idx])
+        except np.linalg.LinAlgError:
+            return np.linalg.lstsq(g, self.b[idx], rcond=None)[0]
 
-    def loglik(self, idx: np.ndarray) -> float:
-        """Held-out Gaussian log-likelihood of the columns ``idx``, summed over
-        the folds: each fold predicted by the fit on the others, with each DOF's
-        variance from that fit's residual."""
-        total = 0.0
+    def rss(self, idx: np.ndarray) -> np.ndarray:
+        """Per-DOF residual sums of squares (3,) of the data rows for the cause columns ``idx``."""
+        beta = self.fit(idx)
         sub = np.ix_(idx, idx)
-        for f in self.ids:
-            g = self.g[sub] - sum(self.pieces[f, k][0][sub] for k in range(3))
-            b = self.b[idx] - sum(self.pieces[f, k][1][idx] for k in range(3))
-            beta = self._solve(g, b)
-            for k in range(3):
-                gf, bf, yf, nf = self.pieces[f, k]
-                if nf == 0:
-                    continue
-                gt, bt = self.gk[k][sub] - gf[sub], self.bk[k][idx] - bf[idx]
-                nt = self.nk[k] - nf
-                rss_t = max(self.yk[k] - yf - 2.0 * beta @ bt + beta @ gt @ beta, 1e-300)
-                rss_f = max(yf - 2.0 * beta @ bf[idx] + beta @ gf[sub] @ beta, 0.0)
-                var = rss_t / max(nt, 1)
-                total += -0.5 * (nf * np.log(var) + rss_f / var)
-        return float(total)
+        return np.array([max(yy - 2.0 * beta @ b[idx] + beta @ g[sub] @ beta, 1e-300)
+                         for g, b, yy in self.pieces])
 
 
-def scores_of(loglik: np.ndarray, log_prior: np.ndarray, tau: float) -> tuple[np.ndarray, np.ndarray]:
-    """``(scores, probabilities)`` from the models' cross-validated log-likelihoods
-    (rows ``tau``-correlated: divided by ``tau``) and log priors (module
-    docstring, step 3); scores relative to the best."""
-    scores = -2.0 * loglik / max(tau, 1.0) - 2.0 * log_prior
+def scores_of(rss: np.ndarray, n_params: np.ndarray, log_prior: np.ndarray, n_rows: float,
+              dispersion: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(scores, probabilities)`` of models with per-DOF ``rss`` (m, 3), the
+    parameters they add and their log prior, with the effective number of
+    independent rows ``n_rows / dispersion`` (module docstring, step 3);
+    scores relative to the best."""
+    n_eff = max(n_rows / max(dispersion, 1.0), 10.0)
+    scores = n_eff * np.sum(np.log(rss / n_rows), axis=1) + n_params * np.log(n_eff) - 2.0 * log_prior
     scores = scores - scores.min()
     w = np.exp(-0.5 * scores)
     return scores, w / w.sum()
 
 
-#: folds of the cross-validation (interleaved time blocks of every record, :func:`_folds`)
-FOLDS = 5
-#: length of the cross-validation's blocks in correlation times of the residual
-BLOCK_TAUS = 4
 #: models refined by nonlinear least squares before the final comparison (the most probable)
 CONTENDERS = 6
 
@@ -565,15 +552,114 @@ def _contenders(models: list, variants: list, probs: np.ndarray, top: int) -> li
     return list(dict.fromkeys([0] + singles + ranked))
 
 
-def _relinearised(ctx: Context, cause: Cause, theta: np.ndarray, sigma: np.ndarray) -> tuple[float, float]:
-    """Cross-validated log-likelihood of a cause's model linearised at its
-    refined ``theta`` (the baseline's columns with the cause's at ``theta``,
-    plus its signature there), and the autocorrelation time of its residual."""
+def _refined_rss(ctx: Context, cause: Cause, theta: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    """Per-DOF weighted RSS of a cause's model at its refined ``theta`` (the
+    baseline's coefficients re-identified there) on every record of ``ctx``."""
     design = _design(ctx, _with_dynamics(ctx, cause.setup(ctx, theta)), sigma)
-    cols = _signature(ctx, design, cause, theta) if len(theta) else np.zeros((len(design.y), 0))
-    x = np.hstack([design.x, cols])
-    folds = _Folds(x, design.y, design.dof, design.fold)
-    return folds.loglik(np.arange(x.shape[1])), _tau(design.residual, design)
+    return _Residualised(design).rss(np.zeros(0, int))
+
+
+# --------------------------------------------------------------- dispersion
+
+#: replicates of the parametric bootstrap of :func:`null_dispersion`
+NULL_REPLICATES = 2
+
+
+def _block_resample(noise: np.ndarray, block: int, rng) -> np.ndarray:
+    """A circular block bootstrap of a residual series (n, c): blocks of ``block`` rows."""
+    n = len(noise)
+    block = int(min(max(block, 1), n))
+    starts = rng.integers(0, n, size=int(np.ceil(n / block)))
+    idx = (starts[:, None] + np.arange(block)[None, :]).ravel()[:n] % n
+    return noise[idx]
+
+
+def null_records(ctx: Context, raw: list, smoothed: list, params: dict, block: int, rng) -> list:
+    """Records as the baseline with ``params`` would have made them, with the
+    measured records' own noise: each record's rudder (and propeller rate,
+    wind) replayed by the baseline from its smoothed initial state, plus a
+    block bootstrap of the record's measurement residual (measured minus
+    smoothed, every channel together, so that coloured, quantised and
+    track-derived noise keep their structure)."""
+    out = []
+    setup = _baseline_setup(ctx)
+    for rec, sm in zip(raw, smoothed):
+        channels = [c for c in ("x0", "y0", "psi", "u", "v", "r") if c in rec and c in sm]
+        n = min(len(rec), len(sm))
+        seg = sm.iloc[:n].copy()
+        seg.attrs = dict(rec.attrs)
+        try:
+            sim = setup.replay(params, ctx.vessel, seg)
+        except (ValueError, FloatingPointError):
+            continue
+        if "diverged_at" in sim.attrs:
+            continue
+        t = seg["t"].to_numpy(float)
+        clean = rec.iloc[:n].copy()
+        for c in channels:
+            clean[c] = np.interp(t, sim["t"].to_numpy(float), sim[c].to_numpy(float))
+        noise = np.column_stack([rec[c].to_numpy(float)[:n] - sm[c].to_numpy(float)[:n] for c in channels])
+        noise = _block_resample(noise, block, rng)
+        for j, c in enumerate(channels):
+            clean[c] = clean[c].to_numpy(float) + noise[:, j]
+        clean.attrs = dict(rec.attrs)
+        out.append(clean.reset_index(drop=True))
+    return out
+
+
+def null_dispersion(ctx: Context, raw: list, smoothed: list, causes: list, params: dict,
+                    replicates: int = NULL_REPLICATES, seed: int = 0) -> float:
+    """How much the comparison's likelihood ratios are inflated on these records
+    (>= 1), by a parametric bootstrap under the baseline.
+
+    Records made by the identified baseline itself, with the measured
+    records' noise (:func:`null_records`), go through the same smoother and
+    signatures; there every cause is spurious, so each variant's likelihood
+    ratio over ``none``, ``n sum_dof ln(RSS_none / RSS_v)``, would average its
+    number of parameters if the rows were independent and the states exact.
+    The dispersion is the mean ratio over every variant and replicate: it
+    holds the residual's serial correlation, the smoother's errors and the
+    errors in the regressors together (McCullagh & Nelder 1989, quasi-
+    likelihood; Efron & Tibshirani 1993, parametric bootstrap).
+    """
+    rng = np.random.default_rng(seed)
+    block = max(20, int(4 * _tau_of_records(ctx, smoothed)))
+    ratios = []
+    for _ in range(int(replicates)):
+        fake = null_records(ctx, raw, smoothed, params, block, rng)
+        if not fake:
+            continue
+        sm = [_smooth_once(ctx, r, params) if s.attrs.get("smoothed") == "ekf_model"
+              else _kinematic(r, SMOOTHER) for r, s in zip(fake, smoothed)]
+        every = Context(ctx.vessel, ctx.model, sm, [], "recorded", dynamics=ctx.dynamics)
+        design = _design(every, _baseline_setup(every))
+        variants = _variants(every, design, causes)
+        res = _Residualised(design, np.hstack([v.columns for v in variants]))
+        base = res.rss(np.zeros(0, int))
+        col = 0
+        for v in variants:
+            w = v.columns.shape[1]
+            rss = res.rss(np.arange(col, col + w))
+            col += w
+            ratios.append(res.n * float(np.sum(np.log(base / rss))) / max(v.n_params, 1))
+    if not ratios:
+        return 1.0
+    return float(max(np.mean(ratios), 1.0))
+
+
+def _tau_of_records(ctx: Context, smoothed: list) -> float:
+    every = Context(ctx.vessel, ctx.model, smoothed, [], "recorded", dynamics=ctx.dynamics)
+    design = _design(every, _baseline_setup(every))
+    return _tau(design.residual, design)
+
+
+def _smooth_once(ctx: Context, record: pd.DataFrame, params: dict) -> pd.DataFrame:
+    """One pass of the baseline's smoother with given coefficients (:func:`smooth_with_baseline`)."""
+    vessel = ctx.dynamics.vessel if ctx.dynamics is not None else ctx.vessel
+    modules = ctx.dynamics.modules if ctx.dynamics is not None else None
+    values = {n: params.get(n, 0.0) for n in ctx.model.names}
+    res = kalman_smooth(record, SMOOTHER, ctx.model, values, vessel, modules)
+    return _smoothed(record, res)
 
 
 def _tau(residual: np.ndarray, design: _Design) -> float:
@@ -582,7 +668,8 @@ def _tau(residual: np.ndarray, design: _Design) -> float:
 
 
 def infer(ctx: Context, records: list | None = None, causes: list | None = None, pairs: bool = True,
-          contenders: int = CONTENDERS) -> Inference:
+          contenders: int = CONTENDERS, raw: list | None = None, dispersion: float | None = None,
+          seed: int = 0) -> Inference:
     """Compare every model of the catalogue (module docstring).
 
     Parameters
@@ -591,58 +678,62 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
         The baseline, its vessel and the smoothed training records (the
         named model's parameters are refined on them).
     records : list of DataFrame, optional
-        The smoothed records the models are compared on by cross-validation
-        (default ``ctx.train``; discovery passes the training and the
-        held-out records).
+        The smoothed records the models are compared on (default ``ctx.train``;
+        discovery passes the training and the held-out records).
     causes : list of Cause, optional
         Default: the catalogue's applicable causes; undecidable ones are left out.
     pairs : bool
         Compare pairs of causes too.
     contenders : int
         Verdicts refined besides ``none`` and every single cause.
+    raw : list of DataFrame, optional
+        The measured records before smoothing, in the order of ``records``:
+        the dispersion of the likelihood ratios is then estimated by
+        :func:`null_dispersion`; without them (or with ``dispersion``
+        given) the residual's autocorrelation time stands for it.
     """
     seconds = {}
     t0 = time.perf_counter()
-    every = Context(ctx.vessel, ctx.model, list(records or ctx.train), [], ctx.derivative,
-                    dynamics=ctx.dynamics)
+    records = list(records or ctx.train)
+    every = Context(ctx.vessel, ctx.model, records, [], "recorded", dynamics=ctx.dynamics)
     design = _design(every, _baseline_setup(every))
     causes = causes if causes is not None else list(manoeuvring_causes(ctx))
     causes = [c for c in causes if c.undecidable(ctx) is None]
     variants = _variants(every, design, causes)
     seconds["signatures"] = time.perf_counter() - t0
     t1 = time.perf_counter()
-    x = np.hstack([design.x] + [v.columns for v in variants])
-    folds = _Folds(x, design.y, design.dof, design.fold)
-    p_base = design.x.shape[1]
-    spans, col = [], p_base
+    if dispersion is None:
+        if raw is not None:
+            dispersion = null_dispersion(ctx, raw, records, causes, design.coef, seed=seed)
+        else:
+            dispersion = _tau(design.residual, design)
+    seconds["dispersion"] = time.perf_counter() - t1
+    t1 = time.perf_counter()
+    gram = _Residualised(design, np.hstack([v.columns for v in variants]))
+    spans, col = [], 0
     for v in variants:
         spans.append(np.arange(col, col + v.columns.shape[1]))
         col += v.columns.shape[1]
     models = _models(variants, pairs)
-    base_idx = np.arange(p_base)
-    index = [np.concatenate([base_idx] + [spans[i] for i in m]) if m else base_idx for m in models]
-    loglik = np.array([folds.loglik(idx) for idx in index])
+    index = [np.concatenate([spans[i] for i in m]) if m else np.zeros(0, int) for m in models]
+    rss = np.array([gram.rss(idx) for idx in index])
+    n_params = np.array([sum(variants[i].n_params for i in m) for m in models], float)
     log_prior = _log_prior(models, variants)
-    tau = _tau(design.residual, design)
-    scores, probs = scores_of(loglik, log_prior, tau)
+    scores, probs = scores_of(rss, n_params, log_prior, gram.n, dispersion)
     seconds["comparison"] = time.perf_counter() - t1
     t2 = time.perf_counter()
-    fits, taus = {}, {0: tau}
+    fits = {}
     for m_i in _contenders(models, variants, probs, contenders):
         m = models[m_i]
         if not m:
             fits[m_i] = baseline_fit(ctx)
             continue
         cause = _model_cause(variants, m)
-        start = _model_theta(variants, m, folds.fit(index[m_i])[p_base:])
+        start = _model_theta(variants, m, gram.fit(index[m_i]))
         fit = refine(ctx, cause, start)
         fits[m_i] = fit
-        loglik[m_i], taus[m_i] = _relinearised(every, cause, fit.theta, design.sigma)
-    scores, probs = scores_of(loglik, log_prior, tau)
-    best = int(np.argmax(probs))
-    # the residual's correlation time without the effect the named model explains
-    tau = min(taus.get(best, tau), tau)
-    scores, probs = scores_of(loglik, log_prior, tau)
+        rss[m_i] = _refined_rss(every, cause, fit.theta, design.sigma)
+    scores, probs = scores_of(rss, n_params, log_prior, gram.n, dispersion)
     best = int(np.argmax(probs))
     seconds["refinement"] = time.perf_counter() - t2
     named = models[best]
@@ -656,15 +747,15 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
     if named:
         idx = index[best]
         try:
-            # rows are weighted by the baseline's residual RMS: unit variance, tau-correlated
-            cov = tau * np.linalg.inv(folds.g[np.ix_(idx, idx)])[p_base:, p_base:]
+            # rows weighted by the baseline's residual RMS: unit variance, inflated by the dispersion
+            cov = dispersion * np.linalg.inv(gram.g[np.ix_(idx, idx)])
         except np.linalg.LinAlgError:
-            cov = np.full((len(idx) - p_base,) * 2, np.nan)
+            cov = np.full((len(idx),) * 2, np.nan)
     out = Inference(models, scores, probs, variants, named, inclusion, verdicts,
-                    folds.fit(index[best])[p_base:], cov, tau, int(np.mean(design.n_data)), seconds)
+                    gram.fit(index[best]), cov, dispersion, int(gram.n), seconds)
     out.fits = {models[i]: f for i, f in fits.items()}
     out.fit = fits.get(best)
-    if out.fit is None:       # a model the refinement did not reach cannot be the best; kept for safety
+    if out.fit is None:
         cause = _model_cause(variants, named)
         out.fit = refine(ctx, cause, _model_theta(variants, named, out.coefficients))
     return out

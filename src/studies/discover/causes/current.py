@@ -51,6 +51,11 @@ class Current(Cause):
         uc, vc = _current_components(record, theta[0], theta[1])
         out["u"] = record["u"] - uc
         out["v"] = record["v"] - vc
+        if "u_dot" in record and "v_dot" in record:
+            # the current's body-fixed components turn with the heading: d(uc)/dt = r vc, d(vc)/dt = -r uc
+            r = record["r"].to_numpy(float)
+            out["u_dot"] = record["u_dot"] - r * vc
+            out["v_dot"] = record["v_dot"] + r * uc
         return out
 
     def environment(self, record, theta):
