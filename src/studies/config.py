@@ -44,7 +44,7 @@ __all__ = [
     "RunConfig", "DiscoverOptions", "SimulationInput", "DiscoverConfig", "ReportCommandConfig",
     "SimulateCommandConfig",
     "register", "SCHEMAS", "known_manoeuvres", "manoeuvre_config", "explain_validation_error",
-    "CONF_DIR", "compose_settings", "DERIVATIVES", "WEIGHTINGS", "STUDIES", "ROLL_TERMS", "ROLL_DAMPING_TERMS",
+    "CONF_DIR", "compose_settings", "DERIVATIVES", "DISCOVERY_METHODS", "WEIGHTINGS", "STUDIES", "ROLL_TERMS", "ROLL_DAMPING_TERMS",
     "MANOEUVRE_KINDS",
     "SVM_LOSSES", "SINDY_LIBRARIES", "BAYES_MOVES", "BAYES_DISCREPANCIES", "DISTURBANCE_SCALINGS",
     "DATA_SCHEMES",
@@ -55,6 +55,8 @@ CONF_DIR = Path(__file__).resolve().parent / "conf"
 
 #: ``data.derivative``: state/acceleration estimators
 DERIVATIVES = ("auto", "central", "savgol", "forward", "ekf", "ekf_kinematic")
+#: ``discover.method`` values
+DISCOVERY_METHODS = ("inference", "search")
 #: ``data.scheme``: how the training records of a simulated study are integrated
 #: (:data:`studies.simulate.integrator.SCHEMES`)
 DATA_SCHEMES = ("rk4", "euler")
@@ -1303,6 +1305,15 @@ class DiscoverOptions:
         replay error deciding).
     splits : bool
         Also hold out every record of data.path + validate.path in turn.
+    method : str
+        ``inference`` (every cause and pair of causes compared at once, the
+        verdict's posterior probability its confidence:
+        :mod:`studies.discover.inference`; any baseline, the MMG model
+        included) or ``search`` (the earlier search: causes fitted one by
+        one, named by rules on training scores and held-out windows;
+        polynomial baselines only; ``terms_threshold``, ``max_terms``,
+        ``posterior_steps``, ``output_error``, ``score`` and ``splits`` are
+        its options).
     """
 
     holdout: float = 0.3
@@ -1314,8 +1325,10 @@ class DiscoverOptions:
     output_error: Any = "auto"
     score: str = "prediction_error"
     splits: bool = False
+    method: str = "inference"
 
     def __post_init__(self):
+        self.method = _choice("discover.method", self.method, DISCOVERY_METHODS)
         value = self.output_error
         if not isinstance(value, bool) and str(value).lower() not in ("auto", "true", "false"):
             raise ConfigError(f"discover.output_error must be auto, true or false, got {value!r}")

@@ -69,6 +69,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 from scipy.optimize import least_squares
+from scipy.stats import chi2
 
 from ..identify.kalman import KalmanSettings, ekf_derivatives, kalman_smooth
 from ..models.terms import DOFS
@@ -562,7 +563,7 @@ def _refined_rss(ctx: Context, cause: Cause, theta: np.ndarray, sigma: np.ndarra
 # --------------------------------------------------------------- dispersion
 
 #: replicates of the parametric bootstrap of :func:`null_dispersion`
-NULL_REPLICATES = 2
+NULL_REPLICATES = 3
 
 
 def _block_resample(noise: np.ndarray, block: int, rng) -> np.ndarray:
@@ -574,15 +575,17 @@ def _block_resample(noise: np.ndarray, block: int, rng) -> np.ndarray:
     return noise[idx]
 
 
-def null_records(ctx: Context, raw: list, smoothed: list, params: dict, block: int, rng) -> list:
-    """Records as the baseline with ``params`` would have made them, with the
-    measured records' own noise: each record's rudder (and propeller rate,
-    wind) replayed by the baseline from its smoothed initial state, plus a
-    block bootstrap of the record's measurement residual (measured minus
-    smoothed, every channel together, so that coloured, quantised and
-    track-derived noise keep their structure)."""
+def null_records(ctx: Context, raw: list, smoothed: list, params: dict, block: int, rng,
+                 setup: Setup | None = None) -> list:
+    """Records as the baseline with ``params`` (or the extended model of
+    ``setup``) would have made them, with the measured records' own noise:
+    each record's rudder (and propeller rate, wind) replayed from its smoothed
+    initial state, plus a block bootstrap of the record's measurement residual
+    (measured minus smoothed, every channel together, so that coloured,
+    quantised and track-derived noise keep their structure). The recorded
+    rudder is kept as recorded."""
     out = []
-    setup = _baseline_setup(ctx)
+    setup = setup or _baseline_setup(ctx)
     for rec, sm in zip(raw, smoothed):
         channels = [c for c in ("x0", "y0", "psi", "u", "v", "r") if c in rec and c in sm]
         n = min(len(rec), len(sm))
@@ -608,25 +611,35 @@ def null_records(ctx: Context, raw: list, smoothed: list, params: dict, block: i
 
 
 def null_dispersion(ctx: Context, raw: list, smoothed: list, causes: list, params: dict,
-                    replicates: int = NULL_REPLICATES, seed: int = 0) -> float:
+                    replicates: int = NULL_REPLICATES, seed: int = 0, under: CauseFit | None = None) -> float:
     """How much the comparison's likelihood ratios are inflated on these records
     (>= 1), by a parametric bootstrap under the baseline.
 
     Records made by the identified baseline itself, with the measured
     records' noise (:func:`null_records`), go through the same smoother and
     signatures; there every cause is spurious, so each variant's likelihood
-    ratio over ``none``, ``n sum_dof ln(RSS_none / RSS_v)``, would average its
-    number of parameters if the rows were independent and the states exact.
-    The dispersion is the mean ratio over every variant and replicate: it
+    ratio over ``none``, ``n sum_dof ln(RSS_none / RSS_v)``, would follow a
+    chi-square law with its number of parameters if the rows were independent
+    and the states exact. The dispersion is the median over every variant and
+    replicate of the ratio over that law's median (a median, because a few
+    variants that happen to match the noise's slow wander dominate a mean): it
     holds the residual's serial correlation, the smoother's errors and the
     errors in the regressors together (McCullagh & Nelder 1989, quasi-
     likelihood; Efron & Tibshirani 1993, parametric bootstrap).
+
+    ``under``: a single cause's refined fit; the records are then made by its
+    extended model, and the ratios are those of each other cause's variants
+    added to it (the dispersion that judges a second cause).
     """
     rng = np.random.default_rng(seed)
     block = max(20, int(4 * _tau_of_records(ctx, smoothed)))
     ratios = []
+    setup = None
+    if under is not None:
+        setup = _with_dynamics(ctx, under.cause.setup(ctx, under.theta))
+        params = under.params
     for _ in range(int(replicates)):
-        fake = null_records(ctx, raw, smoothed, params, block, rng)
+        fake = null_records(ctx, raw, smoothed, params, block, rng, setup)
         if not fake:
             continue
         sm = [_smooth_once(ctx, r, params) if s.attrs.get("smoothed") == "ekf_model"
@@ -635,16 +648,34 @@ def null_dispersion(ctx: Context, raw: list, smoothed: list, causes: list, param
         design = _design(every, _baseline_setup(every))
         variants = _variants(every, design, causes)
         res = _Residualised(design, np.hstack([v.columns for v in variants]))
-        base = res.rss(np.zeros(0, int))
-        col = 0
+        spans, col = [], 0
         for v in variants:
-            w = v.columns.shape[1]
-            rss = res.rss(np.arange(col, col + w))
-            col += w
-            ratios.append(res.n * float(np.sum(np.log(base / rss))) / max(v.n_params, 1))
+            spans.append(np.arange(col, col + v.columns.shape[1]))
+            col += v.columns.shape[1]
+        own = np.zeros(0, int)
+        if under is not None:
+            label = _label_of(under)
+            mine = [i for i, v in enumerate(variants) if v.cause.id == under.cause.id
+                    and (label is None or v.label == label)]
+            if mine:
+                best = max(mine, key=lambda i: -float(np.sum(np.log(res.rss(spans[i])))))
+                own = spans[best]
+        base = res.rss(own)
+        for i, v in enumerate(variants):
+            if under is not None and v.cause.id == under.cause.id:
+                continue
+            rss = res.rss(np.concatenate([own, spans[i]]))
+            ratios.append(res.n * float(np.sum(np.log(base / rss))) / chi2.median(max(v.n_params, 1)))
     if not ratios:
         return 1.0
-    return float(max(np.mean(ratios), 1.0))
+    return float(max(np.median(ratios), 1.0))
+
+
+def _label_of(fit: CauseFit) -> str | None:
+    """The variant label of a missing term's fit (its one term), else None (any variant of the cause)."""
+    if isinstance(fit.cause, MissingTerm) and fit.cause.params:
+        return f"missing_term:{fit.cause.params[0]}"
+    return None
 
 
 def _tau_of_records(ctx: Context, smoothed: list) -> float:
@@ -736,6 +767,20 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
     scores, probs = scores_of(rss, n_params, log_prior, gram.n, dispersion)
     best = int(np.argmax(probs))
     seconds["refinement"] = time.perf_counter() - t2
+    if pairs and raw is not None and len(models[best]) == 2:
+        # a second cause is judged against the records its first cause would make
+        t3 = time.perf_counter()
+        singles = [m_i for m_i in fits if len(models[m_i]) == 1 and models[m_i][0] in models[best]]
+        first = max(singles, key=lambda m_i: probs[m_i]) if singles else None
+        if first is not None:
+            second = null_dispersion(ctx, raw, records, causes, design.coef, seed=seed + 1, under=fits[first])
+            if second > dispersion:
+                log.info("likelihood-ratio dispersion %.3g under %s (%.3g under the baseline)", second,
+                         variants[models[first][0]].label, dispersion)
+                dispersion = second
+                scores, probs = scores_of(rss, n_params, log_prior, gram.n, dispersion)
+                best = int(np.argmax(probs))
+        seconds["second_dispersion"] = time.perf_counter() - t3
     named = models[best]
     inclusion, verdicts = {}, {}
     for m, p in zip(models, probs):
@@ -846,3 +891,79 @@ def baseline_fit(ctx: Context) -> CauseFit:
                    tau=max(integrated_time(r) for r in residuals))
     fit.score = _score(ctx, rss, 0)
     return fit
+
+
+# --------------------------------------------------------------- intervals
+
+def _leaves(params: dict, prefix=()) -> dict:
+    out = {}
+    for k, v in params.items():
+        if isinstance(v, dict):
+            out.update(_leaves(v, prefix + (k,)))
+        elif v is not None:
+            out[prefix + (k,)] = float(v)
+    return out
+
+
+def _nest(flat: dict) -> dict:
+    out = {}
+    for path, value in flat.items():
+        node = out
+        for key in path[:-1]:
+            node = node.setdefault(key, {})
+        node[path[-1]] = value
+    return out
+
+
+def _draw_parameters(inference: Inference, coefficients: np.ndarray) -> dict:
+    """The named model's parameters (:meth:`Cause.parameters`) at linear coefficients."""
+    cause = named_cause(inference)
+    theta = _model_theta(inference.variants, inference.named, coefficients)
+    fitted, col = dict(inference.fit.params), 0
+    for i in inference.named:
+        v = inference.variants[i]
+        if isinstance(v.cause, MissingTerm):
+            fitted[v.cause.params[0]] = float(coefficients[col])
+        col += v.columns.shape[1]
+    return _leaves(cause.parameters(theta, fitted))
+
+
+def intervals(inference: Inference, level: float = 0.9, draws: int = 2000, seed: int = 0) -> dict:
+    """Intervals (``level``, default 90 %) of the named model's parameters,
+    shaped as :meth:`Cause.parameters` gives them (``[low, high]`` per value).
+
+    The linear coefficients' covariance (the regression's, inflated by the
+    dispersion) is sampled and mapped through the causes' parameters; the
+    draws are centred on the refined estimate (the nonlinear refinement moves
+    the value, not the spread). Directions are taken about the estimate, on
+    the circle."""
+    if not inference.named or inference.fit is None:
+        return {}
+    cov = np.asarray(inference.covariance, float)
+    coef = np.asarray(inference.coefficients, float)
+    if cov.shape != (len(coef), len(coef)) or not np.all(np.isfinite(cov)):
+        return {}
+    rng = np.random.default_rng(seed)
+    cov = 0.5 * (cov + cov.T)
+    w, vecs = np.linalg.eigh(cov)
+    samples = coef + (rng.standard_normal((draws, len(coef))) * np.sqrt(np.maximum(w, 0.0))) @ vecs.T
+    centre = _draw_parameters(inference, coef)
+    refined = _leaves(inference.fit.cause.parameters(inference.fit.theta, inference.fit.params))
+    values = {k: [] for k in centre}
+    for s in samples:
+        for k, v in _draw_parameters(inference, s).items():
+            if k in values:
+                values[k].append(v)
+    tail = 50.0 * (1.0 - level)
+    out = {}
+    for k, vals in values.items():
+        vals = np.asarray(vals, float)
+        ref = refined.get(k, centre[k])
+        if k[-1] == "direction":
+            dev = np.angle(np.exp(1j * (vals - centre[k])))
+            lo, hi = np.percentile(dev, [tail, 100.0 - tail])
+            out[k] = [float((ref + lo) % (2 * np.pi)), float((ref + hi) % (2 * np.pi))]
+        else:
+            lo, hi = np.percentile(vals - centre[k], [tail, 100.0 - tail])
+            out[k] = [float(ref + lo), float(ref + hi)]
+    return _nest(out)

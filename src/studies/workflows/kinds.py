@@ -23,6 +23,7 @@ from pathlib import Path
 from ..config import DiscoverConfig, RunConfig
 from ..errors import ConfigError
 from . import discover as _discover
+from . import discover_inference as _inference
 from . import manoeuvring as _manoeuvring
 from . import mmg as _mmg
 from . import roll_discover as _roll_discover
@@ -47,9 +48,9 @@ class ManoeuvringStudy:
 
     def prepare_discovery(self, cfg: DiscoverConfig, root: Path,
                           record: Recorder | None = None) -> DiscoverStudy:
-        if _mmg.is_mmg(cfg):
-            raise ConfigError("model=mmg: discovery judges a polynomial baseline (model=abkowitz or "
-                              "symmetric); the MMG model is its 'propulsion' extension")
+        if _mmg.is_mmg(cfg) and cfg.discover.method == "search":
+            raise ConfigError("model=mmg: discover.method=search judges a polynomial baseline (model=abkowitz "
+                              "or symmetric); discover.method=inference takes the MMG model as baseline")
         study = _discover.prepare_discovery(cfg, root, self, record)
         paths = as_path_list(cfg.data.path) + as_path_list(cfg.validate.path)
         contexts = ["training"] * len(as_path_list(cfg.data.path)) + ["validation"] * len(paths)
@@ -59,6 +60,8 @@ class ManoeuvringStudy:
         return study
 
     def discover(self, study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
+        if study.cfg.discover.method == "inference":
+            return _inference.execute_inference(study, out_dir)
         return _discover.execute_discovery(study, out_dir)
 
 

@@ -73,7 +73,7 @@ class Setup:
         dynamics, or the baseline's simulator in the cause's environment)."""
         seen = self.sim_record(record)
         if self.dynamics is not None:
-            return self.dynamics.replay(params, seen)
+            return self.dynamics.replay(params, seen, self.environment(record), self.external())
         return replay(self.model, params, vessel, seen, self.environment(record), self.external())
 
     def sim_record(self, record: pd.DataFrame) -> pd.DataFrame:
@@ -196,6 +196,12 @@ class Cause:
 
     #: the size of a small effect of an unbounded parameter, by name (units of the parameter)
     typical: dict = {}
+    #: each parameter's unit and convention, by name, as ``discovery.json`` states them
+    units: dict = {}
+
+    def fixed_parameters(self) -> dict:
+        """Values the extension uses but does not fit (published ones), by name; none by default."""
+        return {}
 
     def nudges(self, ctx) -> list[np.ndarray]:
         """Small effects of either sign from which the output-error refinement

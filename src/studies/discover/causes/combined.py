@@ -27,6 +27,7 @@ class Combined(Cause):
         self.params = tuple(first.params) + tuple(second.params)
         self.no_effect = {first.id: first.no_effect, second.id: second.no_effect}
         self.explanation = first.explanation + " " + second.explanation
+        self.units = {first.id: dict(first.units), second.id: dict(second.units)}
         self._n = len(first.nl_params)
         self._starts = starts
 
@@ -91,6 +92,10 @@ class Combined(Cause):
 
     def n_params(self):
         return self.first.n_params() + self.second.n_params()
+
+    def fixed_parameters(self):
+        fixed = {self.first.id: self.first.fixed_parameters(), self.second.id: self.second.fixed_parameters()}
+        return {k: v for k, v in fixed.items() if v}
 
     def search_penalty(self, ctx):
         return self.first.search_penalty(ctx) + self.second.search_penalty(ctx)

@@ -36,6 +36,8 @@ class Current(Cause):
     id = "current"
     params = ("speed", "direction")
     no_effect = {"speed": 0.0, "direction": 0.0}
+    units = {"speed": "m/s, at the records' scale",
+             "direction": "rad, earth-fixed, where the current flows to (0 = north, pi/2 = east)"}
     explanation = ("A steady current carries the ship: the measured velocities and track are over "
                    "ground, while the hydrodynamic forces depend on the velocities through the water, "
                    "so a heading-dependent error appears and the track drifts downstream.")

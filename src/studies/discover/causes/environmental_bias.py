@@ -30,6 +30,9 @@ class EnvironmentalBias(Cause):
     id = "environmental_bias"
     params = ("bx", "by", "bn")
     no_effect = {"bx": 0.0, "by": 0.0, "bn": 0.0}
+    units = {"bx": "-, prime force towards north (over 0.5 rho L^2 U^2)",
+             "by": "-, prime force towards east (over 0.5 rho L^2 U^2)",
+             "bn": "-, prime yaw moment (over 0.5 rho L^3 U^2); null when the baseline's N0 holds it"}
     #: a small bias: a prime force about that of a fifth of a degree of the Mariner's rudder
     typical = {"bx": 1e-5, "by": 1e-5, "bn": 5e-6}
     explanation = ("A slowly varying earth-fixed force and moment (waves' drift, wind or current loads "

@@ -32,6 +32,7 @@ class MissingTerm(Cause):
 
     id = "missing_term"
     no_effect = {"terms": {}}
+    units = {"terms": "-, prime coefficients of the added terms (thesis eq. 3.6 units)"}
     explanation = ("A hydrodynamic effect the model's polynomial does not contain (e.g. a cubic yaw "
                    "damping Nrrr in tight turns): the monomials of u', v', r', delta up to third order "
                    "are searched for the terms the records need (sparse regression on the force "

@@ -69,6 +69,8 @@ class PropellerAsymmetry(Cause):
     id = "propeller_asymmetry"
     params = ("Yp0", "Np0")
     no_effect = {"Yp0": 0.0, "Np0": 0.0}
+    units = {"Yp0": "-, prime side force at the approach speed U0 (over 0.5 rho L^2 U0^2), positive to starboard",
+             "Np0": "-, prime yaw moment at U0 (over 0.5 rho L^3 U0^2), positive turning to starboard"}
     #: a small side force: about a fifth of a degree of the Mariner's rudder at the approach speed
     typical = {"Yp0": 1e-5, "Np0": 5e-6}
     explanation = ("A single propeller pushes the stern sideways (its blades work in a skewed wake): a "

@@ -7,7 +7,7 @@ import numpy as np
 from ...identify.kalman import estimate_derivatives
 from ...identify.mmg_regression import mmg_problems
 from ...models.mmg import MMGParameters, mmg
-from ...simulate.mmg import replay_mmg
+from ...simulate.mmg import MMGReplayPlan, replay_mmg
 from ...vessels import has_mmg_particulars, mmg_vessel_at_speed
 from .base import Cause, Setup
 
@@ -59,8 +59,65 @@ class MMGDynamics:
                                 self.vessel.coefficients, PRIOR_SCALE, PRIOR_FLOOR)
         return problems, self.vessel.draught / self.vessel.length
 
-    def replay(self, params: dict, record):
-        return replay_mmg(self.model, params, self.vessel, record, self.modules)
+    def replay(self, params: dict, record, environment=None, external=None):
+        """The MMG model's replay of ``record`` (its rudder and propeller rate).
+
+        ``environment``: a uniform current (speed, direction it flows to) in
+        which the record was measured over ground: the ship is replayed through
+        the water from its initial state less the current, and the current's
+        drift added to the track and velocities (the exact effect of a uniform
+        current). ``external``: prime forces as :func:`studies.simulate.simulate`
+        takes them (earth-fixed bias ``bx, by, bn``, then body-fixed forces at
+        the approach speed in columns 6-8, Abkowitz prime units); they are
+        turned into accelerations along the record's own speed and heading
+        (an approximation: the replay's speed and heading differ from the
+        record's where the replay departs from it).
+        """
+        speed, direction = ((float(environment.current_speed), float(environment.current_direction))
+                            if environment is not None else (0.0, 0.0))
+        seen = record
+        if speed:
+            seen = record.copy()
+            psi = record["psi"].to_numpy(float)
+            seen["u"] = record["u"] - speed * np.cos(direction - psi)
+            seen["v"] = record["v"] - speed * np.sin(direction - psi)
+        accelerations = None
+        if external is not None and np.any(external):
+            plan = MMGReplayPlan(self.model, self.vessel, seen, self.modules)
+            accelerations = self._accelerations(np.asarray(external, float), seen, plan)
+        out = replay_mmg(self.model, params, self.vessel, seen, self.modules, external=accelerations)
+        if speed:
+            t = out["t"].to_numpy(float)
+            t = t - t[0]
+            psi = out["psi"].to_numpy(float)
+            out["x0"] = out["x0"] + speed * np.cos(direction) * t
+            out["y0"] = out["y0"] + speed * np.sin(direction) * t
+            out["u"] = out["u"] + speed * np.cos(direction - psi)
+            out["v"] = out["v"] + speed * np.sin(direction - psi)
+        return out
+
+    def _accelerations(self, external: np.ndarray, record, plan) -> np.ndarray:
+        """SI accelerations per integration step of prime external forces (see :meth:`replay`)."""
+        vessel = self.vessel
+        grid = plan.t0 + plan.step * np.arange(plan.steps)
+        t = record["t"].to_numpy(float)
+        u = np.interp(grid, t, record["u"].to_numpy(float))
+        v = np.interp(grid, t, record["v"].to_numpy(float))
+        psi = np.interp(grid, t, record["psi"].to_numpy(float))
+        speed2 = u * u + v * v
+        q = 0.5 * vessel.rho * vessel.length ** 2
+        bx, by, bn = external[:3]
+        fx, fy, fn = external[6:9] if len(external) >= 9 else (0.0, 0.0, 0.0)
+        body = speed2 * np.array([np.cos(psi) * bx + np.sin(psi) * by,
+                                  -np.sin(psi) * bx + np.cos(psi) * by,
+                                  np.full_like(psi, bn) * vessel.length])
+        body += vessel.speed ** 2 * np.array([[fx], [fy], [fn * vessel.length]])
+        forces = q * body
+        mx, my, jz = vessel.added_masses()
+        m, xgm = vessel.mass, vessel.xg * vessel.mass
+        mass = np.array([[m + mx, 0.0, 0.0], [0.0, m + my, xgm],
+                         [0.0, xgm, vessel.iz + vessel.xg ** 2 * m + jz]])
+        return np.linalg.solve(mass, forces).T
 
 
 class Propulsion(Cause):
@@ -124,11 +181,20 @@ class Propulsion(Cause):
                      theta=np.asarray(theta, float), dynamics=self._dynamics)
 
     def parameters(self, theta, fitted=None) -> dict:
-        modules = self._dynamics.modules if self._dynamics else MMGParameters()
-        out = {k: float(v) for k, v in modules.as_dict().items()}
+        """The fitted parameter: the hull's resistance coefficient ``R0`` (the
+        interaction factors are the vessel's published ones,
+        :meth:`fixed_parameters`)."""
+        out = {}
         if fitted and "R0" in fitted:
             out["R0"] = float(fitted["R0"])
         return out
+
+    def fixed_parameters(self) -> dict:
+        """The vessel's published propeller and rudder factors the extension uses, not fitted."""
+        modules = self._dynamics.modules if self._dynamics else MMGParameters()
+        return {k: float(v) for k, v in modules.as_dict().items()}
+
+    units = {"R0": "-, the hull's resistance coefficient (MMG prime, over 0.5 rho L d U^2)"}
 
     def n_params(self) -> int:
         return self._extra

@@ -26,6 +26,8 @@ class RudderOffset(Cause):
     id = "rudder_offset"
     params = ("delta0",)
     no_effect = {"delta0": 0.0}
+    units = {"delta0": "rad; the indicated rudder angle at which the rudder gives no force (the "
+                       "hydrodynamics see delta - delta0; positive delta gives a negative yaw moment)"}
     explanation = ("The rudder gives no force at an indicated angle delta0, not at zero: a misaligned "
                    "rudder indicator, or the asymmetric inflow of a single propeller (the ship needs "
                    "a little rudder to go straight and turns differently to port and starboard).")

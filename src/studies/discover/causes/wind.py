@@ -32,6 +32,8 @@ class WindUnmodelled(Cause):
     id = "wind_unmodelled"
     params = ("speed", "direction")
     no_effect = {"speed": 0.0, "direction": 0.0}
+    units = {"speed": "m/s, true wind speed",
+             "direction": "rad, earth-fixed, where the wind comes from (0 = north, pi/2 = east)"}
     explanation = ("Wind loads act on the superstructure but the model has none: a steady wind gives "
                    "a force and moment that depend on the heading relative to the wind (Blendermann 1994).")
 
@@ -75,6 +77,7 @@ class WindSpeedBias(Cause):
     id = "wind_speed_bias"
     params = ("k",)
     no_effect = {"k": 0.0}
+    units = {"k": "-, the anemometer reads (1 + k) times the true wind speed"}
     explanation = ("The anemometer reads the wind speed off by a factor (1 + k) (thesis eq. 4.1): the "
                    "wind load removed from the data is wrong in proportion to the wind load itself.")
 

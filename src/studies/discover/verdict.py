@@ -1,0 +1,99 @@
+"""What ``studies discover`` concludes, as one typed value: :class:`Discovery`.
+
+``discovery.json`` is :meth:`Discovery.to_dict` (the DESIGN.md contract:
+``cause``, ``parameters``, ``uncertainty``, ``baseline``, ``extended``,
+``gain_pct``, ``ranking``, ``confidence``, ``undecided``,
+``next_manoeuvre``), plus what a model-test engineer needs to decide whether
+to trust it: each parameter's unit and convention, the values the extension
+uses without fitting them, the probability that each cause acts, and how the
+verdict was reached.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+__all__ = ["Discovery"]
+
+
+@dataclass
+class Discovery:
+    """The verdict of one discovery.
+
+    Attributes
+    ----------
+    cause : str
+        The named cause's id, a pair ``"a+b"`` or ``"none"`` (DESIGN.md's catalogue).
+    parameters : dict
+        Its fitted parameters (a pair: by cause id); units in ``parameter_units``.
+    parameter_units : dict
+        Each parameter's unit and convention, shaped as ``parameters``.
+    fixed_parameters : dict
+        Values the extension uses but does not fit (published ones).
+    uncertainty : dict
+        90 % intervals of the parameters, shaped as ``parameters``.
+    confidence : float
+        Posterior probability that the named verdict is the right one (0-1).
+    confidence_basis : str
+        How ``confidence`` was computed, in words.
+    inclusion : dict
+        ``{cause id: posterior probability that it acts}`` (alone or in a pair).
+    ranking : list of dict
+        Every verdict compared: ``cause``, ``probability``, ``score`` (``-2 ln``
+        of its probability relative to the best).
+    undecided : list of str or None
+        When the verdict's probability is below 0.9: the named verdict, then the
+        rivals the records cannot tell from it.
+    next_manoeuvre : str or None
+        What would separate them.
+    baseline, extended : dict
+        ``validation_rmse`` (windowed position error on the held-out records [m]),
+        ``validation_rmse_whole_records``, ``training_rmse`` of the baseline and
+        of the named extension.
+    gain_pct : float
+        What the extension gains on the held-out records [%] (negative: it
+        predicts them worse; reported, never a reason to name).
+    explains_validation : bool
+        Whether the named model explains the held-out records.
+    explanation : str
+        The named cause's physical explanation.
+    baseline_model : str
+        The baseline model (``abkowitz``, ``symmetric``, ``mmg``, ...).
+    scale : str
+        The records' scale (``full`` or ``model``), in which every dimensional value is given.
+    method : str
+        How the verdict was reached.
+    units : str
+        Unit of the validation errors.
+    notes : list of str
+    seconds : dict
+        Time spent per stage [s].
+    """
+
+    cause: str
+    parameters: dict
+    parameter_units: dict
+    fixed_parameters: dict
+    uncertainty: dict
+    confidence: float
+    confidence_basis: str
+    inclusion: dict
+    ranking: list
+    baseline: dict
+    extended: dict
+    gain_pct: float
+    explains_validation: bool
+    explanation: str
+    baseline_model: str
+    scale: str
+    method: str
+    undecided: list | None = None
+    next_manoeuvre: str | None = None
+    units: str = "m (position RMSE over prediction windows)"
+    notes: list = field(default_factory=list)
+    seconds: dict = field(default_factory=dict)
+    departures: list = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        """The value written to ``discovery.json``."""
+        return asdict(self)

@@ -1,0 +1,193 @@
+"""``studies discover`` by one inference over the cause catalogue
+(``discover.method=inference``, the default).
+
+:func:`execute_inference` smooths every record with the baseline, compares
+every cause and pair of causes at once (:mod:`studies.discover.inference`),
+refines the named model, replays the held-out records with the baseline and
+with it, and writes ``discovery.json`` (a :class:`~studies.discover.verdict.Discovery`),
+``report.md``/``report.html`` and the figures. Any baseline the cause
+protocol reaches is accepted: the Abkowitz and symmetric models, and the MMG
+model (``model=mmg``: hull by regression with its prior on the published
+coefficients, thrust from the measured rpm, rudder in the slipstream).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..discover import diagnostics as dg
+from ..discover.causes import NoCause, manoeuvring_causes
+from ..discover.causes.propulsion import MMGDynamics
+from ..discover.confidence import separating_manoeuvre
+from ..discover.fitting import Context, calibrate, training_error, validate
+from ..discover.inference import (baseline_fit, infer, intervals, smooth_with_baseline)
+from ..discover.report import plot_predictions, plot_ranking, write_discovery, write_report
+from ..discover.verdict import Discovery
+from ..vessels import has_mmg_particulars, mmg_vessel_at_speed
+from .study import DiscoverStudy, gain_pct
+
+__all__ = ["execute_inference", "baseline_dynamics", "UNDECIDED_BELOW"]
+
+log = logging.getLogger(__name__)
+
+#: a verdict less probable than this lists its rivals (``undecided``) and the manoeuvre that separates them
+UNDECIDED_BELOW = 0.9
+#: a rival is listed when at least this fraction as probable as the named verdict
+RIVAL_FRACTION = 0.1
+
+
+def baseline_dynamics(study: DiscoverStudy) -> MMGDynamics | None:
+    """The MMG model's dynamics when the baseline is ``model=mmg`` (particulars
+    at the records' scale, from the first record's speed), else None."""
+    if str(study.cfg.model.name) != "mmg":
+        return None
+    name = str(study.cfg.vessel.name)
+    if not has_mmg_particulars(name):
+        from ..errors import ConfigError
+        raise ConfigError(f"model=mmg: vessel {name} has no MMG particulars (propeller, rudder, K_T curve)")
+    first = study.train[0]
+    return MMGDynamics(mmg_vessel_at_speed(name, float(np.hypot(first["u"].iloc[0], first["v"].iloc[0]))))
+
+
+def _scale(study: DiscoverStudy, dynamics) -> str:
+    if dynamics is not None:
+        return "model" if getattr(dynamics.vessel, "model_scale", False) or \
+            dynamics.vessel.length < 0.5 * study.vessel.length else "full"
+    return "model" if any(r.attrs.get("model_scale") for r in study.records) else "full"
+
+
+def _undecided(ranking: list, named: str, confidence: float, undecidable: list) -> tuple:
+    rivals = [r["cause"] for r in ranking if r["cause"] != named
+              and r["probability"] >= RIVAL_FRACTION * max(confidence, 1e-12)]
+    if confidence >= UNDECIDED_BELOW and not undecidable:
+        return None, None
+    if not rivals and not undecidable:
+        return None, None
+    ids = [c for r in rivals for c in r.split("+")]
+    manoeuvre = separating_manoeuvre(named.split("+")[0], ids) if rivals else None
+    extra = [m for _, m in undecidable]
+    text = "; ".join([m for m in [manoeuvre] + extra if m])
+    return [named] + rivals + [c for c, _ in undecidable if c not in rivals], text or None
+
+
+def execute_inference(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
+    """Run the discovery on manoeuvring records by one inference; ``(discovery, metrics)``."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    opts = study.cfg.discover
+    t0 = time.perf_counter()
+    dynamics = baseline_dynamics(study)
+    model = dynamics.model if dynamics is not None else study.model
+    raw = list(study.train) + list(study.validation)
+    first = Context(study.vessel, model, list(study.train), list(study.validation), "recorded",
+                    dynamics=dynamics)
+    smoothed = smooth_with_baseline(first, raw)
+    t_smooth = time.perf_counter() - t0
+    ctx = Context(study.vessel, model, smoothed[:len(study.train)], list(study.validation), "recorded",
+                  dynamics=dynamics)
+    ctx.horizon = float(opts.horizon) if opts.horizon else None
+    calibrate(ctx)
+    undecidable = [(c.id, c.undecidable(ctx)[1]) for c in manoeuvring_causes(ctx)
+                   if c.undecidable(ctx) is not None]
+    result = infer(ctx, smoothed, raw=raw, pairs=bool(opts.second_cause), seed=int(study.cfg.seed))
+    baseline = result.fits.get(()) or baseline_fit(ctx)
+    named = result.verdict_of(result.named)
+    best = result.fit if result.named else baseline
+    t_infer = time.perf_counter() - t0 - t_smooth
+    validate(ctx, baseline)
+    if best is not baseline:
+        validate(ctx, best)
+    whole_base = validate(ctx, _copy(baseline), keep=True, whole=True)
+    whole_best = validate(ctx, _copy(best), keep=True, whole=True) if best is not baseline else whole_base
+    b_rmse, e_rmse = baseline.validation_rmse, best.validation_rmse
+    b_train = training_error(ctx, baseline)
+    e_train = b_train if best is baseline else training_error(ctx, best)
+    explained = dg.explains(e_rmse, e_train, study.vessel.length)
+    ranking = result.ranking()
+    confidence = result.confidence
+    undecided, next_manoeuvre = _undecided(ranking, named, confidence, undecidable)
+    cause = best.cause if best is not baseline else NoCause()
+    notes = list(study.notes)
+    notes.append(f"{len(result.models)} models compared (none, {len(result.variants)} single-cause variants"
+                 + (", every pair of two causes" if opts.second_cause else "") + f") on {len(raw)} records; "
+                 f"likelihood-ratio dispersion {result.tau:.3g} (parametric bootstrap under the baseline)")
+    for cid, manoeuvre in undecidable:
+        notes.append(f"{cid} is not compared: the training records cannot decide it ({manoeuvre} would)")
+    if best is not baseline and best.validation.get("diverged"):
+        notes.append(f"the named model's replay diverges on {', '.join(best.validation['diverged'])}")
+    gain = gain_pct(b_rmse, e_rmse)
+    if best is not baseline and gain < 0:
+        notes.append(f"the extension predicts the held-out records {-gain:.1f} % worse than the baseline: "
+                     "the records' evidence for the cause lies in motions the held-out records do not repeat, "
+                     "or the cause is wrong; weigh the confidence against this")
+    discovery = Discovery(
+        cause=named, parameters=cause.parameters(best.theta, best.params) if best is not baseline else {},
+        parameter_units=dict(cause.units), fixed_parameters=cause.fixed_parameters(),
+        uncertainty=intervals(result, seed=int(study.cfg.seed)), confidence=confidence,
+        confidence_basis=("posterior probability of the verdict among every model compared (BIC with the "
+                          "likelihood-ratio dispersion of a parametric bootstrap; uniform prior over 0, 1 "
+                          "and 2 causes)"),
+        inclusion={k: float(v) for k, v in sorted(result.inclusion.items(), key=lambda kv: -kv[1])},
+        ranking=ranking[:12],
+        baseline={"validation_rmse": b_rmse, "validation_rmse_whole_records": whole_base["position_rmse"],
+                  "training_rmse": b_train},
+        extended={"validation_rmse": e_rmse, "validation_rmse_whole_records": whole_best["position_rmse"],
+                  "training_rmse": e_train},
+        gain_pct=gain, explains_validation=bool(explained),
+        explanation=cause.explanation if named != "none" else NoCause.explanation,
+        baseline_model=str(study.cfg.model.name), scale=_scale(study, dynamics), method="inference",
+        undecided=undecided, next_manoeuvre=next_manoeuvre, notes=notes,
+        seconds={"smoothing": t_smooth, "inference": t_infer, **{k: float(v) for k, v in result.seconds.items()},
+                 "total": time.perf_counter() - t0})
+    out = discovery.to_dict()
+    sections, figures = _sections(ctx, result, whole_base, whole_best, named, out_dir)
+    write_discovery(out_dir / "discovery.json", out)
+    write_report(out_dir, out, out["explanation"], sections, figures)
+    metrics = {"discover/gain_pct": gain, "discover/confidence": confidence,
+               "discover/baseline_validation_rmse": b_rmse, "discover/extended_validation_rmse": e_rmse,
+               "discover/baseline_training_rmse": b_train, "discover/extended_training_rmse": e_train,
+               "discover/explains_validation": float(explained), "discover/dispersion": float(result.tau),
+               "discover/n_models": float(len(result.models)), "runtime/total_s": time.perf_counter() - t0}
+    for cid, p in result.inclusion.items():
+        metrics[f"discover/inclusion/{cid}"] = float(p)
+    return out, metrics
+
+
+def _copy(fit):
+    from dataclasses import replace
+    return replace(fit)
+
+
+def _sections(ctx, result, whole_base: dict, whole_best: dict, named: str, out_dir: Path):
+    """The report's tables and figures: verdicts, inclusion probabilities,
+    predictions of every held-out record."""
+    ranking = pd.DataFrame(result.ranking()[:12]).set_index("cause")
+    inclusion = pd.DataFrame({"probability": result.inclusion}).sort_values("probability", ascending=False)
+    inclusion.index.name = "cause"
+    sections = [("Verdicts compared (posterior probability; score -2 ln of the probability relative "
+                 "to the best)", ranking),
+                ("Probability that each cause acts (alone or in a pair)", inclusion)]
+    figures, phase_tables = [], []
+    for rec, pb, pe in zip(ctx.validation, whole_base["predictions"], whole_best["predictions"]):
+        name = str(rec.attrs.get("name", "record"))
+        preds = {"baseline": pb}
+        if named != "none":
+            preds[f"extended ({named})"] = pe
+        fig = f"prediction_{name}.png"
+        plot_predictions(rec, preds, f"{name}: measured vs predicted", out_dir / fig)
+        figures.append(fig)
+        phase_tables.append(dg.phase_errors(rec, pb, name).assign(model="baseline"))
+        if named != "none":
+            phase_tables.append(dg.phase_errors(rec, pe, name).assign(model="extended"))
+    if phase_tables:
+        sections.append(("Prediction error per manoeuvre phase (u, v in m/s, r in deg/s)",
+                         pd.concat(phase_tables, ignore_index=True)))
+    plot_ranking([{"cause": r["cause"], "score": r["score"]} for r in result.ranking()[:12]],
+                 out_dir / "ranking.png")
+    figures.append("ranking.png")
+    return sections, figures
