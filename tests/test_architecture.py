@@ -31,7 +31,8 @@ LAYERS = [
     ("scenarios", {"scenarios"}),
     ("studies", {"workflows"}),
     ("runtime", {"runtime"}),
-    ("command line", {"cli", "cli_help", "config_check", "progress", "bench", "__main__", "<root>"}),
+    ("command line", {"cli", "cli_help", "config_check", "progress", "bench", "bench_discovery", "__main__",
+                      "<root>"}),
 ]
 
 def _rank(package: str) -> int:

@@ -23,7 +23,8 @@ def _discover(tmp_path, records, overrides=()):
     paths = write_records(records, tmp_path)
     with initialize_config_module("studies.conf", version_base="1.3"):
         cfg = compose_settings("discover", overrides=[f"data.path=[{paths[0]},{paths[1]}]",
-                                             f"validate.path=[{paths[2]}]", *overrides])
+                                             f"validate.path=[{paths[2]}]", "discover.method=search",
+                                             *overrides])
     study = prepare_discover(cfg, tmp_path)
     discovery, _ = execute_discover(study, tmp_path / "out")
     on_disk = json.loads((tmp_path / "out" / "discovery.json").read_text())
@@ -204,7 +205,7 @@ def _discover_kvlcc2(tmp_path, training: tuple, held_out: str, overrides=()) -> 
                                              f"data.path=[{','.join(str(f) for f in train)}]",
                                              f"validate.path=[{marin_file(held_out)}]",
                                              "discover.second_cause=false", "discover.posterior_steps=15",
-                                             *overrides])
+                                             "discover.method=search", *overrides])
     d, _ = execute_discover(prepare_discover(cfg, tmp_path), tmp_path / "out")
     return d
 
@@ -468,7 +469,7 @@ def _discover_files(tmp_path, train, validation, overrides=()):
     with initialize_config_module("studies.conf", version_base="1.3"):
         cfg = compose_settings("discover", overrides=[f"data.path=[{','.join(paths[:len(train)])}]",
                                                       f"validate.path=[{','.join(paths[len(train):])}]",
-                                                      *overrides])
+                                                      "discover.method=search", *overrides])
     study = prepare_discover(cfg, tmp_path)
     execute_discover(study, tmp_path / "out")
     return json.loads((tmp_path / "out" / "discovery.json").read_text())

@@ -14,7 +14,13 @@ import platform
 import time
 from pathlib import Path
 
-__all__ = ["run_benchmarks", "benchmark_dir"]
+__all__ = ["run_benchmarks", "benchmark_dir", "BENCH_HELP"]
+
+BENCH_HELP = """studies bench [NAME ...]: performance figures as JSON (every benchmarks/bench_NAME.py, or those named)
+
+  studies bench simulator ga        two of them
+  studies bench discover key=value  hit rates of studies discover with intervals (studies bench discover --help)
+"""
 
 
 def benchmark_dir() -> Path:
@@ -31,6 +37,10 @@ def run_benchmarks(names: list[str] | None = None) -> dict:
     files = sorted(folder.glob("bench_*.py"))
     if names:
         wanted = {n.removeprefix("bench_").removesuffix(".py") for n in names}
+        known = {f.stem.removeprefix("bench_") for f in files}
+        unknown = sorted(wanted - known)
+        if unknown:
+            raise ValueError(f"unknown benchmark {', '.join(unknown)}; known: {', '.join(sorted(known))}")
         files = [f for f in files if f.stem.removeprefix("bench_") in wanted]
     out = {"machine": {"cpus": os.cpu_count(), "python": platform.python_version(),
                        "processor": platform.processor() or platform.machine()}}

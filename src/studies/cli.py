@@ -621,12 +621,38 @@ def main(argv: list[str] | None = None) -> int:
     if command == "ui":
         return _ui(rest)
     if command == "bench":
-        from .bench import run_benchmarks
-
-        print(json.dumps(run_benchmarks(rest), indent=1))
-        return 0
+        return _bench(rest)
     print(f"studies: error: unknown command '{command}'\n\n{USAGE}", file=sys.stderr)
     return 2
+
+
+def _bench(rest: list) -> int:
+    """``studies bench [NAME ...]`` and ``studies bench discover [key=value ...]``."""
+    from .bench import BENCH_HELP, run_benchmarks
+
+    if rest and rest[0] == "discover":
+        from .bench_discovery import HELP, DiscoveryBench, run_discovery_bench
+
+        if "-h" in rest or "--help" in rest:
+            print(HELP)
+            return 0
+        try:
+            settings = DiscoveryBench.from_overrides(rest[1:])
+        except Exception as error:      # a bad key or value: one line
+            print(f"studies: error: {error}", file=sys.stderr)
+            return 2
+        print(json.dumps(run_discovery_bench(settings), indent=1))
+        return 0
+    if any(a in ("-h", "--help") for a in rest):
+        print(BENCH_HELP)
+        return 0
+    try:
+        figures = run_benchmarks(rest)
+    except ValueError as error:         # an unknown benchmark name
+        print(f"studies: error: {error}", file=sys.stderr)
+        return 2
+    print(json.dumps(figures, indent=1))
+    return 0
 
 
 if __name__ == "__main__":

@@ -69,7 +69,6 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 from scipy.optimize import least_squares
-from scipy.stats import chi2
 
 from ..identify.kalman import KalmanSettings, ekf_derivatives, kalman_smooth
 from ..models.terms import DOFS
@@ -523,13 +522,16 @@ class _Residualised:
 
 
 def scores_of(rss: np.ndarray, n_params: np.ndarray, log_prior: np.ndarray, n_rows: float,
-              dispersion: float) -> tuple[np.ndarray, np.ndarray]:
+              dispersion) -> tuple[np.ndarray, np.ndarray]:
     """``(scores, probabilities)`` of models with per-DOF ``rss`` (m, 3), the
-    parameters they add and their log prior, with the effective number of
-    independent rows ``n_rows / dispersion`` (module docstring, step 3);
-    scores relative to the best."""
-    n_eff = max(n_rows / max(dispersion, 1.0), 10.0)
-    scores = n_eff * np.sum(np.log(rss / n_rows), axis=1) + n_params * np.log(n_eff) - 2.0 * log_prior
+    parameters they add and their log prior (module docstring, step 3); the
+    first model is ``none``. Each model's likelihood ratio over ``none`` is
+    divided by its dispersion (one value, or one per model) and its BIC
+    penalty taken at ``n_rows / dispersion`` rows; scores relative to the best."""
+    phi = np.maximum(np.broadcast_to(np.asarray(dispersion, float), (len(rss),)), 1.0)
+    n_eff = np.maximum(n_rows / phi, 10.0)
+    ratio = n_rows * np.sum(np.log(rss[0] / rss), axis=1)
+    scores = -ratio / phi + n_params * np.log(n_eff) - 2.0 * log_prior
     scores = scores - scores.min()
     w = np.exp(-0.5 * scores)
     return scores, w / w.sum()
@@ -564,6 +566,8 @@ def _refined_rss(ctx: Context, cause: Cause, theta: np.ndarray, sigma: np.ndarra
 
 #: replicates of the parametric bootstrap of :func:`null_dispersion`
 NULL_REPLICATES = 3
+#: weight (in ratios) of the mean over every cause in a cause's dispersion (:func:`null_dispersion`)
+SHRINK = 5.0
 
 
 def _block_resample(noise: np.ndarray, block: int, rng) -> np.ndarray:
@@ -611,18 +615,22 @@ def null_records(ctx: Context, raw: list, smoothed: list, params: dict, block: i
 
 
 def null_dispersion(ctx: Context, raw: list, smoothed: list, causes: list, params: dict,
-                    replicates: int = NULL_REPLICATES, seed: int = 0, under: CauseFit | None = None) -> float:
+                    replicates: int = NULL_REPLICATES, seed: int = 0, under: CauseFit | None = None) -> dict:
     """How much the comparison's likelihood ratios are inflated on these records
     (>= 1), by a parametric bootstrap under the baseline.
 
     Records made by the identified baseline itself, with the measured
     records' noise (:func:`null_records`), go through the same smoother and
     signatures; there every cause is spurious, so each variant's likelihood
-    ratio over ``none``, ``n sum_dof ln(RSS_none / RSS_v)``, would follow a
-    chi-square law with its number of parameters if the rows were independent
-    and the states exact. The dispersion is the median over every variant and
-    replicate of the ratio over that law's median (a median, because a few
-    variants that happen to match the noise's slow wander dominate a mean): it
+    ratio over ``none``, ``n sum_dof ln(RSS_none / RSS_v)``, would average its
+    number of parameters (a chi-square law) if the rows were independent and
+    the states exact. A cause's dispersion is the mean over its variants and
+    the replicates of the ratio over the number of parameters (the
+    quasi-likelihood estimate), shrunk towards the mean over every cause with
+    the weight of :data:`SHRINK` ratios (a cause with one variant has only
+    ``replicates`` ratios): causes differ in how much of the smoother's and
+    the regressors' errors they can take up (a third-order rudder term far
+    more than an earth-fixed force). It
     holds the residual's serial correlation, the smoother's errors and the
     errors in the regressors together (McCullagh & Nelder 1989, quasi-
     likelihood; Efron & Tibshirani 1993, parametric bootstrap).
@@ -630,10 +638,12 @@ def null_dispersion(ctx: Context, raw: list, smoothed: list, causes: list, param
     ``under``: a single cause's refined fit; the records are then made by its
     extended model, and the ratios are those of each other cause's variants
     added to it (the dispersion that judges a second cause).
+
+    Returns ``{cause id: dispersion}`` and ``"all"``: the mean over every cause.
     """
     rng = np.random.default_rng(seed)
     block = max(20, int(4 * _tau_of_records(ctx, smoothed)))
-    ratios = []
+    ratios = {}
     setup = None
     if under is not None:
         setup = _with_dynamics(ctx, under.cause.setup(ctx, under.theta))
@@ -665,10 +675,16 @@ def null_dispersion(ctx: Context, raw: list, smoothed: list, causes: list, param
             if under is not None and v.cause.id == under.cause.id:
                 continue
             rss = res.rss(np.concatenate([own, spans[i]]))
-            ratios.append(res.n * float(np.sum(np.log(base / rss))) / chi2.median(max(v.n_params, 1)))
-    if not ratios:
-        return 1.0
-    return float(max(np.median(ratios), 1.0))
+            ratios.setdefault(v.cause.id, []).append(res.n * float(np.sum(np.log(base / rss)))
+                                                      / max(v.n_params, 1))
+    every = [r for values in ratios.values() for r in values]
+    if not every:
+        return {"all": 1.0}
+    overall = float(max(np.mean(every), 1.0))
+    out = {"all": overall}
+    for cid, values in ratios.items():
+        out[cid] = float(max((np.sum(values) + SHRINK * overall) / (len(values) + SHRINK), 1.0))
+    return out
 
 
 def _label_of(fit: CauseFit) -> str | None:
@@ -737,7 +753,9 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
         if raw is not None:
             dispersion = null_dispersion(ctx, raw, records, causes, design.coef, seed=seed)
         else:
-            dispersion = _tau(design.residual, design)
+            dispersion = {"all": _tau(design.residual, design)}
+    elif not isinstance(dispersion, dict):
+        dispersion = {"all": float(dispersion)}
     seconds["dispersion"] = time.perf_counter() - t1
     t1 = time.perf_counter()
     gram = _Residualised(design, np.hstack([v.columns for v in variants]))
@@ -750,7 +768,12 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
     rss = np.array([gram.rss(idx) for idx in index])
     n_params = np.array([sum(variants[i].n_params for i in m) for m in models], float)
     log_prior = _log_prior(models, variants)
-    scores, probs = scores_of(rss, n_params, log_prior, gram.n, dispersion)
+
+    def phi_of(m, table=dispersion, second=None):
+        return max([table.get(variants[i].cause.id, table["all"]) if second is None or i not in second[0]
+                    else second[1].get(variants[i].cause.id, second[1]["all"]) for i in m] or [1.0])
+    phis = np.array([phi_of(m) for m in models])
+    scores, probs = scores_of(rss, n_params, log_prior, gram.n, phis)
     seconds["comparison"] = time.perf_counter() - t1
     t2 = time.perf_counter()
     fits = {}
@@ -764,7 +787,7 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
         fit = refine(ctx, cause, start)
         fits[m_i] = fit
         rss[m_i] = _refined_rss(every, cause, fit.theta, design.sigma)
-    scores, probs = scores_of(rss, n_params, log_prior, gram.n, dispersion)
+    scores, probs = scores_of(rss, n_params, log_prior, gram.n, phis)
     best = int(np.argmax(probs))
     seconds["refinement"] = time.perf_counter() - t2
     if pairs and raw is not None and len(models[best]) == 2:
@@ -773,13 +796,15 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
         singles = [m_i for m_i in fits if len(models[m_i]) == 1 and models[m_i][0] in models[best]]
         first = max(singles, key=lambda m_i: probs[m_i]) if singles else None
         if first is not None:
+            a = models[first][0]
             second = null_dispersion(ctx, raw, records, causes, design.coef, seed=seed + 1, under=fits[first])
-            if second > dispersion:
-                log.info("likelihood-ratio dispersion %.3g under %s (%.3g under the baseline)", second,
-                         variants[models[first][0]].label, dispersion)
-                dispersion = second
-                scores, probs = scores_of(rss, n_params, log_prior, gram.n, dispersion)
-                best = int(np.argmax(probs))
+            own = {i for i, v in enumerate(variants) if v.cause.id == variants[a].cause.id}
+            for m_i, m in enumerate(models):
+                if len(m) == 2 and own & set(m):
+                    others = [i for i in m if i not in own]
+                    phis[m_i] = max(phis[m_i], *(second.get(variants[i].cause.id, second["all"]) for i in others))
+            scores, probs = scores_of(rss, n_params, log_prior, gram.n, phis)
+            best = int(np.argmax(probs))
         seconds["second_dispersion"] = time.perf_counter() - t3
     named = models[best]
     inclusion, verdicts = {}, {}
@@ -793,11 +818,13 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
         idx = index[best]
         try:
             # rows weighted by the baseline's residual RMS: unit variance, inflated by the dispersion
-            cov = dispersion * np.linalg.inv(gram.g[np.ix_(idx, idx)])
+            cov = phis[best] * np.linalg.inv(gram.g[np.ix_(idx, idx)])
         except np.linalg.LinAlgError:
             cov = np.full((len(idx),) * 2, np.nan)
     out = Inference(models, scores, probs, variants, named, inclusion, verdicts,
-                    gram.fit(index[best]), cov, dispersion, int(gram.n), seconds)
+                    gram.fit(index[best]), cov, float(phis[best]) if named else dispersion["all"],
+                    int(gram.n), seconds)
+    out.dispersion = dispersion
     out.fits = {models[i]: f for i, f in fits.items()}
     out.fit = fits.get(best)
     if out.fit is None:

@@ -68,6 +68,10 @@ class Discovery:
     notes : list of str
     seconds : dict
         Time spent per stage [s].
+    candidates : dict
+        ``{cause id: parameters}`` of every single cause refined on these
+        records, named or not: what each would be if it acted (e.g. the
+        basin's own small rudder asymmetry on a verdict of ``none``).
     """
 
     cause: str
@@ -93,6 +97,7 @@ class Discovery:
     notes: list = field(default_factory=list)
     seconds: dict = field(default_factory=dict)
     departures: list = field(default_factory=list)
+    candidates: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """The value written to ``discovery.json``."""

@@ -142,6 +142,8 @@ def execute_inference(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
         explanation=cause.explanation if named != "none" else NoCause.explanation,
         baseline_model=str(study.cfg.model.name), scale=_scale(study, dynamics), method="inference",
         undecided=undecided, next_manoeuvre=next_manoeuvre, notes=notes,
+        candidates={f.cause.id: f.cause.parameters(f.theta, f.params) for m, f in result.fits.items()
+                    if len(m) == 1},
         seconds={"smoothing": t_smooth, "inference": t_infer, **{k: float(v) for k, v in result.seconds.items()},
                  "total": time.perf_counter() - t0})
     out = discovery.to_dict()

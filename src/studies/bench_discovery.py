@@ -1,0 +1,337 @@
+"""``studies bench discover``: hit rates of ``studies discover`` with their
+intervals, on records the discovery was not developed on.
+
+Three kinds of cases, each discovered through the command's own path
+(records written to files, ``studies discover`` settings, ``discovery.json``):
+
+single causes
+    Every cause of :data:`studies.scenarios.hidden.HIDDEN_CAUSES` (``none``
+    included) hidden in simulated Mariner records, for every noise family
+    of ``families`` at ``noise``, ``seeds`` seeds from ``seed_base``: the
+    scenario (sampling, lengths, manoeuvres, process noise) and the effect's
+    size are drawn from the seed; a missing term is drawn from the whole
+    extended library. Right: the named cause is the hidden one and its
+    parameters are within 20 % (angles 0.2 rad).
+pairs
+    Every pair of :func:`~studies.scenarios.hidden.hidden_pairs` for every
+    family of ``pair_families``. Right: both causes named, both parameters
+    within 20 %. A single cause named with a second one beside it is a
+    spurious second cause.
+real records
+    The MARIN KVLCC2 free-running records (zig-zags 10/10 and 20/20 to train,
+    the 35 deg turning circle held out; ``real.folder``) on the MMG baseline,
+    with nothing injected, then with each effect of
+    :func:`studies.scenarios.injected.injection_grid` injected exactly. A
+    basin's own small asymmetries act in every record, so an injected effect
+    is judged against what the nothing-injected discovery fits for the same
+    cause (``candidates`` in its ``discovery.json``): an injected rudder
+    offset ``b`` must be found as that fit plus ``b``, an injected current as
+    that fit plus the current (vectors). Right: the injected causes named
+    (no other), parameters within 20 %.
+
+Seeds: development read seeds 100-101, 1000-1001, 2000, 2100-2101, 2200,
+2300, 2400 and 7000-7001; ``seed_base`` defaults to 9000, never read during
+development. A seed read to fix a case is development data from then on.
+
+Output: a JSON object of rates (``rate``, ``low``, ``high``: Wilson 90 %),
+the confusion matrices, the reliability table of the stated confidence and
+the median times; every case's line is appended to ``out`` (JSON lines) as
+it finishes.
+"""
+
+from __future__ import annotations
+
+import json
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .config import compose_settings
+from .errors import ConfigError
+from .scenarios.hidden import HIDDEN_CAUSES, draw_scenario, hidden_pairs, hidden_records, write_records
+from .scenarios.injected import Injection, inject, injection_grid
+from .scenarios.rates import confusion, rate, reliability
+from .environment.sensor_noise import NOISE_FAMILIES, check_sensor_noise
+
+__all__ = ["DiscoveryBench", "run_discovery_bench", "judge", "HELP"]
+
+HELP = """studies bench discover [key=value ...]: hit rates of studies discover with Wilson 90 % intervals
+
+keys (defaults):
+  seeds=4                 seeds per cell
+  seed_base=9000          first seed (development read 100-101, 1000-1001, 2000-2400, 7000-7001)
+  noise=0.03              sensor-noise level of the simulated records
+  families=[li2023,white_all,ar1,quantised_rudder,gnss]   noise families of the single causes
+  singles=true            run the single causes (none included)
+  pairs=true              run the 20 pairs
+  pair_families=[li2023,white_all]
+  real=true               run the MARIN KVLCC2 records with exact injected effects (MMG baseline)
+  real_folder=../shared/data/kvlcc2_free_running
+  jobs=2                  parallel discoveries
+  out=bench_discover.jsonl  every case's line (JSON), appended as it finishes
+"""
+
+
+@dataclass
+class DiscoveryBench:
+    """Settings of ``studies bench discover`` (see :data:`HELP`)."""
+
+    seeds: int = 4
+    seed_base: int = 9000
+    noise: float = 0.03
+    families: list = field(default_factory=lambda: list(NOISE_FAMILIES))
+    singles: bool = True
+    pairs: bool = True
+    pair_families: list = field(default_factory=lambda: ["li2023", "white_all"])
+    real: bool = True
+    real_folder: str = "../shared/data/kvlcc2_free_running"
+    jobs: int = 2
+    out: str = "bench_discover.jsonl"
+
+    @classmethod
+    def from_overrides(cls, overrides) -> "DiscoveryBench":
+        """From ``key=value`` strings; an unknown key or a bad value is refused in one line."""
+        values = {}
+        known = set(cls.__dataclass_fields__)
+        for item in overrides:
+            if "=" not in item:
+                raise ConfigError(f"bench discover: expected key=value, got '{item}'")
+            key, value = item.split("=", 1)
+            key = key.lstrip("+")
+            if key not in known:
+                raise ConfigError(f"bench discover: unknown key '{key}'; known: {', '.join(sorted(known))}")
+            values[key] = value
+        out = cls()
+        for key, value in values.items():
+            default = getattr(out, key)
+            try:
+                if isinstance(default, bool):
+                    if value.lower() not in ("true", "false"):
+                        raise ValueError
+                    setattr(out, key, value.lower() == "true")
+                elif isinstance(default, int):
+                    setattr(out, key, int(value))
+                elif isinstance(default, float):
+                    setattr(out, key, float(value))
+                elif isinstance(default, list):
+                    setattr(out, key, [v.strip() for v in value.strip("[]").split(",") if v.strip()])
+                else:
+                    setattr(out, key, value)
+            except ValueError:
+                raise ConfigError(f"bench discover: {key}={value} is not a {type(default).__name__}") from None
+        for family in out.families + out.pair_families:
+            check_sensor_noise(family, out.noise)
+        if out.seeds < 1 or out.jobs < 1:
+            raise ConfigError("bench discover: seeds and jobs must be >= 1")
+        return out
+
+
+# --------------------------------------------------------------- judging
+
+def _close(a, b, rel=0.2):
+    return abs(a - b) <= rel * abs(b)
+
+
+def _near(a, b, angle=0.2):
+    return abs(np.angle(np.exp(1j * (a - b)))) <= angle
+
+
+def judge(cause: str, parameters: dict, truth: dict) -> bool:
+    """Whether ``parameters`` (as ``discovery.json`` gives them for ``cause``)
+    are within 20 % of ``truth`` (angles 0.2 rad; a bias as a vector; a pair by cause id)."""
+    from .scenarios.hidden import parameters_match
+
+    return parameters_match(cause, parameters, truth)
+
+
+def _verdict(d: dict) -> tuple[str, dict]:
+    return d["cause"], d.get("parameters") or {}
+
+
+def _single_or_pair(hidden: str, d: dict, truth: dict, elapsed: float, kind: str, **extra) -> dict:
+    named, params = _verdict(d)
+    same = set(named.split("+")) == set(hidden.split("+"))
+    right = bool(same and (hidden == "none" or judge(hidden if "+" not in hidden else named, params,
+                                                     truth if "+" not in hidden else
+                                                     {k: truth[k] for k in named.split("+")})))
+    first_right = hidden != "none" and "+" not in hidden and hidden in named.split("+")
+    return {"kind": kind, "hidden": hidden, "named": named, "right": right,
+            "cause_right": bool(same), "spurious_second": bool(first_right and "+" in named),
+            "confidence": d.get("confidence"), "parameters": params, "truth": truth,
+            "gain_pct": d.get("gain_pct"), "elapsed": elapsed, **extra}
+
+
+def _clean(x):
+    if isinstance(x, dict):
+        return {str(k): _clean(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_clean(v) for v in x]
+    if isinstance(x, (np.floating, np.integer)):
+        return x.item()
+    return x
+
+
+# --------------------------------------------------------------- one case
+
+def _discover(paths_train, paths_val, overrides, tmp: Path) -> tuple[dict, float]:
+    from .workflows.kinds import execute_discover, prepare_discover
+
+    cfg = compose_settings("discover", overrides=[f"data.path=[{','.join(map(str, paths_train))}]",
+                                                  f"validate.path=[{','.join(map(str, paths_val))}]",
+                                                  *overrides])
+    t0 = time.perf_counter()
+    d, _ = execute_discover(prepare_discover(cfg, tmp), tmp / "out")
+    return d, time.perf_counter() - t0
+
+
+def simulated_case(hidden: str, family: str, seed: int, noise: float, kind: str) -> dict:
+    """One discovery on simulated Mariner records with ``hidden`` in them."""
+    import numba
+
+    numba.set_num_threads(1)
+    from .vessels import get_vessel
+
+    scenario = draw_scenario(seed, hidden)
+    records, truth = hidden_records(get_vessel("mariner"), hidden, seed=seed, noise=noise,
+                                    noise_family=family, missing="any", scenario=scenario)
+    model = ["model=symmetric"] if "propeller_asymmetry" in hidden.split("+") else []
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        paths = write_records(records, tmp)
+        d, elapsed = _discover(paths[:-1], paths[-1:], [f"seed={seed}", *model], tmp)
+    return _clean(_single_or_pair(hidden, d, truth, elapsed, kind, family=family, seed=seed,
+                                  scenario=repr(scenario)))
+
+
+MARIN = ("MARIN_FREE_KVLCC2_zz_10_m.dat", "MARIN_FREE_KVLCC2_zz_20_m.dat", "MARIN_FREE_KVLCC2_tc_35_m.dat")
+
+
+def real_case(folder: str, injection: Injection) -> dict:
+    """One discovery on the MARIN KVLCC2 records with ``injection`` added (MMG baseline)."""
+    import numba
+
+    numba.set_num_threads(1)
+    from .workflows.measured import load_measured
+
+    records = [inject(r, injection) for r in load_measured([Path(folder) / f for f in MARIN])]
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        paths = []
+        for rec in records:
+            path = tmp / f"{rec.attrs['name']}.csv"
+            rec[[c for c in ("t", "x0", "y0", "psi", "u", "v", "r", "delta", "n") if c in rec]].to_csv(
+                path, index=False)
+            paths.append(path)
+        d, elapsed = _discover(paths[:2], paths[2:], ["vessel=kvlcc2", "model=mmg"], tmp)
+    return _clean({"kind": "real", "injection": injection.label, "injected": injection.truth(),
+                   "named": d["cause"], "confidence": d.get("confidence"), "parameters": d.get("parameters") or {},
+                   "candidates": d.get("candidates") or {}, "gain_pct": d.get("gain_pct"), "elapsed": elapsed})
+
+
+def judge_real(case: dict, reference: dict) -> dict:
+    """A real case judged against the nothing-injected discovery ``reference``
+    (module docstring): ``hidden``, ``right``, ``cause_right``, ``truth``."""
+    injected = case["injected"]
+    hidden = "+".join(c for c in ("rudder_offset", "current") if c in injected) or "none"
+    base = reference.get("candidates") or {}
+    truth = {}
+    if "rudder_offset" in injected:
+        truth["rudder_offset"] = {"delta0": injected["rudder_offset"]["delta0"]
+                                  + float((base.get("rudder_offset") or {}).get("delta0", 0.0))}
+    if "current" in injected:
+        c = injected["current"]
+        own = base.get("current") or {"speed": 0.0, "direction": 0.0}
+        x = c["speed"] * np.cos(c["direction"]) + own["speed"] * np.cos(own["direction"])
+        y = c["speed"] * np.sin(c["direction"]) + own["speed"] * np.sin(own["direction"])
+        truth["current"] = {"speed": float(np.hypot(x, y)), "direction": float(np.arctan2(y, x) % (2 * np.pi))}
+    named = case["named"]
+    same = set(named.split("+")) == set(hidden.split("+"))
+    if hidden == "none":
+        right = not (set(named.split("+")) & {"rudder_offset", "current"})
+    elif "+" in hidden:
+        right = same and judge(named, case["parameters"], truth)
+    else:
+        right = same and judge(hidden, case["parameters"], truth[hidden])
+    return {**case, "hidden": hidden, "truth": _clean(truth), "right": bool(right), "cause_right": bool(same)}
+
+
+# --------------------------------------------------------------- the bench
+
+def _summary(results: list) -> dict:
+    out = {}
+    singles = [r for r in results if r["kind"] == "single"]
+    if singles:
+        causes = [r for r in singles if r["hidden"] != "none"]
+        out["singles_by_family"] = {f: rate([r["right"] for r in causes if r["family"] == f])
+                                    for f in dict.fromkeys(r["family"] for r in causes)}
+        out["singles_by_cause"] = {c: rate([r["right"] for r in causes if r["hidden"] == c])
+                                   for c in dict.fromkeys(r["hidden"] for r in causes)}
+        out["singles"] = rate([r["right"] for r in causes])
+        out["none_stays_none"] = rate([r["named"] == "none" for r in singles if r["hidden"] == "none"])
+        out["spurious_second"] = rate([r["spurious_second"] for r in causes
+                                       if r["hidden"] in r["named"].split("+")])
+        out["confusion_singles"] = confusion(singles)
+    pairs = [r for r in results if r["kind"] == "pair"]
+    if pairs:
+        out["pairs_by_family"] = {f: rate([r["right"] for r in pairs if r["family"] == f])
+                                  for f in dict.fromkeys(r["family"] for r in pairs)}
+        out["pairs"] = rate([r["right"] for r in pairs])
+        out["pairs_by_pair"] = {p: rate([r["right"] for r in pairs if r["hidden"] == p])
+                                for p in dict.fromkeys(r["hidden"] for r in pairs)}
+    real = [r for r in results if r["kind"] == "real"]
+    if real:
+        injected = [r for r in real if r["hidden"] != "none"]
+        out["real_injected"] = rate([r["right"] for r in injected])
+        out["real_nothing_injected_clean"] = rate([r["right"] for r in real if r["hidden"] == "none"])
+        out["real_cases"] = [{k: r[k] for k in ("injection", "named", "right", "confidence", "parameters", "truth")}
+                             for r in real]
+    judged = [r for r in results if r.get("confidence") is not None]
+    out["reliability"] = reliability(judged)
+    confident = [r for r in judged if r["confidence"] >= 0.9]
+    out["right_when_confidence_at_least_0.9"] = rate([r["right"] for r in confident])
+    for kind, key in (("single", "discover_single_s"), ("pair", "discover_pair_s"), ("real", "discover_kvlcc2_s")):
+        times = [r["elapsed"] for r in results if r["kind"] == kind]
+        if times:
+            out[key] = float(np.median(times))
+    return out
+
+
+def run_discovery_bench(settings: DiscoveryBench) -> dict:
+    """Run the bench (module docstring) and return its figures."""
+    from joblib import Parallel, delayed
+
+    jobs = []
+    seeds = range(settings.seed_base, settings.seed_base + settings.seeds)
+    if settings.singles:
+        jobs += [(simulated_case, (c, f, s, settings.noise, "single")) for s in seeds
+                 for f in settings.families for c in HIDDEN_CAUSES]
+    if settings.pairs:
+        jobs += [(simulated_case, (p, f, s, settings.noise, "pair")) for s in seeds
+                 for f in settings.pair_families for p in hidden_pairs()]
+    real_jobs = []
+    if settings.real:
+        folder = Path(settings.real_folder)
+        missing = [f for f in MARIN if not (folder / f).is_file()]
+        if missing:
+            raise ConfigError(f"bench discover: real_folder {folder} lacks {', '.join(missing)}")
+        real_jobs = [(real_case, (str(folder), inj)) for inj in [Injection()] + injection_grid()]
+    out_path = Path(settings.out)
+    results = []
+    t0 = time.perf_counter()
+    with out_path.open("a") as handle:
+        runner = Parallel(n_jobs=settings.jobs, return_as="generator_unordered")
+        for result in runner(delayed(fn)(*args) for fn, args in jobs + real_jobs):
+            results.append(result)
+            handle.write(json.dumps(result) + "\n")
+            handle.flush()
+    real = [r for r in results if r["kind"] == "real"]
+    if real:
+        reference = next(r for r in real if r["injection"] == "nothing")
+        results = [r for r in results if r["kind"] != "real"] + [judge_real(r, reference) for r in real]
+    summary = _summary(results)
+    summary["settings"] = {k: getattr(settings, k) for k in settings.__dataclass_fields__}
+    summary["wall_s"] = time.perf_counter() - t0
+    return summary

@@ -1,0 +1,39 @@
+"""Rates of the discovery bench: Wilson intervals, confusion, reliability."""
+
+from hypothesis import given, strategies as st
+
+from studies.scenarios.rates import confusion, rate, reliability, wilson
+
+
+def test_wilson_interval_matches_the_published_values():
+    # 27 of 40 at 90 %: centre (p + z^2/2n) / (1 + z^2/n) = 0.6639, half-width 0.1184 (z = 1.6449)
+    low, high = wilson(27, 40)
+    assert abs(low - 0.5455) < 1e-3 and abs(high - 0.7823) < 1e-3
+    low, high = wilson(0, 10)
+    assert low == 0.0 and 0.19 < high < 0.22
+    low, high = wilson(10, 10)
+    assert high == 1.0 and 0.78 < low < 0.81
+
+
+@given(st.integers(1, 400), st.data())
+def test_wilson_interval_holds_the_proportion_and_shrinks_with_n(n, data):
+    k = data.draw(st.integers(0, n))
+    low, high = wilson(k, n)
+    assert 0.0 <= low <= k / n <= high <= 1.0
+    low4, high4 = wilson(4 * k, 4 * n)
+    assert high4 - low4 < high - low + 1e-12
+
+
+def test_rate_confusion_and_reliability_count_what_they_are_given():
+    results = [{"hidden": "current", "named": "current", "right": True, "confidence": 0.95},
+               {"hidden": "current", "named": "none", "right": False, "confidence": 0.6},
+               {"hidden": "none", "named": "none", "right": True, "confidence": 0.92},
+               {"hidden": "none", "named": "rudder_offset", "right": False, "confidence": 0.97}]
+    r = rate([x["right"] for x in results])
+    assert (r["hits"], r["n"], r["rate"]) == (2, 4, 0.5)
+    assert confusion(results) == {"current": {"current": 1, "none": 1}, "none": {"none": 1, "rudder_offset": 1}}
+    table = {(row["low"], row["high"]): row for row in reliability(results)}
+    top = table[(0.9, 1.0)]
+    assert top["n"] == 3 and abs(top["share_right"] - 2 / 3) < 1e-12
+    assert table[(0.5, 0.7)]["n"] == 1 and table[(0.5, 0.7)]["share_right"] == 0.0
+    assert table[(0.0, 0.5)]["n"] == 0
