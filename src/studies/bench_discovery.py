@@ -308,16 +308,16 @@ def run_discovery_bench(settings: DiscoveryBench) -> dict:
     if settings.singles:
         jobs += [(simulated_case, (c, f, s, settings.noise, "single")) for s in seeds
                  for f in settings.families for c in HIDDEN_CAUSES]
-    if settings.pairs:
-        jobs += [(simulated_case, (p, f, s, settings.noise, "pair")) for s in seeds
-                 for f in settings.pair_families for p in hidden_pairs()]
-    real_jobs = []
-    if settings.real:
+    if settings.real:        # before the pairs: a bench stopped early still has the singles and the real records
         folder = Path(settings.real_folder)
         missing = [f for f in MARIN if not (folder / f).is_file()]
         if missing:
             raise ConfigError(f"bench discover: real_folder {folder} lacks {', '.join(missing)}")
-        real_jobs = [(real_case, (str(folder), inj)) for inj in [Injection()] + injection_grid()]
+        jobs += [(real_case, (str(folder), inj)) for inj in [Injection()] + injection_grid()]
+    if settings.pairs:
+        jobs += [(simulated_case, (p, f, s, settings.noise, "pair")) for s in seeds
+                 for f in settings.pair_families for p in hidden_pairs()]
+    real_jobs = []
     out_path = Path(settings.out)
     results = []
     t0 = time.perf_counter()

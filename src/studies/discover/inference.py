@@ -806,13 +806,20 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
             scores, probs = scores_of(rss, n_params, log_prior, gram.n, phis)
             best = int(np.argmax(probs))
         seconds["second_dispersion"] = time.perf_counter() - t3
-    named = models[best]
-    inclusion, verdicts = {}, {}
+    inclusion, verdicts, keys = {}, {}, []
     for m, p in zip(models, probs):
         key = "+".join(sorted((variants[i].cause.id for i in m), key=_catalogue_order)) if m else "none"
+        keys.append(key)
         verdicts[key] = verdicts.get(key, 0.0) + float(p)
         for cid in {variants[i].cause.id for i in m}:
             inclusion[cid] = inclusion.get(cid, 0.0) + float(p)
+    # the verdict of highest posterior probability (summed over its variants), then its most probable model
+    verdict = max(verdicts, key=verdicts.get)
+    best = max((m_i for m_i, k in enumerate(keys) if k == verdict), key=lambda m_i: probs[m_i])
+    if best not in fits and models[best]:
+        cause = _model_cause(variants, models[best])
+        fits[best] = refine(ctx, cause, _model_theta(variants, models[best], gram.fit(index[best])))
+    named = models[best]
     cov = np.zeros((0, 0))
     if named:
         idx = index[best]

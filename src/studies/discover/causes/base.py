@@ -73,7 +73,7 @@ class Setup:
         dynamics, or the baseline's simulator in the cause's environment)."""
         seen = self.sim_record(record)
         if self.dynamics is not None:
-            return self.dynamics.replay(params, seen, self.environment(record), self.external())
+            return self.dynamics.replay(params, seen, self.environment(record), self.external(), self.model)
         return replay(self.model, params, vessel, seen, self.environment(record), self.external())
 
     def sim_record(self, record: pd.DataFrame) -> pd.DataFrame:

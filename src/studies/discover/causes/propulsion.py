@@ -55,13 +55,16 @@ class MMGDynamics:
         setup's records (data rows, then the prior's rows), and the factor that
         turns its prime units into the baseline's."""
         estimates = self.estimates(setup.fit_records, ctx.derivative)
-        problems = mmg_problems(self.model, self.vessel, self.modules, setup.fit_records, estimates,
+        # the setup's hull terms: the MMG hull, with a missing term's added terms (a cause on an MMG baseline)
+        model = setup.model if setup.model is not None and setup.cause is not None else self.model
+        problems = mmg_problems(model, self.vessel, self.modules, setup.fit_records, estimates,
                                 self.vessel.coefficients, PRIOR_SCALE, PRIOR_FLOOR)
         return problems, self.vessel.draught / self.vessel.length
 
-    def replay(self, params: dict, record, environment=None, external=None):
+    def replay(self, params: dict, record, environment=None, external=None, model=None):
         """The MMG model's replay of ``record`` (its rudder and propeller rate).
 
+        ``model``: the hull terms (default the MMG hull; a missing term's cause adds terms).
         ``environment``: a uniform current (speed, direction it flows to) in
         which the record was measured over ground: the ship is replayed through
         the water from its initial state less the current, and the current's
@@ -81,11 +84,12 @@ class MMGDynamics:
             psi = record["psi"].to_numpy(float)
             seen["u"] = record["u"] - speed * np.cos(direction - psi)
             seen["v"] = record["v"] - speed * np.sin(direction - psi)
+        model = model or self.model
         accelerations = None
         if external is not None and np.any(external):
-            plan = MMGReplayPlan(self.model, self.vessel, seen, self.modules)
+            plan = MMGReplayPlan(model, self.vessel, seen, self.modules)
             accelerations = self._accelerations(np.asarray(external, float), seen, plan)
-        out = replay_mmg(self.model, params, self.vessel, seen, self.modules, external=accelerations)
+        out = replay_mmg(model, params, self.vessel, seen, self.modules, external=accelerations)
         if speed:
             t = out["t"].to_numpy(float)
             t = t - t[0]
