@@ -77,7 +77,8 @@ def test_splits_need_two_records(tmp_path, hidden_none_11):
     records, _ = hidden_none_11
     paths = write_records(records[:1], tmp_path)
     with initialize_config_module("studies.conf", version_base="1.3"):
-        cfg = compose_settings("discover", overrides=[f"data.path=[{paths[0]}]", "discover.splits=true"])
+        cfg = compose_settings("discover", overrides=[f"data.path=[{paths[0]}]", "discover.splits=true",
+                                                      "discover.method=search"])
     with pytest.raises(ConfigError, match="discover.splits=true needs two or more records"):
         prepare_discover(cfg, tmp_path)
 

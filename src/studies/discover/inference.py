@@ -292,7 +292,7 @@ def _design(ctx: Context, setup: Setup, sigma: np.ndarray | None = None) -> _Des
         y[n:] *= ratio
         theta[n:] *= ratio
         record = np.asarray(p.record[:n] if p.record is not None else np.zeros(n), int)
-        states = {c: np.asarray(s[c][:n], float) for c in ("u", "v", "r", "delta")}
+        states = {c: np.asarray(s[c][:n], float) for c in ("u", "v", "r", "delta", "psi") if c in s}
         rows.append((y, theta, list(p.names), n, factor, record, states))
     coef, resid = {}, []
     fitted_sigma = np.ones(3)

@@ -51,6 +51,9 @@ class ManoeuvringStudy:
         if _mmg.is_mmg(cfg) and cfg.discover.method == "search":
             raise ConfigError("model=mmg: discover.method=search judges a polynomial baseline (model=abkowitz "
                               "or symmetric); discover.method=inference takes the MMG model as baseline")
+        if cfg.discover.method == "inference" and (cfg.discover.splits or cfg.simulation.path):
+            raise ConfigError("discover.splits and simulation.path are options of discover.method=search; "
+                              "the inference compares the causes on every record at once")
         study = _discover.prepare_discovery(cfg, root, self, record)
         paths = as_path_list(cfg.data.path) + as_path_list(cfg.validate.path)
         contexts = ["training"] * len(as_path_list(cfg.data.path)) + ["validation"] * len(paths)
