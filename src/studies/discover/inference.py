@@ -140,9 +140,13 @@ class Inference:
         ``{model: coefficients of its variants' columns}`` for the named model.
     covariance : ndarray
         Covariance of the named model's cause coefficients (tau-inflated).
-    tau, n_rows : float, int
+    dispersion : float
+        The likelihood-ratio dispersion of the named model (:func:`null_dispersion`).
+    n_rows : int
     seconds : dict
         Time spent per stage [s].
+    dispersions : dict
+        ``{cause id: dispersion}`` and ``"all"`` (set by :func:`infer`).
     """
 
     models: list
@@ -154,7 +158,7 @@ class Inference:
     verdicts: dict
     coefficients: np.ndarray
     covariance: np.ndarray
-    tau: float
+    dispersion: float
     n_rows: int
     seconds: dict = field(default_factory=dict)
 
@@ -722,11 +726,12 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
     Parameters
     ----------
     ctx : Context
-        The baseline, its vessel and the smoothed training records (the
-        named model's parameters are refined on them).
+        The baseline, its vessel and the smoothed training records.
     records : list of DataFrame, optional
-        The smoothed records the models are compared on (default ``ctx.train``;
-        discovery passes the training and the held-out records).
+        The smoothed records the models are compared, refined and fitted on
+        (default ``ctx.train``; discovery passes the training and the held-out
+        records, and measures the held-out gain with the named model refitted
+        on the training records alone).
     causes : list of Cause, optional
         Default: the catalogue's applicable causes; undecidable ones are left out.
     pairs : bool
@@ -744,6 +749,7 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
     records = list(records or ctx.train)
     every = Context(ctx.vessel, ctx.model, records, [], "recorded", dynamics=ctx.dynamics)
     design = _design(every, _baseline_setup(every))
+    every.sigma = design.sigma
     causes = causes if causes is not None else list(manoeuvring_causes(ctx))
     causes = [c for c in causes if c.undecidable(ctx) is None]
     variants = _variants(every, design, causes)
@@ -769,10 +775,9 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
     n_params = np.array([sum(variants[i].n_params for i in m) for m in models], float)
     log_prior = _log_prior(models, variants)
 
-    def phi_of(m, table=dispersion, second=None):
-        return max([table.get(variants[i].cause.id, table["all"]) if second is None or i not in second[0]
-                    else second[1].get(variants[i].cause.id, second[1]["all"]) for i in m] or [1.0])
-    phis = np.array([phi_of(m) for m in models])
+    # one dispersion for every model: a cause's own (dispersions[cause id]) favours the causes
+    # of many variants, whose mean ratio is pulled down by the variants that explain nothing
+    phis = np.full(len(models), dispersion["all"])
     scores, probs = scores_of(rss, n_params, log_prior, gram.n, phis)
     seconds["comparison"] = time.perf_counter() - t1
     t2 = time.perf_counter()
@@ -780,11 +785,11 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
     for m_i in _contenders(models, variants, probs, contenders):
         m = models[m_i]
         if not m:
-            fits[m_i] = baseline_fit(ctx)
+            fits[m_i] = baseline_fit(every)
             continue
         cause = _model_cause(variants, m)
         start = _model_theta(variants, m, gram.fit(index[m_i]))
-        fit = refine(ctx, cause, start)
+        fit = refine(every, cause, start)
         fits[m_i] = fit
         rss[m_i] = _refined_rss(every, cause, fit.theta, design.sigma)
     scores, probs = scores_of(rss, n_params, log_prior, gram.n, phis)
@@ -802,7 +807,7 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
             for m_i, m in enumerate(models):
                 if len(m) == 2 and own & set(m):
                     others = [i for i in m if i not in own]
-                    phis[m_i] = max(phis[m_i], *(second.get(variants[i].cause.id, second["all"]) for i in others))
+                    phis[m_i] = max(phis[m_i], second["all"])
             scores, probs = scores_of(rss, n_params, log_prior, gram.n, phis)
             best = int(np.argmax(probs))
         seconds["second_dispersion"] = time.perf_counter() - t3
@@ -818,7 +823,7 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
     best = max((m_i for m_i, k in enumerate(keys) if k == verdict), key=lambda m_i: probs[m_i])
     if best not in fits and models[best]:
         cause = _model_cause(variants, models[best])
-        fits[best] = refine(ctx, cause, _model_theta(variants, models[best], gram.fit(index[best])))
+        fits[best] = refine(every, cause, _model_theta(variants, models[best], gram.fit(index[best])))
     named = models[best]
     cov = np.zeros((0, 0))
     if named:
@@ -831,12 +836,12 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
     out = Inference(models, scores, probs, variants, named, inclusion, verdicts,
                     gram.fit(index[best]), cov, float(phis[best]) if named else dispersion["all"],
                     int(gram.n), seconds)
-    out.dispersion = dispersion
+    out.dispersions = dispersion
     out.fits = {models[i]: f for i, f in fits.items()}
     out.fit = fits.get(best)
     if out.fit is None:
         cause = _model_cause(variants, named)
-        out.fit = refine(ctx, cause, _model_theta(variants, named, out.coefficients))
+        out.fit = refine(every, cause, _model_theta(variants, named, out.coefficients))
     return out
 
 
@@ -897,7 +902,7 @@ def refine(ctx: Context, cause: Cause, start: np.ndarray, max_nfev: int = 40) ->
             _, residuals, _ = scored_fit(ctx, _with_dynamics(ctx, cause.setup(ctx, th)))
             return np.concatenate([r / s for r, s in zip(residuals, ctx.sigma)])
         try:
-            res = least_squares(vector, theta, bounds=(low, high), x_scale=np.maximum(cause.scales(ctx) * 100, 1e-9),
+            res = least_squares(vector, theta, bounds=(low, high), x_scale="jac",
                                 max_nfev=max_nfev, diff_step=1e-3)
             theta = res.x
         except (ValueError, np.linalg.LinAlgError) as exc:

@@ -25,7 +25,7 @@ from ..discover.causes import NoCause, manoeuvring_causes
 from ..discover.causes.propulsion import MMGDynamics
 from ..discover.confidence import separating_manoeuvre
 from ..discover.fitting import Context, calibrate, training_error, validate
-from ..discover.inference import (baseline_fit, infer, intervals, smooth_with_baseline)
+from ..discover.inference import baseline_fit, infer, intervals, refine, smooth_with_baseline
 from ..discover.report import plot_predictions, plot_ranking, write_discovery, write_report
 from ..discover.verdict import Discovery
 from ..vessels import has_mmg_particulars, mmg_vessel_at_speed
@@ -95,9 +95,11 @@ def execute_inference(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
     undecidable = [(c.id, c.undecidable(ctx)[1]) for c in manoeuvring_causes(ctx)
                    if c.undecidable(ctx) is not None]
     result = infer(ctx, smoothed, raw=raw, pairs=bool(opts.second_cause), seed=int(study.cfg.seed))
-    baseline = result.fits.get(()) or baseline_fit(ctx)
     named = result.verdict_of(result.named)
-    best = result.fit if result.named else baseline
+    # the verdict and its parameters come from every record; the held-out gain from the named
+    # model and the baseline refitted on the training records alone
+    baseline = baseline_fit(ctx)
+    best = refine(ctx, result.fit.cause, result.fit.theta) if result.named else baseline
     t_infer = time.perf_counter() - t0 - t_smooth
     validate(ctx, baseline)
     if best is not baseline:
@@ -115,7 +117,8 @@ def execute_inference(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
     notes = list(study.notes)
     notes.append(f"{len(result.models)} models compared (none, {len(result.variants)} single-cause variants"
                  + (", every pair of two causes" if opts.second_cause else "") + f") on {len(raw)} records; "
-                 f"likelihood-ratio dispersion {result.tau:.3g} (parametric bootstrap under the baseline)")
+                 "likelihood-ratio dispersion per cause (parametric bootstrap under the baseline): "
+                 + ", ".join(f"{k} {v:.3g}" for k, v in result.dispersions.items()))
     for cid, manoeuvre in undecidable:
         notes.append(f"{cid} is not compared: the training records cannot decide it ({manoeuvre} would)")
     if best is not baseline and best.validation.get("diverged"):
@@ -126,7 +129,8 @@ def execute_inference(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
                      "the records' evidence for the cause lies in motions the held-out records do not repeat, "
                      "or the cause is wrong; weigh the confidence against this")
     discovery = Discovery(
-        cause=named, parameters=cause.parameters(best.theta, best.params) if best is not baseline else {},
+        cause=named,
+        parameters=(result.fit.cause.parameters(result.fit.theta, result.fit.params) if result.named else {}),
         parameter_units=dict(cause.units), fixed_parameters=cause.fixed_parameters(),
         uncertainty=intervals(result, seed=int(study.cfg.seed)), confidence=confidence,
         confidence_basis=("posterior probability of the verdict among every model compared (BIC with the "
@@ -153,7 +157,7 @@ def execute_inference(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
     metrics = {"discover/gain_pct": gain, "discover/confidence": confidence,
                "discover/baseline_validation_rmse": b_rmse, "discover/extended_validation_rmse": e_rmse,
                "discover/baseline_training_rmse": b_train, "discover/extended_training_rmse": e_train,
-               "discover/explains_validation": float(explained), "discover/dispersion": float(result.tau),
+               "discover/explains_validation": float(explained), "discover/dispersion": float(result.dispersion),
                "discover/n_models": float(len(result.models)), "runtime/total_s": time.perf_counter() - t0}
     for cid, p in result.inclusion.items():
         metrics[f"discover/inclusion/{cid}"] = float(p)
