@@ -5,13 +5,13 @@ catalogue, alone or in pairs, is weighed against it in one Bayesian model
 comparison; the named verdict is the model of highest posterior
 probability, and that probability is its confidence.
 
-1. **States.** Every training record is smoothed by the EKF/RTS smoother
-   with the identified baseline as process model and a random-walk force
-   discrepancy (:func:`studies.identify.kalman.kalman_smooth`): the smoother
-   follows the measured motions where the baseline is wrong, and handles the
-   measurement noise of every family (white, coloured, quantised, velocities
-   derived from the track) in one place. The baseline is first identified
-   on the kinematic smoother's states.
+1. **States.** Every record (training and held out) is smoothed by the
+   kinematic EKF/RTS smoother (:func:`studies.identify.kalman.ekf_derivatives`,
+   no sensor-bias states: they would take a model's or a cause's error for
+   drifting sensors); its accelerations are used as they are.
+   (:func:`smooth_with_baseline` can also smooth with the identified
+   baseline as process model, ``iterations`` > 0; measured, that pulls the
+   states towards the baseline and shrinks every effect, so it is off.)
 2. **Signatures.** For a cause with parameters ``theta`` (no effect at 0),
    the prime residual ``r(theta) = y(theta) - Theta(theta) c`` of the
    inverse-dynamics regression along the smoothed states changes by ``J
@@ -26,26 +26,31 @@ probability, and that probability is its confidence.
    a wind the records do not carry acts as the square of its speed, so it
    enters as the secant column of a reference wind from each of
    :data:`WIND_DIRECTIONS` directions.
-3. **One comparison.** With the regression ``y = Theta c - J theta + e``
-   over the stacked degrees of freedom, every model ``M`` (``none``, each
-   cause, each pair of causes; a missing term or a wind direction is one of
-   the variants of its cause) is scored by the BIC with the effective number
-   of independent rows ``n_eff = n / tau`` (``tau`` the integrated
-   autocorrelation time of the baseline's residual)::
+3. **One comparison.** Every model ``M`` (``none``, each cause, each pair of
+   causes; a missing term or a wind direction is one of the variants of its
+   cause) is fitted with the baseline's columns projected out
+   (:class:`_Residualised`). Its likelihood ratio over ``none``,
+   ``LR_M = n sum_dof ln(RSS_dof(none) / RSS_dof(M))``, is divided by the
+   dispersion ``phi`` that a parametric bootstrap under the baseline measures
+   on the records' own noise (:func:`null_dispersion`)::
 
-       score(M) = n_eff sum_dof ln(RSS_dof(M) / n) + k_M ln(n_eff) - 2 ln prior(M)
+       score(M) = -LR_M / phi + k_M ln(n / phi) - 2 ln prior(M)
 
    with uniform prior odds over 0, 1 and 2 causes, over the causes of each
    size and over the variants of a cause. The posterior probability
    ``exp(-score / 2)`` normalised over all models is the model's; a cause's
-   inclusion probability is the sum over the models that hold it. All models
-   share one Gram matrix, so the whole comparison takes a fraction of a
-   second.
-4. **Parameters.** Only the named model is refined: its parameters by the
-   profiled nonlinear least squares of :func:`studies.discover.fitting.fit_cause`
-   started at the linear solution, their 90 % intervals from the regression's
-   covariance (inflated by ``tau``). The held-out records then measure the
-   gain; the gain is reported, it does not name anything.
+   inclusion probability is the sum over the models that hold it. The
+   contenders (``none``, every single cause, the most probable verdicts)
+   are refined by profiled nonlinear least squares and scored on their exact
+   residuals; a pair's second cause is judged with the dispersion of records
+   made by its first cause's refined model.
+4. **Parameters.** The named verdict is the one of highest posterior
+   probability (summed over its variants), its probability the confidence;
+   its parameters come from the refinement, their 90 % intervals from the
+   regression's covariance times the dispersion (:func:`intervals`). The
+   held-out records then measure the gain (the workflow refits the named
+   model on the training records for it); the gain is reported, it does not
+   name anything.
 
 Conventions as in :mod:`studies.discover.causes.base`: angles in radians,
 current direction where it flows to, wind direction where it comes from,
