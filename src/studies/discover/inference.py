@@ -755,6 +755,8 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
     every = Context(ctx.vessel, ctx.model, records, [], "recorded", dynamics=ctx.dynamics)
     design = _design(every, _baseline_setup(every))
     every.sigma = design.sigma
+    every.n_rows = int(np.mean(design.n_data))
+    every.n_eff = float(every.n_rows)
     causes = causes if causes is not None else list(manoeuvring_causes(ctx))
     causes = [c for c in causes if c.undecidable(ctx) is None]
     variants = _variants(every, design, causes)
