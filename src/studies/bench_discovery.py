@@ -51,12 +51,13 @@ import numpy as np
 
 from .config import compose_settings
 from .errors import ConfigError
-from .scenarios.hidden import HIDDEN_CAUSES, draw_scenario, hidden_pairs, hidden_records, write_records
+from .scenarios.hidden import (HIDDEN_CAUSES, draw_scenario, hidden_pairs, hidden_records, parameters_match,
+                               write_records)
 from .scenarios.injected import Injection, inject, injection_grid
 from .scenarios.rates import confusion, rate, reliability
 from .environment.sensor_noise import NOISE_FAMILIES, check_sensor_noise
 
-__all__ = ["DiscoveryBench", "run_discovery_bench", "judge", "HELP"]
+__all__ = ["DiscoveryBench", "run_discovery_bench", "judge_real", "HELP"]
 
 HELP = """studies bench discover [key=value ...]: hit rates of studies discover with Wilson 90 % intervals
 
@@ -131,22 +132,6 @@ class DiscoveryBench:
 
 # --------------------------------------------------------------- judging
 
-def _close(a, b, rel=0.2):
-    return abs(a - b) <= rel * abs(b)
-
-
-def _near(a, b, angle=0.2):
-    return abs(np.angle(np.exp(1j * (a - b)))) <= angle
-
-
-def judge(cause: str, parameters: dict, truth: dict) -> bool:
-    """Whether ``parameters`` (as ``discovery.json`` gives them for ``cause``)
-    are within 20 % of ``truth`` (angles 0.2 rad; a bias as a vector; a pair by cause id)."""
-    from .scenarios.hidden import parameters_match
-
-    return parameters_match(cause, parameters, truth)
-
-
 def _verdict(d: dict) -> tuple[str, dict]:
     return d["cause"], d.get("parameters") or {}
 
@@ -154,9 +139,9 @@ def _verdict(d: dict) -> tuple[str, dict]:
 def _single_or_pair(hidden: str, d: dict, truth: dict, elapsed: float, kind: str, **extra) -> dict:
     named, params = _verdict(d)
     same = set(named.split("+")) == set(hidden.split("+"))
-    right = bool(same and (hidden == "none" or judge(hidden if "+" not in hidden else named, params,
-                                                     truth if "+" not in hidden else
-                                                     {k: truth[k] for k in named.split("+")})))
+    right = bool(same and (hidden == "none" or (
+        parameters_match(hidden, params, truth) if "+" not in hidden
+        else parameters_match(named, params, {k: truth[k] for k in named.split("+")}))))
     first_right = hidden != "none" and "+" not in hidden and hidden in named.split("+")
     return {"kind": kind, "hidden": hidden, "named": named, "right": right,
             "cause_right": bool(same), "spurious_second": bool(first_right and "+" in named),
@@ -252,9 +237,9 @@ def judge_real(case: dict, reference: dict) -> dict:
     if hidden == "none":
         right = not (set(named.split("+")) & {"rudder_offset", "current"})
     elif "+" in hidden:
-        right = same and judge(named, case["parameters"], truth)
+        right = same and parameters_match(named, case["parameters"], truth)
     else:
-        right = same and judge(hidden, case["parameters"], truth[hidden])
+        right = same and parameters_match(hidden, case["parameters"], truth[hidden])
     return {**case, "hidden": hidden, "truth": _clean(truth), "right": bool(right), "cause_right": bool(same)}
 
 

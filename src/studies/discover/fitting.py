@@ -248,17 +248,22 @@ def fit_cause(ctx: Context, cause: Cause) -> CauseFit:
     return fit
 
 
-def kinematic_smoothing(record):
+def kinematic_smoothing(record, settings=None, rates: bool = False):
     """The record with its velocities and heading replaced by their EKF/RTS
     estimates with a kinematic process model (positions, rudder and other
-    columns kept; :func:`studies.identify.kalman.ekf_derivatives`): states
-    consistent with the record's own track, estimated without a ship model."""
+    columns kept; :func:`studies.identify.kalman.ekf_derivatives` with
+    ``settings``, default :class:`~studies.identify.kalman.KalmanSettings`):
+    states consistent with the record's own track, estimated without a ship
+    model. ``rates``: the smoother's ``u_dot, v_dot, r_dot`` added as columns."""
     from ..identify.kalman import ekf_derivatives
 
-    est = ekf_derivatives(record)
+    est = ekf_derivatives(record, settings)
     out = record.iloc[est.index].copy()
     for c in ("u", "v", "r", "psi"):
         out[c] = est.states[c]
+    if rates:
+        for c in ("u", "v", "r"):
+            out[c + "_dot"] = est.rates[c + "_dot"]
     out.attrs = dict(record.attrs)
     out.attrs["smoothed"] = "ekf"
     return out.reset_index(drop=True)

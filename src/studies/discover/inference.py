@@ -75,11 +75,11 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import least_squares
 
-from ..identify.kalman import KalmanSettings, ekf_derivatives, kalman_smooth
+from ..identify.kalman import KalmanSettings, kalman_smooth, smoothed_record
 from ..models.terms import DOFS
 from .causes import Combined, Current, MissingTerm, WindUnmodelled, extended_library, manoeuvring_causes
 from .causes.base import Cause, Setup
-from .fitting import (CauseFit, Context, _score, integrated_time, regression_fit,
+from .fitting import (CauseFit, Context, _score, integrated_time, kinematic_smoothing, regression_fit,
                       scored_fit, setup_problems)
 
 __all__ = ["Variant", "Inference", "infer", "smooth_with_baseline", "WIND_DIRECTIONS", "WIND_REFERENCE"]
@@ -169,9 +169,7 @@ class Inference:
 
     def verdict_of(self, model: tuple) -> str:
         """The verdict id of a model: its causes' ids joined by ``+`` in catalogue order, or ``none``."""
-        if not model:
-            return "none"
-        return "+".join(sorted((self.variants[i].cause.id for i in model), key=_catalogue_order))
+        return _verdict_id(self.variants, model)
 
     @property
     def confidence(self) -> float:
@@ -203,50 +201,33 @@ def smooth_with_baseline(ctx: Context, records: list, settings: KalmanSettings |
     the process model is the MMG model.
     """
     settings = settings or SMOOTHER
-    current = [_kinematic(r, settings) for r in records]
-    vessel = ctx.dynamics.vessel if ctx.dynamics is not None else ctx.vessel
-    modules = ctx.dynamics.modules if ctx.dynamics is not None else None
+    current = [kinematic_smoothing(r, settings, rates=True) for r in records]
     for _ in range(int(iterations)):
         thin = Context(ctx.vessel, ctx.model, current, [], "recorded", dynamics=ctx.dynamics)
         params, _, _ = regression_fit(thin, _baseline_setup(thin))
-        values = {n: params.get(n, 0.0) for n in ctx.model.names}
         out = []
         for rec, last in zip(records, current):
             try:
-                res = kalman_smooth(rec, settings, ctx.model, values, vessel, modules)
+                out.append(_smooth_once(ctx, rec, params, settings))
             except (ValueError, np.linalg.LinAlgError) as exc:
                 log.warning("record %s: the baseline's EKF/RTS smoother failed (%s); the previous "
                             "smoothing is kept", rec.attrs.get("name"), exc)
                 out.append(last)
-                continue
-            out.append(_smoothed(rec, res))
         current = out
     return current
 
 
-def _smoothed(record: pd.DataFrame, res) -> pd.DataFrame:
-    """The record with the smoother's states and accelerations (``u_dot, v_dot, r_dot``)."""
-    sm = record.copy()
-    for name, idx in (("x0", 0), ("y0", 1), ("psi", 2), ("u", 3), ("v", 4), ("r", 5)):
-        sm[name] = res.states[:, idx]
-    for j, name in enumerate(("u_dot", "v_dot", "r_dot")):
-        sm[name] = res.rates[:, j]
-    sm.attrs = dict(record.attrs)
-    sm.attrs["smoothed"] = "ekf_model"
-    return sm
-
-
-def _kinematic(record: pd.DataFrame, settings: KalmanSettings) -> pd.DataFrame:
-    """The record's velocities and heading from the kinematic EKF/RTS smoother."""
-    est = ekf_derivatives(record, settings)
-    out = record.iloc[est.index].copy()
-    for c in ("u", "v", "r", "psi"):
-        out[c] = est.states[c]
-    for c in ("u", "v", "r"):
-        out[c + "_dot"] = est.rates[c + "_dot"]
-    out.attrs = dict(record.attrs)
-    out.attrs["smoothed"] = "ekf"
-    return out.reset_index(drop=True)
+def _smooth_once(ctx: Context, record: pd.DataFrame, params: dict,
+                 settings: KalmanSettings | None = None) -> pd.DataFrame:
+    """One pass of the smoother with the baseline's coefficients ``params`` as
+    process model: the record with the smoothed states and accelerations
+    (:func:`studies.identify.kalman.smoothed_record`), ``attrs["smoothed"] = "ekf_model"``."""
+    vessel = ctx.dynamics.vessel if ctx.dynamics is not None else ctx.vessel
+    modules = ctx.dynamics.modules if ctx.dynamics is not None else None
+    values = {n: params.get(n, 0.0) for n in ctx.model.names}
+    out = smoothed_record(kalman_smooth(record, settings or SMOOTHER, ctx.model, values, vessel, modules), record)
+    out.attrs["smoothed"] = "ekf_model"
+    return out
 
 
 def _baseline_setup(ctx: Context) -> Setup:
@@ -623,7 +604,7 @@ def null_records(ctx: Context, raw: list, smoothed: list, params: dict, block: i
     return out
 
 
-def null_dispersion(ctx: Context, raw: list, smoothed: list, causes: list, params: dict,
+def null_dispersion(ctx: Context, raw: list, smoothed: list, causes: list, params: dict, block: int,
                     replicates: int = NULL_REPLICATES, seed: int = 0, under: CauseFit | None = None) -> dict:
     """How much the comparison's likelihood ratios are inflated on these records
     (>= 1), by a parametric bootstrap under the baseline.
@@ -644,14 +625,14 @@ def null_dispersion(ctx: Context, raw: list, smoothed: list, causes: list, param
     errors in the regressors together (McCullagh & Nelder 1989, quasi-
     likelihood; Efron & Tibshirani 1993, parametric bootstrap).
 
-    ``under``: a single cause's refined fit; the records are then made by its
+    ``block``: rows of the residual's bootstrap blocks (several of its
+    correlation times). ``under``: a single cause's refined fit; the records are then made by its
     extended model, and the ratios are those of each other cause's variants
     added to it (the dispersion that judges a second cause).
 
     Returns ``{cause id: dispersion}`` and ``"all"``: the mean over every cause.
     """
     rng = np.random.default_rng(seed)
-    block = max(20, int(4 * _tau_of_records(ctx, smoothed)))
     ratios = {}
     setup = None
     if under is not None:
@@ -662,7 +643,7 @@ def null_dispersion(ctx: Context, raw: list, smoothed: list, causes: list, param
         if not fake:
             continue
         sm = [_smooth_once(ctx, r, params) if s.attrs.get("smoothed") == "ekf_model"
-              else _kinematic(r, SMOOTHER) for r, s in zip(fake, smoothed)]
+              else kinematic_smoothing(r, SMOOTHER, rates=True) for r, s in zip(fake, smoothed)]
         every = Context(ctx.vessel, ctx.model, sm, [], "recorded", dynamics=ctx.dynamics)
         design = _design(every, _baseline_setup(every))
         variants = _variants(every, design, causes)
@@ -701,21 +682,6 @@ def _label_of(fit: CauseFit) -> str | None:
     if isinstance(fit.cause, MissingTerm) and fit.cause.params:
         return f"missing_term:{fit.cause.params[0]}"
     return None
-
-
-def _tau_of_records(ctx: Context, smoothed: list) -> float:
-    every = Context(ctx.vessel, ctx.model, smoothed, [], "recorded", dynamics=ctx.dynamics)
-    design = _design(every, _baseline_setup(every))
-    return _tau(design.residual, design)
-
-
-def _smooth_once(ctx: Context, record: pd.DataFrame, params: dict) -> pd.DataFrame:
-    """One pass of the baseline's smoother with given coefficients (:func:`smooth_with_baseline`)."""
-    vessel = ctx.dynamics.vessel if ctx.dynamics is not None else ctx.vessel
-    modules = ctx.dynamics.modules if ctx.dynamics is not None else None
-    values = {n: params.get(n, 0.0) for n in ctx.model.names}
-    res = kalman_smooth(record, SMOOTHER, ctx.model, values, vessel, modules)
-    return _smoothed(record, res)
 
 
 def _tau(residual: np.ndarray, design: _Design) -> float:
@@ -762,9 +728,11 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
     variants = _variants(every, design, causes)
     seconds["signatures"] = time.perf_counter() - t0
     t1 = time.perf_counter()
+    #: bootstrap blocks of several residual correlation times
+    block = max(20, int(4 * _tau(design.residual, design)))
     if dispersion is None:
         if raw is not None:
-            dispersion = null_dispersion(ctx, raw, records, causes, design.coef, seed=seed)
+            dispersion = null_dispersion(ctx, raw, records, causes, design.coef, block, seed=seed)
         else:
             dispersion = {"all": _tau(design.residual, design)}
     elif not isinstance(dispersion, dict):
@@ -809,7 +777,8 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
         first = max(singles, key=lambda m_i: probs[m_i]) if singles else None
         if first is not None:
             a = models[first][0]
-            second = null_dispersion(ctx, raw, records, causes, design.coef, seed=seed + 1, under=fits[first])
+            second = null_dispersion(ctx, raw, records, causes, design.coef, block, seed=seed + 1,
+                                     under=fits[first])
             own = {i for i, v in enumerate(variants) if v.cause.id == variants[a].cause.id}
             for m_i, m in enumerate(models):
                 if len(m) == 2 and own & set(m):
@@ -820,7 +789,7 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
         seconds["second_dispersion"] = time.perf_counter() - t3
     inclusion, verdicts, keys = {}, {}, []
     for m, p in zip(models, probs):
-        key = "+".join(sorted((variants[i].cause.id for i in m), key=_catalogue_order)) if m else "none"
+        key = _verdict_id(variants, m)
         keys.append(key)
         verdicts[key] = verdicts.get(key, 0.0) + float(p)
         for cid in {variants[i].cause.id for i in m}:
@@ -861,6 +830,13 @@ def _catalogue_order(cause_id: str) -> int:
 
 # --------------------------------------------------------------- refinement
 
+def _verdict_id(variants: list, model: tuple) -> str:
+    """A model's verdict: its causes' ids joined by ``+`` in catalogue order, or ``none``."""
+    if not model:
+        return "none"
+    return "+".join(sorted((variants[i].cause.id for i in model), key=_catalogue_order))
+
+
 def _ordered(variants: list, model: tuple) -> list:
     return sorted(range(len(model)), key=lambda j: _catalogue_order(variants[model[j]].cause.id))
 
@@ -888,11 +864,6 @@ def _model_theta(variants: list, model: tuple, coefficients: np.ndarray) -> np.n
 def named_cause(inference: Inference) -> Cause | None:
     """The named model as one cause (a :class:`Combined` for a pair), in catalogue order."""
     return _model_cause(inference.variants, inference.named)
-
-
-def linear_theta(inference: Inference) -> np.ndarray:
-    """The named model's ``theta`` from its linear coefficients (catalogue order)."""
-    return _model_theta(inference.variants, inference.named, inference.coefficients)
 
 
 def refine(ctx: Context, cause: Cause, start: np.ndarray, max_nfev: int = 40) -> CauseFit:
