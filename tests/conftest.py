@@ -45,6 +45,16 @@ def marin_file(manoeuvre: str) -> Path:
     return path
 
 
+def hsva_file(test: str) -> Path:
+    """An HSVA KVLCC2 free-running zig-zag of the shared data folder (``10_10_S``,
+    ``35_05``, ...); the test is skipped when it is absent."""
+    path = SHARED_DATA / "kvlcc2_hsva" / f"HSVA_CPMC_KVLCC2_Z_{test}.dat"
+    if not path.is_file():
+        pytest.skip(f"HSVA KVLCC2 data not available: {path} is absent "
+                    "(the shared data folder is not mounted next to the repo)")
+    return path
+
+
 @pytest.fixture(scope="session")
 def vessel():
     from studies.vessels import get_vessel

@@ -99,7 +99,7 @@ def _bad_binary(f, p):
     ids=lambda m: m.__name__[5:])
 def test_bad_input_is_one_line_nonzero_and_no_run(tmp_path, good_frame, maker):
     path, expected = maker(good_frame, tmp_path / "bad_record.csv")
-    proc = run_studies(["run", f"data.path={path}", f"hydra.run.dir={tmp_path / 'run'}"], cwd=tmp_path)
+    proc = run_studies(["run", f"data.path={path}", "vessel=mariner", f"hydra.run.dir={tmp_path / 'run'}"], cwd=tmp_path)
     assert proc.returncode != 0
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1, proc.stderr

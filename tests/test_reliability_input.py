@@ -69,7 +69,7 @@ def _tabs(f, p):
 def test_malformed_record_is_refused_in_one_line(tmp_path, good_frame, maker):
     path = tmp_path / "bad_record.csv"
     expected = maker(good_frame, path)
-    proc = run_studies(["run", f"data.path={path}", f"hydra.run.dir={tmp_path / 'run'}"], cwd=tmp_path)
+    proc = run_studies(["run", f"data.path={path}", "vessel=mariner", f"hydra.run.dir={tmp_path / 'run'}"], cwd=tmp_path)
     _one_line_refusal(proc, tmp_path, "bad_record.csv", *expected)
 
 
@@ -94,7 +94,7 @@ def test_malformed_record_is_refused_by_the_loader(tmp_path, good_frame, maker):
 def test_too_few_samples_for_the_method(tmp_path, good_frame, method):
     path = tmp_path / "short.csv"
     good_frame.iloc[:30].to_csv(path, index=False)
-    proc = run_studies(["run", f"data.path={path}", f"method={method}",
+    proc = run_studies(["run", f"data.path={path}", "vessel=mariner", f"method={method}",
                         f"hydra.run.dir={tmp_path / 'run'}"], cwd=tmp_path)
     _one_line_refusal(proc, tmp_path, "short.csv", "30 samples")
 

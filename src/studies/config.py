@@ -313,6 +313,10 @@ class Train:
         _check_manoeuvre_names("train.manoeuvres", self.manoeuvres)
 
 
+#: ``data.scale``: the scale measured records are studied at
+RECORD_SCALES = ("auto", "model", "full")
+
+
 @dataclass
 class Data:
     """Measured training records (``data``).
@@ -334,15 +338,24 @@ class Data:
         ``rk4`` (default) or ``euler``, forward Euler steps as the Marine
         Systems Simulator's ``zigzag.m`` takes them (the thesis' data).
         Validation manoeuvres and the trajectory objective simulate by RK4.
+    scale : str
+        Scale the measured records are studied at (:data:`RECORD_SCALES`):
+        ``auto`` keeps each record's own scale when every training and
+        validation record is at the same one and brings all to full scale
+        when they mix (MARIN's full-scale files with HSVA's model-scale
+        ones); ``model`` or ``full`` converts every record that states its
+        scale by Froude similarity (:mod:`studies.data.scaling`).
     """
 
     path: Any = None
     derivative: str = "auto"
     resample: Optional[float] = None
     scheme: str = "rk4"
+    scale: str = "auto"
 
     def __post_init__(self):
         self.derivative = _choice("data.derivative", self.derivative, DERIVATIVES)
+        self.scale = _choice("data.scale", self.scale, RECORD_SCALES)
         self.scheme = _choice("data.scheme", self.scheme, DATA_SCHEMES)
         if self.resample is not None:
             try:
@@ -656,7 +669,11 @@ class VesselConfig:
     Attributes
     ----------
     name : str
-        Registered vessel (``mariner``, ``kvlcc2``).
+        Registered vessel (``mariner``, ``kvlcc2``), or ``auto`` (the
+        default of ``studies run`` and ``studies discover``): the ship the
+        measured records name, the Mariner when the study simulates its
+        records; a measured record that names no known ship is refused
+        (:mod:`studies.workflows.vessel_choice`).
     """
 
     name: str = MISSING

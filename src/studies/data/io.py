@@ -25,10 +25,11 @@ import pandas as pd
 from studies.data.contract import validate_manoeuvre
 from studies.data.files import (SNIFF_BYTES, decode_text, label_and_path, read_file_bytes,
                                 refuse_binary)
+from studies.data.hsva import is_hsva_text, read_hsva
 from studies.data.marin import read_marin
 from studies.errors import DataError
 
-__all__ = ["read_table", "load_manoeuvre", "load_manoeuvres",
+__all__ = ["read_table", "read_dat", "load_manoeuvre", "load_manoeuvres",
            "CSV_SUFFIXES", "PARQUET_SUFFIXES", "MARIN_SUFFIXES"]
 
 CSV_SUFFIXES = (".csv", ".txt")
@@ -184,11 +185,28 @@ def read_table(path) -> pd.DataFrame:
     if suffix in PARQUET_SUFFIXES:
         return _read_parquet(label, data)
     if suffix in MARIN_SUFFIXES:
-        raise DataError(label, "is a MARIN .dat file: read it with "
-                        "studies.data.read_marin or load_manoeuvre")
+        raise DataError(label, "is a .dat file of a test facility: read it with "
+                        "studies.data.read_dat or load_manoeuvre")
     raise DataError(label, f"unsupported file type '{suffix or '(no suffix)'}'; "
                     "give a CSV (.csv, .txt), Parquet (.parquet, .pq) or MARIN "
                     "(.dat) file")
+
+
+def read_dat(path, min_samples: int = 10, *, uniform_time: bool = False) -> pd.DataFrame:
+    """Read a free-running ``.dat`` file of MARIN or HSVA, whichever layout it has.
+
+    The layout is told from the file's top lines (:func:`studies.data.hsva.is_hsva_text`):
+    HSVA's (four title lines, twelve columns, model scale) is read by
+    :func:`studies.data.read_hsva`, any other by :func:`studies.data.read_marin`
+    (two title lines, eleven columns, full scale; ``uniform_time`` is its
+    option). Each record keeps the scale of its file, stated in
+    ``attrs["model_scale"]`` and ``attrs["scale"]``.
+    """
+    label, _, data = read_file_bytes(path)
+    head = data[:SNIFF_BYTES].decode("cp1252", errors="replace")
+    if is_hsva_text(head):
+        return read_hsva(path, min_samples=min_samples)
+    return read_marin(path, uniform_time=uniform_time, min_samples=min_samples)
 
 
 def load_manoeuvre(path, min_samples: int = 10) -> pd.DataFrame:
@@ -197,9 +215,9 @@ def load_manoeuvre(path, min_samples: int = 10) -> pd.DataFrame:
     Parameters
     ----------
     path : str or os.PathLike
-        A MARIN ``.dat`` file (read with :func:`studies.data.read_marin` at
-        full scale) or a CSV / Parquet file in the data contract (see
-        :func:`read_table`).
+        A MARIN or HSVA ``.dat`` file (read with :func:`read_dat`, each at
+        the scale of its file) or a CSV / Parquet file in the data contract
+        (see :func:`read_table`).
     min_samples : int, default 10
         Fewest samples accepted.
 
@@ -219,7 +237,7 @@ def load_manoeuvre(path, min_samples: int = 10) -> pd.DataFrame:
     """
     label, p = label_and_path(path)
     if p.suffix.lower() in MARIN_SUFFIXES:
-        df = read_marin(path, min_samples=min_samples)
+        df = read_dat(path, min_samples=min_samples)
     else:
         df = validate_manoeuvre(read_table(path), label, min_samples=min_samples)
     df.attrs["name"] = p.stem

@@ -23,6 +23,8 @@ import pandas as pd
 
 from studies.data.contract import validate_manoeuvre
 from studies.data.files import decode_text, read_file_bytes, refuse_binary
+from studies.data.scaling import froude_scale
+from studies.data.ships import ship_named
 from studies.errors import ConfigError, DataError
 
 __all__ = ["read_marin", "MARIN_COLUMNS", "KVLCC2_SCALE"]
@@ -133,8 +135,9 @@ def read_marin(path, model_scale: bool = False, scale: float = KVLCC2_SCALE, *,
         ``v`` [m/s] body-fixed, ``r`` [rad/s], ``delta`` [rad], ``n`` [rps],
         plus the extra columns ``phi`` [rad] (roll) and ``p`` [rad/s] (roll
         rate). ``attrs`` holds ``name`` (file stem), ``source`` (path as
-        given), ``title`` (the file's second title line), ``model_scale`` and
-        ``scale``.
+        given), ``title`` (the file's second title line), ``facility``
+        ("MARIN"), ``vessel`` (the hull the title or file name names, lower
+        case, when it names one), ``model_scale`` and ``scale``.
 
     Raises
     ------
@@ -200,14 +203,6 @@ def read_marin(path, model_scale: bool = False, scale: float = KVLCC2_SCALE, *,
         "phi": np.deg2rad(a[:, 3]),
         "p": np.deg2rad(a[:, 7]),
     }
-    if model_scale:
-        root = math.sqrt(scale)
-        for name in ("x0", "y0"):
-            columns[name] = columns[name] / scale
-        for name in ("t", "u", "v"):
-            columns[name] = columns[name] / root
-        for name in ("r", "p", "n"):
-            columns[name] = columns[name] * root
     df = pd.DataFrame(columns)
     try:
         df = validate_manoeuvre(df, label, min_samples=min_samples)
@@ -217,6 +212,9 @@ def read_marin(path, model_scale: bool = False, scale: float = KVLCC2_SCALE, *,
         original = int(kept[exc.row])
         raise DataError(label, f"{exc.message} (line {line_numbers[original]} "
                         "of the file)", column=exc.column, row=original) from None
-    df.attrs.update({"name": p.stem, "source": label, "title": title,
-                     "model_scale": bool(model_scale), "scale": scale})
-    return df
+    df.attrs.update({"name": p.stem, "source": label, "title": title, "facility": "MARIN",
+                     "model_scale": False, "scale": scale})
+    ship = ship_named(title) or ship_named(p.stem.replace("_", " "))
+    if ship:
+        df.attrs["vessel"] = ship
+    return froude_scale(df, "model") if model_scale else df

@@ -300,6 +300,7 @@ def hidden_records(vessel, cause: str, seed: int = 0, noise: float = 0.0,
             rec["wind_speed"] = rec["wind_speed"] * (1.0 + truths["wind_speed_bias"]["k"])
         rec = add_sensor_noise(rec, noise_family, noise, vessel.speed, rng)
         rec.attrs["name"] = man.name
+        rec.attrs["vessel"] = vessel.name
         records.append(rec)
     return records, (truths[parts[0]] if len(parts) == 1 else truths)
 
@@ -384,11 +385,18 @@ def hidden_roll_speed_series(folder, seed: int = 0, noise: float = 0.01, speeds=
 
 
 def write_records(records, folder) -> list[str]:
-    """Write records as CSV files named after them (what a user would hand over)."""
+    """Write records as CSV files named after them (what a user would hand over).
+
+    A record whose ``attrs`` name its vessel gets a sidecar
+    ``<name>.csv.yaml`` holding ``vessel: <name>`` (how a CSV says which
+    ship it is, :mod:`studies.data.ships`).
+    """
     paths = []
     for rec in records:
         path = Path(folder) / f"{rec.attrs['name']}.csv"
         rec.to_csv(path, index=False)
+        if rec.attrs.get("vessel"):
+            path.with_name(path.name + ".yaml").write_text(f"vessel: {rec.attrs['vessel']}\n")
         paths.append(str(path))
     return paths
 

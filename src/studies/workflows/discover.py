@@ -34,9 +34,10 @@ from ..discover.search import (EVIDENCE, breaks_down, held_out_evidence, named_o
 from ..errors import ConfigError
 from ..vessels import get_vessel
 from .manoeuvring import get_study_model
-from .measured import load_measured
+from .measured import load_measured, load_study_records
 from .settings import as_path_list
 from .study import DiscoverStudy, Recorder, Study, gain_pct
+from .vessel_choice import settle_vessel
 
 __all__ = ["prepare_discovery", "execute_discovery", "holdout", "split_discoveries", "gain_pct",
            "smooth_measured", "on_record_time"]
@@ -77,10 +78,9 @@ def prepare_discovery(cfg: DiscoverConfig, root: Path, kind: Study,
         raise ConfigError("discover needs measured records: data.path=FILE or data.path=[a,b]")
     validate = as_path_list(cfg.validate.path)
     simulation = cfg.simulation.path
-    vessel = get_vessel(cfg.vessel.name)
+    vessel = get_vessel(settle_vessel(cfg, root))
     model = get_study_model(cfg, root, record)
-    records = load_measured(data, min_samples=60)
-    val = load_measured(validate, min_samples=20) if validate else []
+    records, val = load_study_records(data, validate, min_samples=60, scale=cfg.data.scale)
     sim = load_measured([str(simulation)])[0] if simulation else None
     if cfg.data.derivative in ("ekf", "ekf_kinematic"):
         records = [smooth_measured(r) for r in records]

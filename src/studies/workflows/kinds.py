@@ -31,6 +31,7 @@ from . import roll_run as _roll_run
 from ..roll.records import load_roll_decay
 from .settings import as_path_list
 from .study import DiscoverStudy, PreparedRun, Recorder, Study
+from .vessel_choice import simulated_vessel
 
 __all__ = ["ManoeuvringStudy", "RollDecayStudy", "STUDIES", "study_for", "prepare_discover",
            "execute_discover", "PARAM_GROUPS", "logged_params"]
@@ -146,6 +147,10 @@ def logged_params(cfg: RunConfig, params: dict) -> dict:
     if isinstance(cfg, DiscoverConfig):
         groups += DISCOVER_GROUPS
     out = {key: params[key] for key in dict.fromkeys(groups) if key in params}
+    if isinstance(out.get("vessel"), dict):
+        # vessel=auto as resolved by prepare (a simulated study: the vessel it simulates)
+        name = str(cfg.vessel.name) if cfg.data.path else simulated_vessel(cfg)
+        out["vessel"] = {**out["vessel"], "name": name}
     report = {k: v for k, v in (params.get("report") or {}).items()
               if k in REPORT_DEFAULTS and v != REPORT_DEFAULTS[k]}
     if report:

@@ -64,6 +64,7 @@ from .identified_model import IDENTIFIED_MODEL_FILE, IdentifiedModel
 from .settings import Settings, named_manoeuvre, read_settings
 from .simplify import ensure_definition
 from .study import Recorder
+from .vessel_choice import settle_vessel
 
 __all__ = ["Study", "prepare", "execute", "simulate_training", "coefficient_table", "run_name",
            "identified_model", "compare_simulated", "validation_manoeuvre"]
@@ -200,7 +201,7 @@ def prepare(cfg: RunConfig, root: Path | None = None, record: Recorder | None = 
     its own run by ``record``).
     """
     settings = read_settings(cfg)
-    vessel = with_wind_convention(get_vessel(str(cfg.vessel.name)), cfg.wind.convention)
+    vessel = with_wind_convention(get_vessel(settle_vessel(cfg, root)), cfg.wind.convention)
     model = get_study_model(cfg, root, record)
     method = str(cfg.method.name)
     make_identifier(method, _method_options(cfg))
@@ -208,10 +209,12 @@ def prepare(cfg: RunConfig, root: Path | None = None, record: Recorder | None = 
     resample_dt = cfg.data.resample
     derivative = cfg.data.derivative
     _measured.kalman_options(cfg)           # refuse bad kalman.* settings before any run
+    validation = None
     if settings.data_paths:
         min_samples = MIN_SAMPLES_PER_COEFFICIENT * n_params + 5
         if _is_measured_study(vessel, settings.data_paths, derivative, resample_dt):
-            records = _measured.load_measured(settings.data_paths, min_samples, resample_dt)
+            records, validation = _measured.load_study_records(settings.data_paths, settings.validate_paths,
+                                                               min_samples, resample_dt, cfg.data.scale)
         else:
             records = load_manoeuvres(settings.data_paths, min_samples=min_samples)
         truth = None
@@ -224,7 +227,8 @@ def prepare(cfg: RunConfig, root: Path | None = None, record: Recorder | None = 
         truth = {name: full_truth[name] for name in model.names}
         rng = np.random.default_rng(settings.seed)
         records = [simulate_training(vessel, full, full_truth, man, settings, rng) for man in manoeuvres]
-    validation = _measured.load_measured(settings.validate_paths) if settings.validate_paths else []
+    if validation is None:
+        validation = _measured.load_measured(settings.validate_paths) if settings.validate_paths else []
     measured = bool(settings.data_paths) and _is_measured_study(vessel, settings.data_paths, derivative,
                                                                 resample_dt)
     return Study(cfg, settings, vessel, model, method, records, truth, validation, measured)

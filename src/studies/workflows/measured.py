@@ -53,7 +53,8 @@ import pandas as pd
 from ..config import RunConfig
 from ..data import load_manoeuvre
 from ..data.derivatives import DerivativeEstimate, estimate_derivatives
-from ..data.marin import read_marin
+from ..data.io import read_dat
+from ..data.scaling import froude_scale
 from ..data.resample import resample as resample_record, uniform_grid
 from ..identify.kalman import KalmanSettings, ekf_derivatives, measurement_variance
 from ..environment.wind import wind_loads_prime
@@ -69,7 +70,7 @@ from ..plotting import pyplot
 from ..simulate.simulator import replay_many
 from ..vessels.base import Vessel
 
-__all__ = ["steady_turn", "EKF_METHODS", "load_measured", "resample", "estimate_all", "problems_from_estimates",
+__all__ = ["steady_turn", "EKF_METHODS", "load_measured", "load_study_records", "one_scale", "resample", "estimate_all", "problems_from_estimates",
            "identify_measured", "posterior_vectors", "posterior_band", "kalman_options",
            "mirror_record"]
 
@@ -100,21 +101,52 @@ def _uniform(t: np.ndarray) -> bool:
     return bool(np.max(np.abs(dt - step)) <= 1e-6 * step + 1e-9)
 
 
+def _read(path, min_samples: int) -> pd.DataFrame:
+    if str(path).lower().endswith(".dat"):
+        rec = read_dat(path, min_samples=min_samples, uniform_time=True)
+    else:
+        rec = load_manoeuvre(path, min_samples=min_samples)
+    rec.attrs.setdefault("name", Path(str(path)).stem)
+    return rec
+
+
+def _on_grid(rec: pd.DataFrame, resample_dt: float | None) -> pd.DataFrame:
+    if resample_dt is not None:
+        return resample(rec, resample_dt)
+    if not _uniform(rec["t"].to_numpy(float)):
+        return resample(rec)
+    return rec
+
+
 def load_measured(paths, min_samples: int = 10, resample_dt: float | None = None) -> list:
-    """Load records for identification or validation (see the module docstring)."""
-    out = []
-    for path in paths:
-        if str(path).lower().endswith(".dat"):
-            rec = read_marin(path, uniform_time=True, min_samples=min_samples)
-        else:
-            rec = load_manoeuvre(path, min_samples=min_samples)
-        if resample_dt is not None:
-            rec = resample(rec, resample_dt)
-        elif not _uniform(rec["t"].to_numpy(float)):
-            rec = resample(rec)
-        rec.attrs.setdefault("name", Path(str(path)).stem)
-        out.append(rec)
-    return out
+    """Load records for identification or validation (see the module docstring),
+    each at the scale of its file."""
+    return [_on_grid(_read(path, min_samples), resample_dt) for path in paths]
+
+
+def load_study_records(training_paths, validation_paths, min_samples: int = 10,
+                       resample_dt: float | None = None, scale: str = "auto") -> tuple[list, list]:
+    """Training and validation records loaded, brought to one scale (:func:`one_scale`,
+    ``data.scale``) and then put on a uniform grid (``data.resample`` seconds at that scale)."""
+    training = [_read(p, min_samples) for p in training_paths]
+    validation = [_read(p, 10) for p in validation_paths]
+    training, validation = one_scale(training, validation, scale)
+    return ([_on_grid(r, resample_dt) for r in training], [_on_grid(r, None) for r in validation])
+
+
+def one_scale(training: list, validation: list, setting: str = "auto") -> tuple[list, list]:
+    """Training and validation records brought to one scale (``data.scale``).
+
+    ``auto``: as recorded when every record that states its scale is at the
+    same one, full scale when they mix; ``model``/``full``: that scale.
+    Records that do not state their scale (CSV files) are left as they are.
+    """
+    stated = {bool(r.attrs["model_scale"]) for r in training + validation if "model_scale" in r.attrs}
+    if setting == "auto":
+        if len(stated) < 2:
+            return training, validation
+        setting = "full"
+    return ([froude_scale(r, setting) for r in training], [froude_scale(r, setting) for r in validation])
 
 
 def mirror_record(record: pd.DataFrame) -> pd.DataFrame:

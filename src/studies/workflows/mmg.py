@@ -67,6 +67,7 @@ from . import manoeuvring as _manoeuvring
 from . import measured as _measured
 from .identified_model import IDENTIFIED_MODEL_FILE
 from .settings import read_settings
+from .vessel_choice import settle_vessel
 
 __all__ = ["MMGRun", "is_mmg", "prepare_mmg", "execute_mmg", "choose_scale"]
 
@@ -158,19 +159,21 @@ def prepare_mmg(cfg: RunConfig, root: Path | None = None, record=None) -> MMGRun
     model = get_model(str(cfg.model.name))
     method = str(cfg.method.name)
     make_identifier(method, _manoeuvring._method_options(cfg))
-    vessel_name = str(cfg.vessel.name)
+    vessel_name = settle_vessel(cfg, root)
     get_mmg_vessel(vessel_name)                       # refuse a vessel without MMG particulars
     truth = None
-    validation = _measured.load_measured(settings.validate_paths) if settings.validate_paths else []
-    _require_rate(validation, settings.validate_paths)
     if settings.data_paths:
         n_params = max(len(model.terms_of(d)) for d in ("X", "Y", "N"))
         min_samples = _manoeuvring.MIN_SAMPLES_PER_COEFFICIENT * n_params + 5
-        records = _measured.load_measured(settings.data_paths, min_samples, cfg.data.resample)
+        records, validation = _measured.load_study_records(settings.data_paths, settings.validate_paths,
+                                                           min_samples, cfg.data.resample, cfg.data.scale)
+        _require_rate(validation, settings.validate_paths)
         _require_rate(records, settings.data_paths)
         vessel = _at_approach(choose_scale(vessel_name, cfg.model.scale, records), records)
         measured = True
     else:
+        validation = _measured.load_measured(settings.validate_paths) if settings.validate_paths else []
+        _require_rate(validation, settings.validate_paths)
         vessel = choose_scale(vessel_name, "full" if cfg.model.scale == "full" else "model", [])
         truth = {name: vessel.coefficients[name] for name in model.names}
         rng = np.random.default_rng(settings.seed)

@@ -58,6 +58,7 @@ from ..simulate import simulate
 from ..vessels import get_vessel
 from .settings import named_manoeuvre
 from .study import Recorder
+from .vessel_choice import simulated_vessel
 
 __all__ = ["derive", "ensure_definition"]
 
@@ -307,7 +308,7 @@ def derive(cfg: RunConfig, out_dir: Path) -> dict:
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
-    vessel = get_vessel(str(cfg.vessel.name))
+    vessel = get_vessel(simulated_vessel(cfg))
     full = abkowitz()
     truth = {n: vessel.coefficients[n] for n in full.names}
     man = named_manoeuvre(opts["manoeuvre"], {"duration": float(opts["duration"]), "dt": float(opts["dt"])})
@@ -451,7 +452,7 @@ def ensure_definition(cfg: RunConfig, root: Path, record: Recorder | None = None
             if path.exists() and not force:
                 return path
             out_dir = Path(run_dir) if run_dir else path.parent / "simplification_run"
-            params = {"simplify": _options(cfg), "vessel": {"name": str(cfg.vessel.name)}}
+            params = {"simplify": _options(cfg), "vessel": {"name": simulated_vessel(cfg)}}
             record = record or (lambda *args: _Unrecorded())
             with record("simplification", "simplify abkowitz", params, {"kind": "simplification"}) as run:
                 result = derive(cfg, out_dir)
