@@ -837,6 +837,10 @@ class MMGModelConfig(ModelConfig):
         The captive tests' hull forces as rows of the regression, with this
         weight relative to the records (1: as much say as all the records
         together), >= 0; 0: not used.
+    cross_validate : bool
+        Also hold each measured training record out in turn, identify from
+        the others and predict it (``cross_validation.md``, ``cv/...``
+        metrics; :mod:`studies.workflows.cross_validation`).
     """
 
     prior_scale: float = 0.5
@@ -849,6 +853,7 @@ class MMGModelConfig(ModelConfig):
     compare_abkowitz: bool = True
     captive: bool = True
     captive_weight: float = 0.0
+    cross_validate: bool = False
 
     def __post_init__(self):
         super().__post_init__()

@@ -62,6 +62,11 @@ PAPERS = {
         "model under disturbance using support vector machine method, Ships and Offshore Structures "
         "16(S1), 13-21",
         {"table4": "wang2021_table4.csv"}),
+    "alexandersson2022": Paper(
+        "alexandersson2022",
+        "M. Alexandersson, W. Mao, J.W. Ringsberg (2022), System identification of vessel manoeuvring "
+        "models, Ocean Engineering 266, 112940",
+        {"turning_circles": "alexandersson2022.csv"}),
 }
 
 

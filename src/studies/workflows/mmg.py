@@ -65,6 +65,9 @@ from ..vessels import get_mmg_vessel, get_vessel, mmg_vessel_at_speed
 from ..vessels.kvlcc2_mmg import MMGVessel
 from . import manoeuvring as _manoeuvring
 from . import measured as _measured
+from ..data.scaling import scale_label
+from ..papers import get_paper, published
+from .cross_validation import cross_validate, cv_table_markdown
 from .identified_model import IDENTIFIED_MODEL_FILE
 from .settings import read_settings
 from .vessel_choice import settle_vessel
@@ -305,6 +308,65 @@ def _comparison(run: MMGRun, metrics: dict, out_dir: Path) -> None:
     (out_dir / "comparison.md").write_text("\n".join(lines) + "\n")
 
 
+#: papers whose published predictions of measured records are set beside a run's
+PUBLISHED_PREDICTIONS = (("alexandersson2022", "turning_circles"),)
+
+
+def _turn_side(record: pd.DataFrame) -> str:
+    """``port`` when the heading decreases over the record (a turn to port), else ``starboard``."""
+    return "port" if float(record["psi"].iloc[-1] - record["psi"].iloc[0]) < 0 else "starboard"
+
+
+def _published_beside(run: MMGRun, metrics: dict, out_dir: Path) -> None:
+    """``published.md``/``.csv``: published predictions of the validation records beside the run's."""
+    rows = []
+    for paper_id, table_name in PUBLISHED_PREDICTIONS:
+        paper = get_paper(paper_id)
+        table = published(paper_id, table_name)
+        for rec in run.validation_records:
+            name = str(rec.attrs.get("name"))
+            side = _turn_side(rec)
+            for row in table[table["record"] == name].itertuples():
+                rows.append({"record": name, "turn of the record": side, "quantity": row.quantity,
+                             "mmg": metrics.get(f"{name}/{row.quantity}"),
+                             "abkowitz": metrics.get(f"abkowitz/{name}/{row.quantity}"),
+                             "published": float(row.value), "published turn": row.turn,
+                             "published training": row.training, "source": paper.citation})
+    if not rows:
+        return
+    frame = pd.DataFrame(rows)
+    frame.to_csv(out_dir / "published.csv", index=False)
+    training = ", ".join(str(r.attrs.get("name")) for r in run.records)
+    fmt = (lambda x: "–" if x is None or not np.isfinite(x) else f"{x:+.1f}")
+    lines = ["# The run's predictions beside published ones", "",
+             f"Trained on {training}; prediction minus measurement in %, {_records_scale(run)}. The "
+             "published values are the papers' own predictions of the same measured record (their "
+             "training records in the last column); the turn of the record is read from its heading "
+             "(decreasing: port).", "",
+             "| record | turn | quantity | MMG | Abkowitz | published | published turn | published training | source |",
+             "|---|---|---|---:|---:|---:|---|---|---|"]
+    for r in frame.itertuples(index=False):
+        lines.append(f"| {r[0]} | {r[1]} | {r[2]} | {fmt(r[3])} | {fmt(r[4])} | {r[5]:+.1f} | {r[6]} | "
+                     f"{r[7]} | {r[8]} |")
+    (out_dir / "published.md").write_text("\n".join(lines) + "\n")
+
+
+def _records_scale(run: MMGRun) -> str:
+    labels = {scale_label(r) for r in run.records + run.validation_records}
+    return ", ".join(sorted(labels))
+
+
+def _cross_validation(run: MMGRun, out_dir: Path) -> dict:
+    """Leave-one-record-out over the training records (``model.cross_validate``)."""
+    table, metrics = cross_validate(run, identify_mmg, out_dir)
+    table.to_csv(out_dir / "cross_validation.csv", index=False)
+    facilities = sorted({str(r.attrs.get("facility", "")) for r in run.records} - {""})
+    title = "Leave-one-record-out cross-validation" + (f" over the {' and '.join(facilities)} records"
+                                                      if facilities else "")
+    (out_dir / "cross_validation.md").write_text(cv_table_markdown(table, title, _records_scale(run)))
+    return metrics
+
+
 def _captive(run: MMGRun, params: dict, modules, out_dir: Path) -> dict:
     model_scale = get_mmg_vessel(str(run.cfg.vessel.name))
     if not model_scale.captive:
@@ -371,10 +433,14 @@ def execute_mmg(run: MMGRun, out_dir: Path) -> dict:
         if run.cfg.model.compare_abkowitz and run.measured:
             metrics.update(_abkowitz_beside(run, out_dir))
             _comparison(run, metrics, out_dir)
+        if run.measured:
+            _published_beside(run, metrics, out_dir)
     else:
         metrics.update(_validate_simulated(run, params, out_dir))
     if run.cfg.model.captive:
         metrics.update(_captive(run, params, modules, out_dir))
+    if run.cfg.model.cross_validate and run.measured:
+        metrics.update(_cross_validation(run, out_dir))
     own = {k: v for k, v in metrics.items() if not k.startswith(("abkowitz/", "captive/"))}
     metrics.update(_manoeuvring.speed_mae_summary(own, {str(r.attrs.get("name")) for r in run.records}))
     metrics["runtime/total_s"] = time.perf_counter() - started
