@@ -76,7 +76,7 @@ def test_every_option_composes_into_its_dataclass(hydra, command, config_type, g
 @pytest.mark.parametrize("preset", PRESETS)
 def test_every_preset_composes(hydra, command, config_type, preset):
     full = compose(command, overrides=[f"experiment={preset}"], return_hydra_config=True)
-    params = OmegaConf.select(full, "hydra.sweeper.params")
+    params = OmegaConf.select(full, "hydra.sweeper.params") or {}      # a single-run preset has none
     with open_dict(full):
         del full["hydra"]
     cfg = OmegaConf.to_object(full)

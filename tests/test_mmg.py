@@ -65,10 +65,19 @@ def test_hull_terms_carry_the_published_names_and_the_resistance_sign(model):
     r0 = model.terms_of("X")[0]
     np.testing.assert_array_equal(r0.feature(primes), [-1.0, -1.0])
     # the term set's forces are the hull formula of the module
-    c = [KVLCC2_HULL[name] for name, *_ in HULL_TERMS]
+    c = [KVLCC2_HULL.get(name, 0.0) for name, *_ in HULL_TERMS]
     expected = np.column_stack(hull_forces(primes[:, 1], primes[:, 2], c))
     np.testing.assert_allclose(model.forces(primes, KVLCC2_HULL), expected, rtol=1e-13)
     assert model.rudder_yaw_sign(KVLCC2_HULL) == -1.0
+    # the asymmetric hull adds a constant side force and yaw moment, in the module's formula too
+    asymmetric = mmg(asymmetry=True)
+    assert list(asymmetric.names) == list(DESIGN_NAMES) + ["Y0", "N0"]
+    values = {**KVLCC2_HULL, "Y0": 0.002, "N0": -0.001}
+    c = [values[name] for name, *_ in HULL_TERMS]
+    expected = np.column_stack(hull_forces(primes[:, 1], primes[:, 2], c))
+    np.testing.assert_allclose(asymmetric.forces(primes, values), expected, rtol=1e-13)
+    np.testing.assert_allclose(expected[:, 1:] - model.forces(primes, KVLCC2_HULL)[:, 1:], [[0.002, -0.001]] * 2,
+                               rtol=1e-10)
 
 
 def test_kt_fit_reproduces_the_open_water_table(ship):

@@ -841,6 +841,16 @@ class MMGModelConfig(ModelConfig):
         Also hold each measured training record out in turn, identify from
         the others and predict it (``cross_validation.md``, ``cv/...``
         metrics; :mod:`studies.workflows.cross_validation`).
+    asymmetry : bool
+        Add the constant side force and yaw moment ``Y0``, ``N0`` (prime,
+        no prior) to the hull: a single-screw ship is not symmetric in calm
+        water (it needs some rudder to go straight, and its zig-zags to
+        port and to starboard differ).
+    fit_wake : bool
+        Fit the propeller's wake ``w_P0``, ``C_1``, ``C_2`` to the measured
+        thrust of the training records that carry a ``thrust`` column
+        (:mod:`studies.identify.mmg_propeller`); without one the published
+        values are kept.
     """
 
     prior_scale: float = 0.5
@@ -854,6 +864,8 @@ class MMGModelConfig(ModelConfig):
     captive: bool = True
     captive_weight: float = 0.0
     cross_validate: bool = False
+    asymmetry: bool = False
+    fit_wake: bool = False
 
     def __post_init__(self):
         super().__post_init__()

@@ -85,7 +85,7 @@ import numpy as np
 from .abkowitz import ManoeuvringModel
 from .terms import Term
 
-__all__ = ["MMGTerm", "MMGParameters", "HULL_TERMS", "KVLCC2_HULL", "KVLCC2_ADDED_MASS",
+__all__ = ["MMGTerm", "MMGParameters", "HULL_TERMS", "STANDARD_TERMS", "ASYMMETRY_TERMS", "KVLCC2_HULL", "KVLCC2_ADDED_MASS",
            "KVLCC2_KT_PUBLISHED", "mmg", "fit_kt", "hull_forces", "module_forces",
            "rudder_propeller", "thrust_normal_force", "module_gains", "module_constants",
            "MODULE_CONSTANTS"]
@@ -116,7 +116,13 @@ HULL_TERMS = (
     ("Nv", "N", (0, 1, 0, 0), 1.0), ("Nr", "N", (0, 0, 1, 0), 1.0),
     ("Nvvv", "N", (0, 3, 0, 0), 1.0), ("Nvvr", "N", (0, 2, 1, 0), 1.0),
     ("Nvrr", "N", (0, 1, 2, 0), 1.0), ("Nrrr", "N", (0, 0, 3, 0), 1.0),
+    ("Y0", "Y", (0, 0, 0, 0), 1.0), ("N0", "N", (0, 0, 0, 0), 1.0),
 )
+#: the terms of the MMG standard method (the first 17 of :data:`HULL_TERMS`)
+STANDARD_TERMS = tuple(name for name, *_ in HULL_TERMS[:17])
+#: constant side force and yaw moment (prime) of a ship that is not symmetric in calm
+#: water: a single-screw propeller's side force and the asymmetric flow at its rudder
+ASYMMETRY_TERMS = ("Y0", "N0")
 
 #: published hull coefficients of the KVLCC2 L7 model (Yasukawa & Yoshimura
 #: 2015, Table 4; forces over 0.5 rho L d U^2, moment over 0.5 rho L^2 d U^2)
@@ -189,15 +195,18 @@ class MMGParameters:
         return asdict(self)
 
 
-def mmg(name: str = "mmg") -> ManoeuvringModel:
-    """The 17 hull terms of the MMG standard method (:data:`HULL_TERMS`).
+def mmg(name: str = "mmg", asymmetry: bool = False) -> ManoeuvringModel:
+    """The 17 hull terms of the MMG standard method (:data:`STANDARD_TERMS`).
 
     Forces of this term set are over ``0.5 rho L d U^2`` (moment over
     ``0.5 rho L^2 d U^2``); the propeller and rudder are not terms but
     modules (:func:`module_forces`). No term is linear in ``delta``, so
     :meth:`ManoeuvringModel.rudder_yaw_sign` gives the contract's -1.
+    ``asymmetry=True`` adds the constants ``Y0`` and ``N0``
+    (:data:`ASYMMETRY_TERMS`).
     """
-    return ManoeuvringModel(name, tuple(MMGTerm(n, dof, p, s) for n, dof, p, s in HULL_TERMS))
+    names = STANDARD_TERMS + (ASYMMETRY_TERMS if asymmetry else ())
+    return ManoeuvringModel(name, tuple(MMGTerm(n, dof, p, s) for n, dof, p, s in HULL_TERMS if n in names))
 
 
 def fit_kt(j, kt) -> tuple[float, float, float]:
@@ -246,15 +255,18 @@ def module_constants(vessel, params: MMGParameters) -> tuple:
 def hull_forces(vp, rp, c):
     """Prime hull forces ``(X'_H, Y'_H, N'_H)`` at ``v' = v/U``, ``r' = r L/U``.
 
-    ``c`` holds the 17 coefficients in the order of :data:`HULL_TERMS`
-    (``R0`` as published, positive). Scalars or arrays.
+    ``c`` holds the 19 coefficients in the order of :data:`HULL_TERMS`
+    (``R0`` as published, positive; the constants ``Y0``, ``N0`` last, zero
+    for the standard model). Scalars or arrays.
     """
     vv = vp * vp
     rr = rp * rp
     vr = vp * rp
     x = (-c[0] + c[1] * vv) + (c[2] * vr + c[3] * rr) + c[4] * vv * vv
-    y = (c[5] * vp + c[6] * rp) + (c[7] * vv * vp + c[8] * vv * rp) + (c[9] * vp * rr + c[10] * rr * rp)
-    n = (c[11] * vp + c[12] * rp) + (c[13] * vv * vp + c[14] * vv * rp) + (c[15] * vp * rr + c[16] * rr * rp)
+    y = (c[5] * vp + c[6] * rp) + (c[7] * vv * vp + c[8] * vv * rp) + (c[9] * vp * rr + c[10] * rr * rp) \
+        + c[17]
+    n = (c[11] * vp + c[12] * rp) + (c[13] * vv * vp + c[14] * vv * rp) + (c[15] * vp * rr + c[16] * rr * rp) \
+        + c[18]
     return x, y, n
 
 

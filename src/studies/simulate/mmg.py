@@ -262,7 +262,7 @@ def process_constants(model: ManoeuvringModel, values: dict, vessel: MMGVessel,
 
 
 def hull_vector(model: ManoeuvringModel, values: dict) -> tuple:
-    """The 17 hull coefficients in the order of :data:`HULL_TERMS`; terms the
+    """The hull coefficients in the order of :data:`HULL_TERMS`; terms the
     model does not have are zero. A term outside the MMG hull is refused."""
     order = [name for name, *_ in HULL_TERMS]
     extra = [t.name for t in model.terms if t.name not in order]

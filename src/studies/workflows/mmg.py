@@ -58,7 +58,9 @@ from ..errors import ConfigError, DataError
 from ..identify import make_identifier
 from ..identify.ls import LeastSquares
 from ..identify.mmg_output_error import MMGObjective, refine_modules
+from ..identify.mmg_propeller import fit_wake
 from ..identify.mmg_regression import mmg_problems
+from ..models.mmg import mmg
 from ..models.registry import get_model
 from ..simulate.mmg import replay_mmg, simulate_mmg
 from ..vessels import get_mmg_vessel, get_vessel, mmg_vessel_at_speed
@@ -120,6 +122,12 @@ class MMGRun(_manoeuvring.Study):
         return float(np.median(rates)) if rates else self.vessel.rps
 
 
+def published_values(vessel: MMGVessel, model) -> dict:
+    """The vessel's published hull coefficients of ``model``'s terms; a term it does not
+    publish (the asymmetry constants ``Y0``, ``N0``) is zero: the published model is symmetric."""
+    return {name: float(vessel.coefficients.get(name, 0.0)) for name in model.names}
+
+
 def _approach_speed(records) -> float:
     """Median initial speed [m/s] of the records."""
     return float(np.median([float(np.hypot(r["u"].iloc[0], r["v"].iloc[0])) for r in records]))
@@ -159,7 +167,7 @@ def _require_rate(records, paths) -> None:
 def prepare_mmg(cfg: RunConfig, root: Path | None = None, record=None) -> MMGRun:
     """Check a ``model=mmg`` configuration and load or simulate its records."""
     settings = read_settings(cfg)
-    model = get_model(str(cfg.model.name))
+    model = mmg(str(cfg.model.name), asymmetry=cfg.model.asymmetry)
     method = str(cfg.method.name)
     make_identifier(method, _manoeuvring._method_options(cfg))
     vessel_name = settle_vessel(cfg, root)
@@ -178,7 +186,7 @@ def prepare_mmg(cfg: RunConfig, root: Path | None = None, record=None) -> MMGRun
         validation = _measured.load_measured(settings.validate_paths) if settings.validate_paths else []
         _require_rate(validation, settings.validate_paths)
         vessel = choose_scale(vessel_name, "full" if cfg.model.scale == "full" else "model", [])
-        truth = {name: vessel.coefficients[name] for name in model.names}
+        truth = published_values(vessel, model)
         rng = np.random.default_rng(settings.seed)
         records = []
         for man in _manoeuvring.training_manoeuvres(cfg):
@@ -226,6 +234,9 @@ def identify_mmg(run: MMGRun):
     metrics = {"mmg/prior_scale": float(cfg.prior_scale), "mmg/scale": float(run.vessel.scale),
                "mmg/captive_weight": float(cfg.captive_weight)}
     modules = run.modules
+    if cfg.fit_wake:
+        modules, wake = fit_wake(run.records, run.vessel, modules)
+        metrics.update(wake)
     if cfg.output_error:
         modules, _, info = refine_modules(run.model, run.vessel, run.records, modules,
                                           cfg.output_error, fit_hull, cfg.output_error_sample_s,
@@ -251,7 +262,7 @@ def _factor_table(run: MMGRun, modules) -> pd.DataFrame:
 def _validate_simulated(run: MMGRun, params: dict, out_dir: Path) -> dict:
     """Validation manoeuvres simulated with the identified and the published coefficients."""
     metrics = {}
-    reference = {name: run.vessel.coefficients[name] for name in run.model.names}
+    reference = published_values(run.vessel, run.model)
     for name in run.settings.validate_manoeuvres:
         man = _manoeuvring.validation_manoeuvre(name, run.cfg.validate.duration)
         ref = simulate_mmg(run.model, reference, run.vessel, man)
@@ -372,7 +383,7 @@ def _captive(run: MMGRun, params: dict, modules, out_dir: Path) -> dict:
     if not model_scale.captive:
         return {}
     tests = read_captive(model_scale.captive)
-    published = {n: model_scale.coefficients[n] for n in run.model.names}
+    published = published_values(model_scale, run.model)
     table, summary = captive_comparison({"identified": (run.model, params, modules),
                                          "published": (run.model, published, model_scale.modules)},
                                         model_scale, tests)
