@@ -1,0 +1,113 @@
+"""One ship, two basins: the KVLCC2 identified from HSVA's zig-zags predicts MARIN's runs.
+
+The HSVA records (model scale) and the MARIN records (full scale) are
+measurements of the same hull at two facilities that no code of the project
+produced. What is pinned here is what the identification reaches today
+(docs/cross_facility.md gives the table and the gap to the published
+anchor), so that a change that loses it fails:
+
+- trained on the 13 HSVA zig-zags, the MMG model with the asymmetric hull
+  predicts the MARIN turn's steady speed and yaw rate and the MARIN
+  zig-zags' overshoots within a few degrees, and writes the published
+  predictions of the same turn beside its own;
+- the leave-one-record-out cross-validation over the HSVA records, which
+  chose the asymmetric hull, prefers it to the symmetric one;
+- the cross-validation itself holds each record out (checked on records
+  the MMG simulator made, where the held-out prediction must be exact).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from conftest import SHARED_DATA, hsva_file, marin_file
+
+from studies.config import compose_settings
+from studies.workflows.kinds import study_for
+
+HSVA_TESTS = ("05_01", "10_01", "10_05", "10_10_P", "10_10_S", "15_01", "15_05", "20_05", "20_10_P",
+              "20_10_S", "25_05", "30_05", "35_05")
+
+
+def _run(tmp_path, train, validate, *overrides):
+    cfg = compose_settings("config", overrides=[
+        "vessel=kvlcc2", "model=mmg", "data.scale=full", f"data.path=[{','.join(map(str, train))}]",
+        f"validate.path=[{','.join(map(str, validate))}]", "model.compare_abkowitz=false", *overrides])
+    study = study_for(cfg).prepare(cfg, tmp_path)
+    return study.execute(tmp_path / "out")
+
+
+@pytest.mark.slow
+def test_hsva_trained_mmg_predicts_the_marin_runs(tmp_path):
+    train = [hsva_file(t) for t in HSVA_TESTS]
+    validate = [marin_file(m) for m in ("zz_10", "zz_20", "tc_35")]
+    m = _run(tmp_path, train, validate, "model.asymmetry=true")
+    tc, zz10, zz20 = (f"MARIN_FREE_KVLCC2_{r}_m" for r in ("tc_35", "zz_10", "zz_20"))
+    # the steady turn: speed and yaw rate (measured +3.9 % and -5.1 %)
+    assert abs(m[f"{tc}/steady_speed_error_pct"]) < 6.0
+    assert abs(m[f"{tc}/steady_yaw_rate_error_pct"]) < 7.0
+    # the zig-zags' overshoots (measured within 3.1-3.8 deg)
+    for record in (zz10, zz20):
+        for k in (1, 2):
+            assert abs(m[f"{record}/overshoot{k}_error_deg"]) < 5.0, (record, k)
+    # the turn's geometry: the known gap (advance +9 %, tactical diameter +23 %), not worse
+    assert 0.0 < m[f"{tc}/advance_error_pct"] < 12.0
+    assert 0.0 < m[f"{tc}/tactical_diameter_error_pct"] < 27.0
+    published = pd.read_csv(tmp_path / "out" / "published.csv")
+    assert set(published["published turn"]) == {"starboard", "port"}
+    assert (published["turn of the record"] == "port").all()         # the heading decreases in tc_35
+    assert np.allclose(published["mmg"].iloc[:2], [m[f"{tc}/advance_error_pct"],
+                                                   m[f"{tc}/tactical_diameter_error_pct"]])
+
+
+@pytest.mark.slow
+def test_the_hsva_cross_validation_prefers_the_asymmetric_hull(tmp_path):
+    """The zig-zags to port and to starboard differ: a hull with a constant side force and
+    yaw moment predicts the held-out HSVA records better than the symmetric MMG hull."""
+    train = [hsva_file(t) for t in ("10_10_P", "10_10_S", "20_10_P", "20_10_S", "35_05")]
+    medians = {}
+    for asymmetric in (False, True):
+        cfg = compose_settings("config", overrides=[
+            "vessel=kvlcc2", "model=mmg", f"data.path=[{','.join(map(str, train))}]",
+            "model.compare_abkowitz=false", "model.captive=false", "model.cross_validate=true",
+            f"model.asymmetry={str(asymmetric).lower()}"])
+        study = study_for(cfg).prepare(cfg, tmp_path)
+        m = study.execute(tmp_path / f"out_{asymmetric}")
+        assert m["cv/folds"] == 5
+        medians[asymmetric] = (m["cv/median_abs/rmse_position"], m["cv/median_abs/overshoot2_error_deg"])
+    # measured: position RMSE 9.2 -> 7.7 m (model scale), 2nd overshoot 9.0 -> 2.9 deg
+    assert medians[True][0] < medians[False][0], medians
+    assert medians[True][1] < 0.5 * medians[False][1], medians
+
+
+def test_each_record_is_held_out_in_turn_and_predicted(tmp_path):
+    """Records of the published MMG (its own simulator, no noise): every held-out record is
+    predicted from the others, nearly exactly, and the table names each once."""
+    from studies.scenarios.hidden import write_records
+    from studies.simulate import zigzag
+    from studies.simulate.mmg import simulate_mmg
+    from studies.models.mmg import mmg
+    from studies.vessels import get_mmg_vessel
+
+    vessel = get_mmg_vessel("kvlcc2")
+    model = mmg()
+    records = []
+    for angle, name in ((10.0, "zz10"), (20.0, "zz20"), (30.0, "zz30")):
+        man = zigzag(angle, angle, duration=60.0, dt=0.05)
+        rec = simulate_mmg(model, vessel.coefficients, vessel, man)
+        rec.attrs.update({"name": name, "vessel": "kvlcc2"})
+        records.append(rec)
+    paths = write_records(records, tmp_path)
+    cfg = compose_settings("config", overrides=[
+        "model=mmg", f"data.path=[{','.join(paths)}]", "data.derivative=central", "model.captive=false",
+        "model.compare_abkowitz=false", "model.cross_validate=true", "model.prior_scale=1e6"])
+    study = study_for(cfg).prepare(cfg, tmp_path)
+    assert study.cfg.vessel.name == "kvlcc2"                      # from the sidecars
+    m = study.execute(tmp_path / "out")
+    table = pd.read_csv(tmp_path / "out" / "cross_validation.csv")
+    assert sorted(table["record"].unique()) == ["zz10", "zz20", "zz30"]
+    assert m["cv/folds"] == 3
+    for name in ("zz10", "zz20", "zz30"):
+        assert m[f"cv/{name}/rmse_position"] < 0.05 * vessel.length, (name, m[f"cv/{name}/rmse_position"])
+    assert (tmp_path / "out" / "cross_validation.md").read_text().count("| zz") == 3
