@@ -128,3 +128,29 @@ def test_a_cause_away_from_its_no_effect_values_changes_the_baseline(contexts):
     cause.no_effect = {"speed": 0.5, "direction": 0.0}
     with pytest.raises(AssertionError):
         assert_no_effect(cause, ctx)
+
+
+def test_an_mmg_baseline_replays_a_missing_term_the_simulator_does_not_hold():
+    """A missing term found on an MMG baseline (``Nddd``, outside the MMG hull) is replayed:
+    at zero it changes nothing, and a yaw moment against the rudder's slows the turn."""
+    from studies.discover.causes.propulsion import MMGDynamics
+    from studies.models.mmg import MMGTerm, mmg
+    from studies.models.abkowitz import ManoeuvringModel
+    from studies.simulate import turning
+    from studies.simulate.mmg import simulate_mmg
+    from studies.vessels import get_mmg_vessel
+
+    vessel = get_mmg_vessel("kvlcc2")
+    base = mmg()
+    record = simulate_mmg(base, vessel.coefficients, vessel, turning(35.0, duration=60.0, dt=0.05))
+    dynamics = MMGDynamics(vessel)
+    extended = ManoeuvringModel("mmg+Nddd", base.terms + (MMGTerm("Nddd", "N", (0, 0, 0, 3), 1.0),))
+    values = dict(vessel.coefficients)
+    plain = dynamics.replay(values, record)
+    at_zero = dynamics.replay({**values, "Nddd": 0.0}, record, model=extended)
+    np.testing.assert_allclose(at_zero["psi"], plain["psi"], atol=1e-12)
+    # the rudder's yaw moment is opposite to delta (contract sign); a positive Nddd opposes it
+    opposed = dynamics.replay({**values, "Nddd": 0.2}, record, model=extended)
+    turned, less = plain["psi"].iloc[-1] - plain["psi"].iloc[0], opposed["psi"].iloc[-1] - opposed["psi"].iloc[0]
+    assert abs(turned) > np.deg2rad(20.0)
+    assert 0.0 < less / turned < 0.95

@@ -18,9 +18,11 @@ pairs
     within 20 %. A single cause named with a second one beside it is a
     spurious second cause.
 real records
-    The MARIN KVLCC2 free-running records (zig-zags 10/10 and 20/20 to train,
-    the 35 deg turning circle held out; ``real.folder``) on the MMG baseline,
-    with nothing injected, then with each effect of
+    The KVLCC2 free-running records of each set of ``real_sets``, at full
+    scale, on the MMG baseline: ``marin`` (zig-zags 10/10 and 20/20 to
+    train, the 35 deg turning circle held out; ``real_folder``) and ``hsva``
+    (HSVA's 10/10 to starboard and 20/10 to port to train, the 35/5 held
+    out; ``hsva_folder``, Froude scaled from the model), with nothing injected, then with each effect of
     :func:`studies.scenarios.injected.injection_grid` injected exactly. A
     basin's own small asymmetries act in every record, so an injected effect
     is judged against what the nothing-injected discovery fits for the same
@@ -69,8 +71,10 @@ keys (defaults):
   singles=true            run the single causes (none included)
   pairs=true              run the 20 pairs
   pair_families=[li2023,white_all]
-  real=true               run the MARIN KVLCC2 records with exact injected effects (MMG baseline)
+  real=true               run the KVLCC2 records with exact injected effects (MMG baseline)
+  real_sets=[marin,hsva]  which facilities' records
   real_folder=../shared/data/kvlcc2_free_running
+  hsva_folder=../shared/data/kvlcc2_hsva
   jobs=2                  parallel discoveries
   out=bench_discover.jsonl  every case's line (JSON), appended as it finishes
 """
@@ -88,7 +92,9 @@ class DiscoveryBench:
     pairs: bool = True
     pair_families: list = field(default_factory=lambda: ["li2023", "white_all"])
     real: bool = True
+    real_sets: list = field(default_factory=lambda: list(REAL_SETS))
     real_folder: str = "../shared/data/kvlcc2_free_running"
+    hsva_folder: str = "../shared/data/kvlcc2_hsva"
     jobs: int = 2
     out: str = "bench_discover.jsonl"
 
@@ -125,6 +131,9 @@ class DiscoveryBench:
                 raise ConfigError(f"bench discover: {key}={value} is not a {type(default).__name__}") from None
         for family in out.families + out.pair_families:
             check_sensor_noise(family, out.noise)
+        unknown = sorted(set(out.real_sets) - set(REAL_SETS))
+        if unknown:
+            raise ConfigError(f"bench discover: real_sets: unknown {unknown}; known: {', '.join(REAL_SETS)}")
         if out.seeds < 1 or out.jobs < 1:
             raise ConfigError("bench discover: seeds and jobs must be >= 1")
         return out
@@ -191,17 +200,28 @@ def simulated_case(hidden: str, family: str, seed: int, noise: float, kind: str)
                                   scenario=repr(scenario)))
 
 
-MARIN = ("MARIN_FREE_KVLCC2_zz_10_m.dat", "MARIN_FREE_KVLCC2_zz_20_m.dat", "MARIN_FREE_KVLCC2_tc_35_m.dat")
+#: the real-record sets: (training files, held-out files)
+REAL_SETS = {
+    "marin": (("MARIN_FREE_KVLCC2_zz_10_m.dat", "MARIN_FREE_KVLCC2_zz_20_m.dat"),
+              ("MARIN_FREE_KVLCC2_tc_35_m.dat",)),
+    "hsva": (("HSVA_CPMC_KVLCC2_Z_10_10_S.dat", "HSVA_CPMC_KVLCC2_Z_20_10_P.dat"),
+             ("HSVA_CPMC_KVLCC2_Z_35_05.dat",)),
+}
+MARIN = REAL_SETS["marin"][0] + REAL_SETS["marin"][1]
 
 
-def real_case(folder: str, injection: Injection) -> dict:
-    """One discovery on the MARIN KVLCC2 records with ``injection`` added (MMG baseline)."""
+def real_case(folder: str, injection: Injection, real_set: str = "marin") -> dict:
+    """One discovery on a set of KVLCC2 records (:data:`REAL_SETS`) at full scale with
+    ``injection`` added (MMG baseline)."""
     import numba
 
     numba.set_num_threads(1)
+    from .data.scaling import froude_scale
     from .workflows.measured import load_measured
 
-    records = [inject(r, injection) for r in load_measured([Path(folder) / f for f in MARIN])]
+    train, held = REAL_SETS[real_set]
+    records = [inject(froude_scale(r, "full"), injection)
+               for r in load_measured([Path(folder) / f for f in train + held])]
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         paths = []
@@ -210,8 +230,8 @@ def real_case(folder: str, injection: Injection) -> dict:
             rec[[c for c in ("t", "x0", "y0", "psi", "u", "v", "r", "delta", "n") if c in rec]].to_csv(
                 path, index=False)
             paths.append(path)
-        d, elapsed = _discover(paths[:2], paths[2:], ["vessel=kvlcc2", "model=mmg"], tmp)
-    return _clean({"kind": "real", "injection": injection.label, "injected": injection.truth(),
+        d, elapsed = _discover(paths[:len(train)], paths[len(train):], ["vessel=kvlcc2", "model=mmg"], tmp)
+    return _clean({"kind": "real", "set": real_set, "injection": injection.label, "injected": injection.truth(),
                    "named": d["cause"], "confidence": d.get("confidence"), "parameters": d.get("parameters") or {},
                    "candidates": d.get("candidates") or {}, "gain_pct": d.get("gain_pct"), "elapsed": elapsed})
 
@@ -271,8 +291,11 @@ def _summary(results: list) -> dict:
         injected = [r for r in real if r["hidden"] != "none"]
         out["real_injected"] = rate([r["right"] for r in injected])
         out["real_nothing_injected_clean"] = rate([r["right"] for r in real if r["hidden"] == "none"])
-        out["real_cases"] = [{k: r[k] for k in ("injection", "named", "right", "confidence", "parameters", "truth")}
-                             for r in real]
+        for real_set in dict.fromkeys(r.get("set", "marin") for r in real):
+            out[f"real_injected_{real_set}"] = rate([r["right"] for r in injected
+                                                     if r.get("set", "marin") == real_set])
+        out["real_cases"] = [{k: r.get(k) for k in ("set", "injection", "named", "right", "confidence", "parameters",
+                                                    "truth")} for r in real]
     judged = [r for r in results if r.get("confidence") is not None]
     out["reliability"] = reliability(judged)
     confident = [r for r in judged if r["confidence"] >= 0.9]
@@ -294,11 +317,13 @@ def run_discovery_bench(settings: DiscoveryBench) -> dict:
         jobs += [(simulated_case, (c, f, s, settings.noise, "single")) for s in seeds
                  for f in settings.families for c in HIDDEN_CAUSES]
     if settings.real:        # before the pairs: a bench stopped early still has the singles and the real records
-        folder = Path(settings.real_folder)
-        missing = [f for f in MARIN if not (folder / f).is_file()]
-        if missing:
-            raise ConfigError(f"bench discover: real_folder {folder} lacks {', '.join(missing)}")
-        jobs += [(real_case, (str(folder), inj)) for inj in [Injection()] + injection_grid()]
+        for real_set in settings.real_sets:
+            key = "real_folder" if real_set == "marin" else f"{real_set}_folder"
+            folder = Path(getattr(settings, key))
+            missing = [f for f in sum(REAL_SETS[real_set], ()) if not (folder / f).is_file()]
+            if missing:
+                raise ConfigError(f"bench discover: {key} {folder} lacks {', '.join(missing)}")
+            jobs += [(real_case, (str(folder), inj, real_set)) for inj in [Injection()] + injection_grid()]
     if settings.pairs:
         jobs += [(simulated_case, (p, f, s, settings.noise, "pair")) for s in seeds
                  for f in settings.pair_families for p in hidden_pairs()]
@@ -314,8 +339,9 @@ def run_discovery_bench(settings: DiscoveryBench) -> dict:
             handle.flush()
     real = [r for r in results if r["kind"] == "real"]
     if real:
-        reference = next(r for r in real if r["injection"] == "nothing")
-        results = [r for r in results if r["kind"] != "real"] + [judge_real(r, reference) for r in real]
+        references = {r["set"]: r for r in real if r["injection"] == "nothing"}
+        results = [r for r in results if r["kind"] != "real"] + [judge_real(r, references[r["set"]])
+                                                                 for r in real]
     summary = _summary(results)
     summary["settings"] = {k: getattr(settings, k) for k in settings.__dataclass_fields__}
     summary["wall_s"] = time.perf_counter() - t0

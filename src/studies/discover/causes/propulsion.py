@@ -6,7 +6,8 @@ import numpy as np
 
 from ...identify.kalman import estimate_derivatives
 from ...identify.mmg_regression import mmg_problems
-from ...models.mmg import MMGParameters, mmg
+from ...models.abkowitz import ManoeuvringModel
+from ...models.mmg import HULL_TERMS, MMGParameters, mmg
 from ...simulate.mmg import MMGReplayPlan, replay_mmg
 from ...vessels import has_mmg_particulars, mmg_vessel_at_speed
 from .base import Cause, Setup
@@ -85,10 +86,19 @@ class MMGDynamics:
             seen["u"] = record["u"] - speed * np.cos(direction - psi)
             seen["v"] = record["v"] - speed * np.sin(direction - psi)
         model = model or self.model
+        hull = {name for name, *_ in HULL_TERMS}
+        extra = [t for t in model.terms if t.name not in hull]
+        if extra:                       # a missing term's terms, outside the MMG simulator's hull
+            model = ManoeuvringModel(model.name, tuple(t for t in model.terms if t.name in hull))
         accelerations = None
-        if external is not None and np.any(external):
+        if extra or (external is not None and np.any(external)):
             plan = MMGReplayPlan(model, self.vessel, seen, self.modules)
-            accelerations = self._accelerations(np.asarray(external, float), seen, plan)
+            parts = []
+            if external is not None and np.any(external):
+                parts.append(self._accelerations(np.asarray(external, float), seen, plan))
+            if extra:
+                parts.append(self._term_accelerations(extra, params, seen, plan))
+            accelerations = sum(parts[1:], parts[0])
         out = replay_mmg(model, params, self.vessel, seen, self.modules, external=accelerations)
         if speed:
             t = out["t"].to_numpy(float)
@@ -99,6 +109,37 @@ class MMGDynamics:
             out["u"] = out["u"] + speed * np.cos(direction - psi)
             out["v"] = out["v"] + speed * np.sin(direction - psi)
         return out
+
+    def _term_accelerations(self, terms, params: dict, record, plan) -> np.ndarray:
+        """SI accelerations per integration step of hull terms the MMG simulator does not hold.
+
+        The terms' MMG prime forces (over ``0.5 rho L d U^2``, moment over
+        ``0.5 rho L^2 d U^2``, features of ``(0, v', r', delta)``) are
+        evaluated along the record's own states, as the external forces of
+        :meth:`_accelerations` are (the same approximation where the replay
+        departs from the record).
+        """
+        vessel = self.vessel
+        grid = plan.t0 + plan.step * np.arange(plan.steps)
+        t = record["t"].to_numpy(float)
+        u, v, r, delta = (np.interp(grid, t, record[c].to_numpy(float)) for c in ("u", "v", "r", "delta"))
+        speed = np.sqrt(u * u + v * v)
+        primes = np.column_stack([np.zeros_like(u), v / speed, r * vessel.length / speed, delta])
+        prime = {dof: np.zeros_like(u) for dof in ("X", "Y", "N")}
+        for term in terms:
+            prime[term.dof] = prime[term.dof] + float(params.get(term.name, 0.0)) * term.feature(primes)
+        q = 0.5 * vessel.rho * vessel.length * vessel.draught * speed * speed
+        forces = q * np.array([prime["X"], prime["Y"], prime["N"] * vessel.length])
+        return self._through_mass(forces)
+
+    def _through_mass(self, forces: np.ndarray) -> np.ndarray:
+        """Accelerations (steps, 3) of forces (3, steps) [N, N, N m] through the MMG mass matrix."""
+        vessel = self.vessel
+        mx, my, jz = vessel.added_masses()
+        m, xgm = vessel.mass, vessel.xg * vessel.mass
+        mass = np.array([[m + mx, 0.0, 0.0], [0.0, m + my, xgm],
+                         [0.0, xgm, vessel.iz + vessel.xg ** 2 * m + jz]])
+        return np.linalg.solve(mass, forces).T
 
     def _accelerations(self, external: np.ndarray, record, plan) -> np.ndarray:
         """SI accelerations per integration step of prime external forces (see :meth:`replay`)."""
@@ -116,12 +157,7 @@ class MMGDynamics:
                                   -np.sin(psi) * bx + np.cos(psi) * by,
                                   np.full_like(psi, bn) * vessel.length])
         body += vessel.speed ** 2 * np.array([[fx], [fy], [fn * vessel.length]])
-        forces = q * body
-        mx, my, jz = vessel.added_masses()
-        m, xgm = vessel.mass, vessel.xg * vessel.mass
-        mass = np.array([[m + mx, 0.0, 0.0], [0.0, m + my, xgm],
-                         [0.0, xgm, vessel.iz + vessel.xg ** 2 * m + jz]])
-        return np.linalg.solve(mass, forces).T
+        return self._through_mass(q * body)
 
 
 class Propulsion(Cause):
