@@ -69,13 +69,15 @@ def test_extended_library_selects_exactly_the_model_terms(model, vessel, zigzag_
                                                           problems_4000, tmp_path):
     """Clean data, 35 candidates per DOF: the 40 model terms and nothing else.
 
-    Threshold 1e-4 (default): the weakest true term contributes 4.2e-4 of
-    its DOF's RMS force (Yvdd), the spurious candidates < 2e-5 once STLSQ's
-    first pass has removed the rest (see the module notes)."""
+    Threshold 1e-4: the weakest true term contributes 4.2e-4 of its DOF's
+    RMS force (Yvdd), the spurious candidates < 2e-5 once STLSQ's first
+    pass has removed the rest (see the module notes). (The cross-validated
+    default trades such a term for sparsity: on clean data its held-out
+    error is within one standard error.)"""
     for dof in "XYN":
         assert len(candidate_terms(dof, 3)) == 35
     objective = TrajectoryObjective(model, vessel, [zigzag_4000])
-    result = SparseRegression(library="extended").fit(problems_4000, objective)
+    result = SparseRegression(library="extended", threshold=1e-4).fit(problems_4000, objective)
     assert set(result.params) == set(model.names)
     dev = np.abs(list(deviations(result.params, vessel.coefficients).values()))
     assert np.median(dev) < 0.5 and dev.max() < 10.0
@@ -97,7 +99,7 @@ def test_extended_library_finds_a_hidden_term(model, vessel, tmp_path):
     truth = dict(vessel.coefficients, Nrrr=NRRR_VALUE)
     rec = simulate(model.extended([NRRR]), truth, vessel, zigzag(20, 20, duration=1500.0))
     problems = build_problems(model, vessel, rec)
-    result = SparseRegression(library="extended").fit(
+    result = SparseRegression(library="extended", threshold=1e-4).fit(
         problems, TrajectoryObjective(model, vessel, [rec]))
     assert set(result.params) - set(model.names) == {"Nrrr"}
     assert result.params["Nrrr"] == pytest.approx(NRRR_VALUE, rel=1e-3)

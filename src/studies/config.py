@@ -1123,8 +1123,13 @@ class SindyMethod(MethodConfig):
 
     Attributes
     ----------
-    threshold : float
-        Smallest kept RMS contribution of a term / RMS force of its DOF [-], >= 0.
+    threshold : float or None
+        Smallest kept RMS contribution of a term / RMS force of its DOF [-],
+        >= 0; None (the default): chosen per DOF by cross-validation over
+        held-out records (or time blocks), the sparsest model within one
+        standard error of the best.
+    thresholds : list of float
+        The thresholds the cross-validation tries (0: least squares), >= 0.
     alpha : float
         Ridge weight of the STLSQ passes relative to the mean squared residual [-], >= 0.
     library : str
@@ -1133,20 +1138,37 @@ class SindyMethod(MethodConfig):
         Highest total order of the extended library, >= 1.
     max_iter : int
         Most STLSQ passes, >= 1.
+    ensemble : int
+        Block-bootstrap draws giving each term's inclusion probability, >= 0 (0: none).
+    inclusion : float
+        Smallest inclusion probability of a kept term, in (0, 1].
+    block_s : float
+        Length of the bootstrap's time blocks [s], > 0.
+    seed : int
+        Seed of the bootstrap.
     """
 
-    threshold: float = 1.0e-4
+    threshold: Optional[float] = None
+    thresholds: List[float] = field(default_factory=lambda: [0.0, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1])
     alpha: float = 1.0e-12
     library: str = "model"
     max_order: int = 3
     max_iter: int = 20
+    ensemble: int = 20
+    inclusion: float = 0.5
+    block_s: float = 30.0
+    seed: int = 0
 
     def __post_init__(self):
         self.library = _choice("method.library", self.library, SINDY_LIBRARIES)
-        if self.threshold < 0 or self.alpha < 0:
-            raise ConfigError("method.threshold and method.alpha must be >= 0")
+        self.thresholds = [float(t) for t in self.thresholds]
+        if (self.threshold is not None and self.threshold < 0) or self.alpha < 0 or not self.thresholds \
+                or min(self.thresholds) < 0:
+            raise ConfigError("method.threshold, method.thresholds and method.alpha must be >= 0")
         if int(self.max_order) < 1 or int(self.max_iter) < 1:
             raise ConfigError("method.max_order and method.max_iter must be >= 1")
+        if int(self.ensemble) < 0 or not 0.0 < float(self.inclusion) <= 1.0 or not float(self.block_s) > 0:
+            raise ConfigError("method.ensemble must be >= 0, method.inclusion in (0, 1] and method.block_s > 0")
 
 
 @dataclass

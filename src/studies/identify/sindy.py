@@ -40,17 +40,28 @@ Scaling and threshold
     Columns are divided by their RMS and ``y`` by its RMS before STLSQ and
     the coefficients unscaled after, so a scaled coefficient is the RMS
     contribution of its term relative to the RMS force of the DOF and one
-    ``threshold`` means the same for every term and DOF. The threshold must
-    lie below the weakest true term and above the spurious coefficients the
-    data allow. On the clean RK4 zig-zag 20/20 of the Mariner the weakest
-    terms are ``Yvdd`` (4.2e-4 of the RMS sway force) and ``Y0uu``
-    (9.4e-4); the largest spurious candidates of the full 35-term least
-    squares are ``Nvrr`` (2.9e-4) and ``Yvrr`` (1.0e-4), which fall below
-    2e-5 once the first STLSQ pass has removed the other junk terms (what
-    remains is the acceleration estimate's 1e-6 relative error amplified by
-    collinearity). The default ``threshold=1e-4`` sits a factor ~4 below
-    the weakest term and ~5 above that floor; measured data need a
-    threshold above their noise floor instead.
+    ``threshold`` means the same for every term and DOF. By default
+    (``threshold=None``) it is chosen per DOF by cross-validation over time
+    blocks: fold ``k`` holds out the ``k``-th fifth of every record (so that
+    each training set spans every record's manoeuvre; holding out a whole
+    20/20 zig-zag from a 10/10 measures extrapolation, with held-out errors
+    ten times the force), STLSQ is fitted on the others at every threshold of
+    ``thresholds`` (0 is least squares) and the held-out equation error
+    measured; the largest threshold whose mean held-out error is within one
+    standard error of the smallest is kept (the one-standard-error rule:
+    the sparsest model as good as the best within its uncertainty). A fixed
+    number still works: on the clean RK4 zig-zag 20/20 of the Mariner the
+    weakest terms are ``Yvdd`` (4.2e-4 of the RMS sway force) and ``Y0uu``
+    (9.4e-4), the largest spurious candidates of the full 35-term least
+    squares ``Nvrr`` (2.9e-4) and ``Yvrr`` (1.0e-4), so 1e-4 separates them.
+Ensemble
+    With ``ensemble = B > 0`` STLSQ is refitted at the chosen threshold on
+    ``B`` block-bootstrap draws of the rows (each record cut into blocks of
+    ``block_s`` seconds, drawn with replacement: the rows of a record are
+    correlated in time, so single rows are not resampled), and each term's
+    inclusion probability is the share of draws that keep it. The model
+    keeps the terms included in at least ``inclusion`` of the draws and
+    refits them by least squares on every row.
 Ridge
     ``alpha`` is the ridge weight relative to the mean squared residual of
     the scaled problem (STLSQ is given ``alpha * n_rows``). The extended
@@ -62,11 +73,15 @@ Ridge
 Metrics per DOF: ``sindy/<dof>/n_selected``, ``sindy/<dof>/n_extra`` (selected
 terms not in the model), ``sindy/<dof>/n_candidates``,
 ``sindy/<dof>/n_dropped`` (model terms not selected),
-``sindy/<dof>/converged``, plus
-:func:`~studies.identify.ls.regression_diagnostics` of the selected terms.
-``Identification.params`` holds every free model term (0.0 where not
-selected) and the selected extra terms; the writer ``sindy_terms.json``
-lists ``{dof: {"selected": [...], "extra": [...], "dropped": [...]}}``.
+``sindy/<dof>/converged``, ``sindy/<dof>/threshold`` (the one used),
+``sindy/<dof>/cv_error`` (its mean held-out error relative to the
+DOF's mean square force), ``sindy/<dof>/inclusion/<term>`` (with an
+ensemble), plus :func:`~studies.identify.ls.regression_diagnostics` of the
+selected terms. ``Identification.params`` holds every free model term (0.0
+where not selected) and the selected extra terms; the writer
+``sindy_terms.json`` lists ``{dof: {"selected": [...], "extra": [...],
+"dropped": [...], "threshold": t, "inclusion": {term: p}, "cv": [[t, mean,
+se], ...]}}``.
 
 References
 ----------
@@ -144,44 +159,83 @@ def _unit_rms(problem: RegressionProblem):
     return theta / col, problem.y / ys, col, ys
 
 
+#: thresholds tried by the cross-validation (scaled coefficients; 0 is least squares)
+THRESHOLDS = (0.0, 1e-4, 1e-3, 1e-2, 0.03, 0.1, 0.3)
+#: ridge weights tried by the cross-validation (relative to the mean squared scaled force)
+ALPHAS = (1e-12, 1e-4, 1e-2)
+#: contiguous time blocks of every record, one held out per fold
+CV_BLOCKS = 5
+
+
 class SparseRegression:
     """STLSQ on unit-scaled model terms or on the extended candidate library.
 
     Parameters
     ----------
-    threshold : float
+    threshold : float or None
         Smallest kept scaled coefficient, i.e. RMS contribution of a term
-        relative to the RMS force of its DOF [-] (see module notes).
+        relative to the RMS force of its DOF [-]; None: chosen per DOF by
+        cross-validation among ``thresholds`` (see module notes).
+    thresholds : sequence of float
+        The thresholds the cross-validation tries.
     alpha : float
         Ridge weight of the STLSQ passes relative to the mean squared
-        residual of the scaled problem [-]; the final refit is unpenalised.
+        residual of the scaled problem [-] with a fixed ``threshold``; the
+        final refit is unpenalised.
+    alphas : sequence of float
+        The ridge weights the cross-validation tries with the thresholds
+        (a ridge keeps the extended library's collinear candidates from
+        cancelling each other with large coefficients that no threshold
+        removes).
     library : {"model", "extended"}
         The model's terms, or all monomials up to ``max_order`` per DOF.
     max_order : int
         Highest total order of the extended library's monomials.
     max_iter : int
         Most STLSQ passes.
+    ensemble : int
+        Block-bootstrap draws of the ensemble (0: none).
+    inclusion : float
+        Smallest inclusion probability of a kept term, in (0, 1].
+    block_s : float
+        Length of the bootstrap's time blocks [s].
+    seed : int
+        Seed of the bootstrap.
 
     References
     ----------
     Brunton, Proctor & Kutz (2016), PNAS 113(15), 3932-3937.
+    Fasel, Kutz, Brunton & Brunton (2022), Ensemble-SINDy, Proc. R. Soc. A 478, 20210904.
     """
 
     name = "sindy"
 
-    def __init__(self, threshold: float = 1e-4, alpha: float = 1e-12, library: str = "model",
-                 max_order: int = 3, max_iter: int = 20):
+    def __init__(self, threshold: float | None = None, thresholds=THRESHOLDS, alpha: float = 1e-12,
+                 alphas=ALPHAS,
+                 library: str = "model", max_order: int = 3, max_iter: int = 20, ensemble: int = 20,
+                 inclusion: float = 0.5, block_s: float = 30.0, seed: int = 0):
         if library not in LIBRARIES:
             raise ConfigError(f"sindy: library must be one of {', '.join(LIBRARIES)}, got '{library}'")
-        if threshold < 0 or alpha < 0:
-            raise ConfigError("sindy: threshold and alpha must be >= 0")
+        thresholds = [float(t) for t in thresholds]
+        if (threshold is not None and threshold < 0) or alpha < 0 or not thresholds or min(thresholds) < 0:
+            raise ConfigError("sindy: threshold, thresholds and alpha must be >= 0")
         if int(max_order) < 1 or int(max_iter) < 1:
             raise ConfigError("sindy: max_order and max_iter must be >= 1")
-        self.threshold = float(threshold)
+        if int(ensemble) < 0 or not 0.0 < float(inclusion) <= 1.0 or not float(block_s) > 0:
+            raise ConfigError("sindy: ensemble must be >= 0, inclusion in (0, 1] and block_s > 0")
+        self.threshold = None if threshold is None else float(threshold)
+        self.thresholds = sorted(set(thresholds))
+        self.alphas = sorted({float(a) for a in alphas})
+        if not self.alphas or min(self.alphas) < 0:
+            raise ConfigError("sindy: alphas must be >= 0")
         self.alpha = float(alpha)
         self.library = library
         self.max_order = int(max_order)
         self.max_iter = int(max_iter)
+        self.ensemble = int(ensemble)
+        self.inclusion = float(inclusion)
+        self.block_s = float(block_s)
+        self.seed = int(seed)
 
     def extended_problems(self, problems: dict, objective) -> dict:
         """Problems of the extended library, rebuilt from the objective's records.
@@ -197,7 +251,11 @@ class SparseRegression:
         fixed = {}
         for problem in problems.values():
             fixed.update(problem.fixed)
-        rebuilt = build_problems(extended, objective.vessel, objective.records, derivative, fixed)
+        builder = getattr(objective, "problems_for", None)
+        if builder is not None:        # measured records: the run's own state and acceleration estimates
+            rebuilt = builder(extended, fixed)
+        else:
+            rebuilt = build_problems(extended, objective.vessel, objective.records, derivative, fixed)
         out = {}
         for dof, problem in problems.items():
             missing = set(problem.names) - set(rebuilt[dof].names)
@@ -207,31 +265,125 @@ class SparseRegression:
             out[dof] = rebuilt[dof]
         return out
 
-    def fit_one(self, problem: RegressionProblem) -> tuple[np.ndarray, dict]:
-        """Coefficients (prime, in ``problem.names`` order; 0 = not selected) and metrics."""
+    def _stlsq(self, x: np.ndarray, y: np.ndarray, threshold: float,
+               alpha: float | None = None) -> tuple[np.ndarray, bool]:
+        """Scaled STLSQ coefficients and whether the passes settled."""
         import pysindy as ps  # lazy: pysindy loads scikit-learn (about 1 s)
         from sklearn.exceptions import ConvergenceWarning  # lazy, as pysindy
 
-        dof = problem.dof
-        x, y, col, ys = _unit_rms(problem)
-        opt = ps.STLSQ(threshold=self.threshold, alpha=self.alpha * len(y), max_iter=self.max_iter,
+        alpha = self.alpha if alpha is None else alpha
+        opt = ps.STLSQ(threshold=threshold, alpha=alpha * len(y), max_iter=self.max_iter,
                        normalize_columns=False, unbias=True)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             opt.fit(x, y)
-        converged = True
-        for w in caught:
-            if issubclass(w.category, ConvergenceWarning):
-                converged = False
-                log.warning("sindy %s: STLSQ did not settle on a set of terms in max_iter=%d "
-                            "passes: raise max_iter", dof, self.max_iter)
-            elif "eliminated all" in str(w.message):
-                log.warning("sindy %s: threshold %g removed every term", dof, self.threshold)
-            else:
-                log.debug("sindy %s: %s", dof, w.message)
-        xi = np.asarray(opt.coef_, float).reshape(-1)
-        coef = xi * ys / col
-        return coef, {f"sindy/{dof}/converged": float(converged)}
+        converged = not any(issubclass(w.category, ConvergenceWarning) for w in caught)
+        return np.asarray(opt.coef_, float).reshape(-1), converged
+
+    @staticmethod
+    def _folds(problem: RegressionProblem, n: int) -> list:
+        """Held-out row sets: fold ``k`` holds out the ``k``-th of :data:`CV_BLOCKS` contiguous
+        time blocks of every record, so that each training set still spans every record's
+        manoeuvre (holding out a whole 20/20 zig-zag from a 10/10 would measure
+        extrapolation, not noise). Rows of a negative record index (a prior's
+        pseudo-observations) are never held out."""
+        record = np.zeros(n, int) if problem.record is None else np.asarray(problem.record, int)
+        folds = [[] for _ in range(CV_BLOCKS)]
+        for i in np.unique(record):
+            if i < 0:
+                continue
+            for k, part in enumerate(np.array_split(np.flatnonzero(record == i), CV_BLOCKS)):
+                folds[k].append(part)
+        return [np.concatenate(f) for f in folds if f and sum(len(p) for p in f)]
+
+    def _cross_validate(self, problem, x, y) -> tuple[float, float, list]:
+        """The chosen ``(threshold, alpha)`` and ``[(threshold, alpha, mean, se, n_terms), ...]``.
+
+        Every pair of :attr:`thresholds` and :attr:`alphas` is scored by its
+        mean held-out equation error over the folds; among the pairs within
+        one standard error of the best, the one keeping the fewest terms
+        (fitted on every row) is chosen, the larger threshold on a tie.
+        """
+        folds = self._folds(problem, len(y))
+        table = []
+        for alpha in self.alphas:
+            for threshold in self.thresholds:
+                errors = []
+                for held in folds:
+                    train = np.ones(len(y), bool)
+                    train[held] = False
+                    xi, _ = self._stlsq(x[train], y[train], threshold, alpha)
+                    errors.append(float(np.mean((y[held] - x[held] @ xi) ** 2)))
+                errors = np.asarray(errors)
+                se = float(errors.std(ddof=1) / np.sqrt(len(errors))) if len(errors) > 1 else 0.0
+                terms = int(np.count_nonzero(self._stlsq(x, y, threshold, alpha)[0]))
+                table.append((threshold, alpha, float(errors.mean()), se, terms))
+        best = min(table, key=lambda row: row[2])
+        within = [row for row in table if row[2] <= best[2] + best[3] and row[4] > 0]
+        chosen = min(within or [best], key=lambda row: (row[4], -row[0], row[2]))
+        return chosen[0], chosen[1], table
+
+    def _blocks(self, problem, n: int) -> list:
+        """Row indices of the bootstrap's time blocks (``block_s`` seconds of one record)."""
+        record = np.zeros(n, int) if problem.record is None else np.asarray(problem.record, int)
+        time = np.arange(n, dtype=float) if problem.time is None else np.asarray(problem.time, float)
+        blocks = []
+        for i in np.unique(record):
+            rows = np.flatnonzero(record == i)
+            if i < 0:
+                continue
+            t = time[rows] - time[rows].min()
+            index = np.floor(t / self.block_s).astype(int)
+            blocks += [rows[index == k] for k in np.unique(index)]
+        return blocks
+
+    def _inclusion(self, problem, x, y, threshold: float, alpha: float) -> np.ndarray:
+        """Share of block-bootstrap draws in which STLSQ keeps each column."""
+        blocks = self._blocks(problem, len(y))
+        record = np.zeros(len(y), int) if problem.record is None else np.asarray(problem.record, int)
+        always = np.flatnonzero(record < 0)                 # the prior's rows stay in every draw
+        rng = np.random.default_rng(self.seed)
+        kept = np.zeros(x.shape[1])
+        for _ in range(self.ensemble):
+            pick = rng.integers(0, len(blocks), len(blocks))
+            rows = np.concatenate([blocks[i] for i in pick] + [always])
+            xi, _ = self._stlsq(x[rows], y[rows], threshold, alpha)
+            kept += xi != 0.0
+        return kept / self.ensemble
+
+    def fit_one(self, problem: RegressionProblem) -> tuple[np.ndarray, dict]:
+        """Coefficients (prime, in ``problem.names`` order; 0 = not selected) and metrics."""
+        dof = problem.dof
+        x, y, col, ys = _unit_rms(problem)
+        metrics, info = {}, {}
+        if self.threshold is None:
+            threshold, alpha, table = self._cross_validate(problem, x, y)
+            info["cv"] = [list(row) for row in table]
+            metrics[f"sindy/{dof}/cv_error"] = next(row[2] for row in table
+                                                   if row[0] == threshold and row[1] == alpha)
+        else:
+            threshold, alpha = self.threshold, self.alpha
+        metrics[f"sindy/{dof}/threshold"] = threshold
+        metrics[f"sindy/{dof}/alpha"] = alpha
+        info["threshold"], info["alpha"] = threshold, alpha
+        xi, converged = self._stlsq(x, y, threshold, alpha)
+        if not converged:
+            log.warning("sindy %s: STLSQ did not settle on a set of terms in max_iter=%d passes: raise "
+                        "max_iter", dof, self.max_iter)
+        if self.ensemble > 0:
+            share = self._inclusion(problem, x, y, threshold, alpha)
+            info["inclusion"] = {n: float(p) for n, p in zip(problem.names, share)}
+            metrics.update({f"sindy/{dof}/inclusion/{n}": float(p) for n, p in zip(problem.names, share)})
+            keep = np.flatnonzero(share >= self.inclusion)
+            xi = np.zeros(x.shape[1])
+            if len(keep):
+                xi[keep] = np.linalg.lstsq(x[:, keep], y, rcond=None)[0]
+        if not np.any(xi):
+            log.warning("sindy %s: threshold %g removed every term", dof, threshold)
+        metrics[f"sindy/{dof}/converged"] = float(converged)
+        self._info = getattr(self, "_info", {})
+        self._info[dof] = info
+        return xi * ys / col, metrics
 
     def fit(self, problems: dict, objective=None) -> Identification:
         """Select and fit terms per DOF.
@@ -261,6 +413,7 @@ class SparseRegression:
             fitted = problems
         result = Identification()
         terms = {}
+        self._info = {}
         for dof, problem in fitted.items():
             model_names = list(problems[dof].names)
             if problem.theta.shape[1] == 0:
@@ -284,7 +437,7 @@ class SparseRegression:
                                    f"sindy/{dof}/n_candidates": float(len(problem.names))})
             if extra:
                 log.info("sindy %s: selected terms beyond the model: %s", dof, ", ".join(extra))
-            terms[dof] = {"selected": selected, "extra": extra, "dropped": dropped}
+            terms[dof] = {"selected": selected, "extra": extra, "dropped": dropped, **self._info.get(dof, {})}
         text = json.dumps(terms, indent=2)
         result.writers["sindy_terms.json"] = lambda path: Path(path).write_text(text + "\n")
         return result

@@ -55,6 +55,8 @@ from ..identify.regression import prime_states
 from ..models.abkowitz import ManoeuvringModel
 from ..models.abkowitz import abkowitz
 from ..models.registry import get_model
+from ..models.terms import DOFS, candidate_terms
+from .sparse_terms import sindy_beside_ls
 from ..report.figures import plot_deviations, plot_overlay
 from ..simulate import replay, simulate, zigzag
 from ..vessels import get_vessel
@@ -736,6 +738,20 @@ def write_metric_history(history: dict, path: Path) -> None:
                                     for k, v in sorted(history.items())}, indent=1))
 
 
+def _with_selected_terms(study: Study, result) -> Study:
+    """The study with the model extended by the terms an identifier selected beyond it
+    (SINDy's extended library), so that the identified model simulates what was fitted."""
+    extra = [name for name in result.params if name not in study.model.names]
+    if not extra:
+        return study
+    order = int(getattr(study.cfg.method, "max_order", 3))
+    library = {t.name: t for dof in DOFS for t in candidate_terms(dof, order)}
+    terms = [library[name] for name in extra if name in library]
+    if not terms:
+        return study
+    return dataclasses.replace(study, model=study.model.extended(terms, name=f"{study.model.name}+sindy"))
+
+
 def execute(study: Study, out_dir: Path) -> dict:
     """Identify, validate and write the run's files into ``out_dir``.
 
@@ -765,6 +781,8 @@ def execute(study: Study, out_dir: Path) -> dict:
     metrics.update(info)
     metrics.update(result.metrics)
     metrics["training/samples"] = float(sum(len(r) for r in study.records))
+    base_model = study.model
+    study = _with_selected_terms(study, result)
     params = {name: result.params[name] for name in study.model.names}
     table = coefficient_table(study.model, params, result.lower, result.upper, study.truth)
     table.to_csv(out_dir / "coefficients.csv", index=False)
@@ -791,7 +809,10 @@ def execute(study: Study, out_dir: Path) -> dict:
             metrics.update(_compare_derivatives(study, derivative, estimates, params, out_dir))
     else:
         metrics.update(_validate_simulated(study, params, out_dir))
-    metrics.update(speed_mae_summary(metrics, _training_names(study)))
+    if study.method == "sindy":
+        metrics.update(sindy_beside_ls(study, base_model, result, estimates, metrics, out_dir, _validate_records))
+    metrics.update(speed_mae_summary({k: v for k, v in metrics.items() if not k.startswith("ls/")},
+                                     _training_names(study)))
     metrics["runtime/total_s"] = time.perf_counter() - started
     metrics = {k: float(v) for k, v in metrics.items()}
     (out_dir / "metrics.json").write_text(json.dumps(metrics, indent=1, sort_keys=True))

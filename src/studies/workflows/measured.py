@@ -280,6 +280,10 @@ def identify_measured(model: ManoeuvringModel, vessel: Vessel, records, derivati
         previous = params
         estimates = estimate_all(records, "ekf", settings, model, params, vessel)
     problems = problems_from_estimates(model, vessel, records, estimates, weights=weights)
+    if objective is not None:
+        # another term set on the same estimates and weights (SINDy's extended library)
+        objective.problems_for = lambda other, fixed=None: problems_from_estimates(
+            other, vessel, records, estimates, fixed, weights=weights)
     result = identifier.fit(problems, objective=objective)
     if derivative in EKF_METHODS:
         info["ekf/iterations"] = float(passes)
