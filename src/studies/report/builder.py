@@ -103,6 +103,21 @@ def _summarise_runs(runs, condition_key: str | None = None) -> list[dict]:
     return out
 
 
+def _inclusion_table(items: list[dict]) -> pd.DataFrame | None:
+    """Terms x runs of SINDy's inclusion probabilities (``sindy/<dof>/inclusion/<term>`` metrics)."""
+    rows = []
+    for i in items:
+        label = f"{method_label(i['method'])} {i['condition']}".strip()
+        for key, value in i["metrics"].items():
+            parts = key.split("/")
+            if len(parts) == 4 and parts[0] == "sindy" and parts[2] == "inclusion":
+                rows.append({"term": f"{parts[1]}: {parts[3]}", "run": label, "inclusion": value})
+    if not rows:
+        return None
+    return pd.DataFrame(rows).pivot_table(index="term", columns="run", values="inclusion", aggfunc="mean",
+                                          sort=False)
+
+
 def _mean_tables(tables: list[pd.DataFrame]) -> pd.DataFrame:
     if len(tables) == 1:
         return tables[0]
@@ -292,6 +307,12 @@ def build_report(name: str, runs, report_dir, condition: str | None = None) -> P
                                  "covered": bool(r["lower"] <= r["true"] <= r["upper"]) if np.isfinite(r["true"]) else ""})
             post = pd.DataFrame(rows).set_index("coefficient")
             sections.append(("Posterior intervals (5 % - 95 %)", markdown_table(post, "coefficient")))
+
+        inclusion = _inclusion_table(finished)
+        if inclusion is not None:
+            sections.append(("SINDy: inclusion probability of each term (share of the block-bootstrap draws "
+                             "that keep it; kept when >= the run's method.inclusion)",
+                             markdown_table(inclusion, "term")))
 
         manoeuvres = sorted({k.split("/")[0] for i in finished for k in i["metrics"]
                              if k.endswith("/fitness") and not k.startswith(("training", "ga/"))})
