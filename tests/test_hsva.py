@@ -94,3 +94,17 @@ def test_a_bad_hsva_row_is_refused_with_its_line(tmp_path):
     short.write_bytes(b"".join(lines[:4] + [b" 0.0 1.0 2.0\r\n"]))
     with pytest.raises(DataError, match="3 values instead of 12"):
         read_hsva(short)
+
+
+def test_a_record_that_does_not_state_its_scale_is_not_mixed_silently(tmp_path):
+    """A CSV of MARIN's full-scale run beside HSVA's model-scale file: refused at model
+    scale (its speed is 6.8 times theirs), taken as it is when the study is at full scale."""
+    from studies.workflows.measured import load_study_records
+
+    csv = tmp_path / "marin_zz10.csv"
+    read_marin(marin_file("zz_10"))[["t", "x0", "y0", "psi", "u", "v", "r", "delta", "n"]].to_csv(csv, index=False)
+    with pytest.raises(DataError, match="another scale"):
+        load_study_records([hsva_file("35_05")], [csv])
+    training, validation = load_study_records([hsva_file("35_05")], [csv], scale="full")
+    assert training[0].attrs["model_scale"] is False
+    assert float(training[0]["u"].iloc[0]) == pytest.approx(float(validation[0]["u"].iloc[0]), rel=0.03)

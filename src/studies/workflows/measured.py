@@ -58,7 +58,7 @@ from ..data.scaling import froude_scale
 from ..data.resample import resample as resample_record, uniform_grid
 from ..identify.kalman import KalmanSettings, ekf_derivatives, measurement_variance
 from ..environment.wind import wind_loads_prime
-from ..errors import ConfigError
+from ..errors import ConfigError, DataError
 from ..identify.base import Identification
 from ..identify.ls import LeastSquares
 from ..identify.regression import assemble_problems, prime_states
@@ -141,12 +141,44 @@ def one_scale(training: list, validation: list, setting: str = "auto") -> tuple[
     same one, full scale when they mix; ``model``/``full``: that scale.
     Records that do not state their scale (CSV files) are left as they are.
     """
-    stated = {bool(r.attrs["model_scale"]) for r in training + validation if "model_scale" in r.attrs}
+    everything = training + validation
+    stated = {bool(r.attrs["model_scale"]) for r in everything if "model_scale" in r.attrs}
+    _refuse_unstated_mix(everything, setting)
     if setting == "auto":
         if len(stated) < 2:
             return training, validation
         setting = "full"
     return ([froude_scale(r, setting) for r in training], [froude_scale(r, setting) for r in validation])
+
+
+def _approach(record: pd.DataFrame) -> float:
+    return float(np.hypot(record["u"].iloc[0], record["v"].iloc[0]))
+
+
+def _refuse_unstated_mix(records: list, setting: str) -> None:
+    """Refuse records that do not state their scale beside records at another scale.
+
+    A CSV record does not say whether it is the model or the ship; beside
+    records that do (MARIN and HSVA files), one whose approach speed differs
+    from theirs, once they are at the scale the study uses, by more than a
+    factor 2 (Froude scales differ by sqrt(45.7) = 6.8 for the KVLCC2) is
+    at another scale and would be mixed silently.
+    """
+    stated = [r for r in records if "model_scale" in r.attrs]
+    unstated = [r for r in records if "model_scale" not in r.attrs]
+    if not stated or not unstated:
+        return
+    target = setting if setting != "auto" else (
+        "full" if len({bool(r.attrs["model_scale"]) for r in stated}) > 1 else
+        ("model" if stated[0].attrs["model_scale"] else "full"))
+    reference = float(np.median([_approach(froude_scale(r, target)) for r in stated]))
+    for rec in unstated:
+        ratio = _approach(rec) / reference
+        if not 0.5 < ratio < 2.0:
+            name = rec.attrs.get("source", rec.attrs.get("name", "record"))
+            raise DataError(str(name), f"its approach speed {_approach(rec):.3g} m/s is {ratio:.2g} times that "
+                            f"of the records that state their scale ({target} scale): it is at another scale; "
+                            "Froude scale it to match them (studies.data.froude_scale)")
 
 
 def mirror_record(record: pd.DataFrame) -> pd.DataFrame:
