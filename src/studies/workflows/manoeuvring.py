@@ -56,7 +56,7 @@ from ..models.abkowitz import ManoeuvringModel
 from ..models.abkowitz import abkowitz
 from ..models.registry import get_model
 from ..models.terms import DOFS, candidate_terms
-from .sparse_terms import sindy_beside_ls
+from .sparse_terms import ls_problems, sindy_beside_ls
 from ..report.figures import plot_deviations, plot_overlay
 from ..simulate import replay, simulate, zigzag
 from ..vessels import get_vessel
@@ -810,7 +810,10 @@ def execute(study: Study, out_dir: Path) -> dict:
     else:
         metrics.update(_validate_simulated(study, params, out_dir))
     if study.method == "sindy":
-        metrics.update(sindy_beside_ls(study, base_model, result, estimates, metrics, out_dir, _validate_records))
+        plain = dataclasses.replace(study, model=base_model)
+        metrics.update(sindy_beside_ls(study, base_model, result,
+                                       lambda: LeastSquares().fit(ls_problems(plain, estimates)).params,
+                                       metrics, out_dir, _validate_records))
     metrics.update(speed_mae_summary({k: v for k, v in metrics.items() if not k.startswith("ls/")},
                                      _training_names(study)))
     metrics["runtime/total_s"] = time.perf_counter() - started

@@ -70,6 +70,7 @@ from . import measured as _measured
 from ..data.scaling import scale_label
 from ..papers import get_paper, published
 from .cross_validation import cross_validate, cv_table_markdown
+from .sparse_terms import sindy_beside_ls
 from .identified_model import IDENTIFIED_MODEL_FILE
 from .settings import read_settings
 from .vessel_choice import settle_vessel
@@ -211,8 +212,9 @@ def _estimates(run: MMGRun) -> list:
     return _measured.estimate_all(run.records, derivative, kalman)
 
 
-def identify_mmg(run: MMGRun):
-    """Hull coefficients (and listed interaction factors); ``(result, modules, metrics)``."""
+def hull_problems(run: MMGRun):
+    """``problems(modules)``: the hull regression of the run's records (prior and captive rows
+    as configured) for given propeller and rudder parameters."""
     cfg = run.cfg.model
     estimates = _estimates(run)
     prior = dict(run.vessel.coefficients) if math.isfinite(cfg.prior_scale) else None
@@ -227,6 +229,13 @@ def identify_mmg(run: MMGRun):
     def problems(modules):
         return mmg_problems(run.model, run.vessel, modules, run.records, estimates, prior,
                             cfg.prior_scale, cfg.prior_floor, cfg.weights, captive)
+    return problems
+
+
+def identify_mmg(run: MMGRun):
+    """Hull coefficients (and listed interaction factors); ``(result, modules, metrics)``."""
+    cfg = run.cfg.model
+    problems = hull_problems(run)
 
     def fit_hull(modules):
         return LeastSquares().fit(problems(modules)).params
@@ -448,11 +457,15 @@ def execute_mmg(run: MMGRun, out_dir: Path) -> dict:
             _published_beside(run, metrics, out_dir)
     else:
         metrics.update(_validate_simulated(run, params, out_dir))
+    if run.method == "sindy":
+        metrics.update(sindy_beside_ls(run, run.model, result,
+                                       lambda: LeastSquares().fit(hull_problems(run)(modules)).params,
+                                       metrics, out_dir, _manoeuvring._validate_records))
     if run.cfg.model.captive:
         metrics.update(_captive(run, params, modules, out_dir))
     if run.cfg.model.cross_validate and run.measured:
         metrics.update(_cross_validation(run, out_dir))
-    own = {k: v for k, v in metrics.items() if not k.startswith(("abkowitz/", "captive/"))}
+    own = {k: v for k, v in metrics.items() if not k.startswith(("abkowitz/", "captive/", "ls/", "cv/"))}
     metrics.update(_manoeuvring.speed_mae_summary(own, {str(r.attrs.get("name")) for r in run.records}))
     metrics["runtime/total_s"] = time.perf_counter() - started
     metrics = {k: float(v) for k, v in metrics.items() if v is not None and np.isfinite(v)}

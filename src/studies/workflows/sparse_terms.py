@@ -22,7 +22,7 @@ from ..identify.ls import LeastSquares
 from ..identify.regression import build_problems
 from ..models.terms import DOFS
 
-__all__ = ["COMPARED", "sparse_terms_table", "sindy_beside_ls"]
+__all__ = ["COMPARED", "sparse_terms_table", "ls_problems", "sindy_beside_ls"]
 
 #: validation quantities set side by side (prediction minus measurement)
 COMPARED = ("rmse_position", "advance_error_pct", "tactical_diameter_error_pct", "steady_speed_error_pct",
@@ -45,7 +45,9 @@ def sparse_terms_table(model, result) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=["dof", "term", "in_model", "kept", "inclusion", "value"])
 
 
-def _ls_problems(study, estimates):
+def ls_problems(study, estimates):
+    """The regression problems of ``study``'s model on given estimates (None: its own
+    records' derivatives), as the run built them for SINDy."""
     from .measured import problems_from_estimates
 
     if estimates is not None:
@@ -54,13 +56,13 @@ def _ls_problems(study, estimates):
     return build_problems(study.model, study.vessel, study.records, study.cfg.data.derivative)
 
 
-def sindy_beside_ls(study, base_model, result, estimates, metrics: dict, out_dir: Path, validate) -> dict:
+def sindy_beside_ls(study, base_model, result, fit_ls, metrics: dict, out_dir: Path, validate) -> dict:
     """Write ``sindy.md``/``sindy_terms.csv`` and validate LS beside SINDy; the ``ls/...`` metrics.
 
     ``study`` is the run's study with SINDy's model, ``base_model`` the
-    model the run was given, ``estimates`` the measured records' state and
-    acceleration estimates (None for simulated records), ``metrics`` SINDy's
-    own, ``validate(study, params, out_dir)`` the run's validation.
+    model the run was given, ``fit_ls()`` the least-squares coefficients of
+    the same regression, ``metrics`` SINDy's own, ``validate(study, params,
+    out_dir)`` the run's validation.
     """
     out_dir = Path(out_dir)
     table = sparse_terms_table(base_model, result)
@@ -68,7 +70,7 @@ def sindy_beside_ls(study, base_model, result, estimates, metrics: dict, out_dir
     ls_metrics = {}
     if study.validation_records:
         plain = dataclasses.replace(study, model=base_model, method="ls")
-        ls_params = LeastSquares().fit(_ls_problems(plain, estimates)).params
+        ls_params = fit_ls()
         ls_dir = out_dir / "ls"
         ls_dir.mkdir(exist_ok=True)
         found = validate(plain, {n: ls_params[n] for n in base_model.names}, ls_dir)
