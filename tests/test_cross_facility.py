@@ -111,3 +111,37 @@ def test_each_record_is_held_out_in_turn_and_predicted(tmp_path):
     for name in ("zz10", "zz20", "zz30"):
         assert m[f"cv/{name}/rmse_position"] < 0.05 * vessel.length, (name, m[f"cv/{name}/rmse_position"])
     assert (tmp_path / "out" / "cross_validation.md").read_text().count("| zz") == 3
+
+
+class _StoredRun:
+    """A finished measured MMG run as the report reads it from the store."""
+
+    def __init__(self, folder):
+        self.run_id, self.name, self.status = "abc123", "MMG from the 13 HSVA zig-zags, predicting MARIN", "FINISHED"
+        self.params = {"method.name": "ls", "model.name": "mmg", "vessel.name": "kvlcc2"}
+        self.tags = {"method": "ls"}
+        self.metrics = {"MARIN_FREE_KVLCC2_tc_35_m/tactical_diameter_error_pct": 23.0}
+        self.folder = folder
+        pd.DataFrame([{"record": "MARIN_FREE_KVLCC2_tc_35_m", "turn of the record": "port",
+                       "quantity": "tactical_diameter_error_pct", "mmg": 23.0, "abkowitz": None,
+                       "published": 3.1, "published turn": "port", "published training": "HSVA zig-zags",
+                       "source": "Alexandersson et al. (2022)"}]).to_csv(folder / "published.csv", index=False)
+        pd.DataFrame([{"record": "HSVA_CPMC_KVLCC2_Z_10_10_P", "quantity": "overshoot2_error_deg", "value": -0.8},
+                      {"record": "HSVA_CPMC_KVLCC2_Z_35_05", "quantity": "overshoot2_error_deg", "value": -4.6}]
+                     ).to_csv(folder / "cross_validation.csv", index=False)
+
+    def artifact(self, path, destination):
+        local = self.folder / path
+        return local if local.is_file() else None
+
+
+def test_the_report_sets_the_published_predictions_and_the_cross_validation_beside_the_run(tmp_path):
+    from studies.report.builder import build_report
+
+    folder = tmp_path / "artifacts"
+    folder.mkdir()
+    index = build_report("kvlcc2_cross_facility", [_StoredRun(folder)], tmp_path / "reports")
+    page = index.read_text()
+    assert "## Predictions beside published ones" in page and "| 3.1 | port |" in page
+    assert "## Each training record held out in turn" in page
+    assert "| HSVA_CPMC_KVLCC2_Z_35_05 | -4.6 |" in page

@@ -103,6 +103,35 @@ def _summarise_runs(runs, condition_key: str | None = None) -> list[dict]:
     return out
 
 
+#: tables a measured run writes, set in the report as they are: (artifact, title, index, columns)
+MEASURED_TABLES = (
+    ("published.csv", "Predictions beside published ones (prediction minus measurement, %)", "record",
+     ["turn of the record", "quantity", "mmg", "abkowitz", "published", "published turn", "source"]),
+    ("comparison.csv", "MMG against Abkowitz on the validation records (prediction minus measurement)",
+     "record", ["quantity", "mmg", "abkowitz"]),
+    ("cross_validation.csv", "Each training record held out in turn (prediction minus measurement)",
+     "record", None),
+)
+
+
+def _measured_tables(items: list[dict], scratch: Path) -> list[tuple[str, str]]:
+    """Sections from the tables measured runs write (:data:`MEASURED_TABLES`), one per run."""
+    out = []
+    for artifact, title, index, columns in MEASURED_TABLES:
+        for i in items:
+            local = i["run"].artifact(artifact, scratch / i["run"].run_id / "tables")
+            if local is None:
+                continue
+            table = pd.read_csv(local)
+            if artifact == "cross_validation.csv":
+                table = table.pivot_table(index="record", columns="quantity", values="value", sort=False)
+            else:
+                table = table.set_index(index)[[c for c in columns if c in table.columns]]
+            label = getattr(i["run"], "name", i["run"].run_id)
+            out.append((f"{title}: run {label}", markdown_table(table, index)))
+    return out
+
+
 def _inclusion_table(items: list[dict]) -> pd.DataFrame | None:
     """Terms x runs of SINDy's inclusion probabilities (``sindy/<dof>/inclusion/<term>`` metrics)."""
     rows = []
@@ -307,6 +336,9 @@ def build_report(name: str, runs, report_dir, condition: str | None = None) -> P
                                  "covered": bool(r["lower"] <= r["true"] <= r["upper"]) if np.isfinite(r["true"]) else ""})
             post = pd.DataFrame(rows).set_index("coefficient")
             sections.append(("Posterior intervals (5 % - 95 %)", markdown_table(post, "coefficient")))
+
+        for title, table in _measured_tables(finished, scratch):
+            sections.append((title, table))
 
         inclusion = _inclusion_table(finished)
         if inclusion is not None:
