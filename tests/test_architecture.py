@@ -19,18 +19,18 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "studies"
 #: lowest first; packages of one layer may import each other (the cycle test
 #: still applies)
 LAYERS = [
-    ("foundation", {"errors", "config", "conf", "interrupt", "plotting"}),
+    ("foundation", {"errors", "config", "conf", "interrupt", "plotting", "markdown"}),
     ("data", {"data", "papers"}),
     ("models", {"models", "vessels", "environment"}),
     ("simulate", {"simulate"}),
     ("identify", {"identify"}),
     ("analysis", {"analysis"}),
     ("roll", {"roll"}),
-    ("report", {"report"}),
     ("discover", {"discover"}),
     ("scenarios", {"scenarios"}),
     ("studies", {"workflows"}),
     ("runtime", {"runtime"}),
+    ("report", {"report"}),
     ("command line", {"cli", "cli_help", "config_check", "progress", "bench", "bench_discovery", "__main__",
                       "<root>"}),
 ]
@@ -168,3 +168,11 @@ def test_no_dispatch_on_the_model_name_roll():
     offenders = [str(p.relative_to(SRC)) for p in SRC.rglob("*.py")
                  if '== "roll"' in p.read_text() or "== 'roll'" in p.read_text()]
     assert not offenders, offenders
+
+
+def test_nothing_but_the_command_line_imports_report(graph):
+    """Reports read what runs logged: no layer that computes may need one to work."""
+    _, edges = graph
+    found = [f"{name}:{line}" for name, targets in edges.items() for target, line in targets
+             if _package(target) == "report" and _package(name) not in ("report", "cli", "<root>")]
+    assert not found, "imports of studies.report outside the command line:\n" + "\n".join(sorted(found))

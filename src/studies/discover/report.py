@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 
 from ..plotting import pyplot
-from ..report.tables import markdown_table
+from ..markdown import markdown_table
 
 __all__ = ["write_discovery", "write_report", "plot_predictions", "plot_ranking", "plot_residuals"]
 

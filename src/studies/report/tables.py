@@ -9,6 +9,8 @@ from collections import defaultdict
 import numpy as np
 import pandas as pd
 
+from ..markdown import markdown_table
+
 __all__ = ["condition_label", "deviation_table", "fitness_table", "winners", "markdown_table",
            "divergence_table", "speed_mae_cells", "mae_table", "mae_display", "condition_number_table"]
 
@@ -202,25 +204,3 @@ def winners(tables: dict) -> pd.DataFrame:
                               axis=1)
     return pd.DataFrame(out)
 
-
-def _fmt(x) -> str:
-    if isinstance(x, (float, np.floating)):
-        if not np.isfinite(x):
-            return "-"
-        if x == 0 or 1e-3 <= abs(x) < 1e5:
-            return f"{x:.4g}"
-        return f"{x:.3e}"
-    return str(x)
-
-
-def markdown_table(table: pd.DataFrame, index_name: str = "") -> str:
-    """A pipe table; MultiIndex columns are joined with a line break-free ' / '."""
-    if table.empty:
-        return "_(no data)_\n"
-    cols = [" / ".join(str(c) for c in col) if isinstance(col, tuple) else str(col)
-            for col in table.columns]
-    lines = ["| " + " | ".join([index_name or ""] + cols) + " |",
-             "|" + "---|" * (len(cols) + 1)]
-    for idx, row in table.iterrows():
-        lines.append("| " + " | ".join([str(idx)] + [_fmt(v) for v in row.tolist()]) + " |")
-    return "\n".join(lines) + "\n"

@@ -57,7 +57,7 @@ from ..models.abkowitz import abkowitz
 from ..models.registry import get_model
 from ..models.terms import DOFS, candidate_terms
 from .sparse_terms import ls_problems, sindy_beside_ls
-from ..report.figures import plot_deviations, plot_overlay
+from ..analysis.figures import plot_deviations, plot_overlay
 from ..simulate import replay, simulate, zigzag
 from ..vessels import get_vessel
 from ..vessels.base import Vessel
