@@ -122,3 +122,11 @@ def test_missing_data_file_and_impossible_values_are_refused(tmp_path, refused_i
                        (["noise.measurement=5"], "noise.measurement")):
         refused_in_process("config", args + [f"hydra.run.dir={tmp_path / 'run'}"], tmp_path, "run", text)
     assert mlflow_runs(tmp_path) == []
+
+
+def test_an_appended_key_the_schema_does_not_know_is_refused(tmp_path, refused_in_process):
+    """``+wind.sped=12`` once ran with wind.speed = 0 and logged a meaningless param."""
+    line = refused_in_process("config", ["+wind.sped=12"], tmp_path, "run", "wind.sped: unknown key",
+                              "wind.speed")
+    assert "+wind" not in line                       # no advice to append the misspelt key
+    refused_in_process("discover", ["+discover.nosuch=1"], tmp_path, "discover", "discover.nosuch: unknown key")

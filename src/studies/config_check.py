@@ -126,8 +126,8 @@ class _Composer:
         full_key = getattr(cause, "full_key", None)
         if cause is not None and full_key and ("not in struct" in str(cause)
                                                or "not in '" in str(cause)):
-            return ConfigError(f"{full_key}: unknown key{self._suggest(full_key)}; "
-                               f"a new key is added with +{full_key}=VALUE")
+            return ConfigError(f"{full_key}: unknown key{self._suggest(full_key)}; the keys are listed "
+                               "by studies <command> --help")
         if cause is not None and full_key:
             return ConfigError(f"{full_key}: {_first_line(cause)}")
         if "Ambiguous value for argument" in text:
@@ -268,6 +268,32 @@ def _structure(cfg, base, parsed) -> None:
                                   f"not a value; set one of them, e.g. {example}")
 
 
+def _appended_keys(cfg, base, parsed, composer) -> None:
+    """``+key=value`` for a key the schema does not know is refused like any unknown key
+    (Hydra would add it, and the run would silently ignore it); ``+group=option`` for a
+    config group (``+experiment=...``) is what ``+`` is for and passes."""
+    from omegaconf import OmegaConf
+
+    for override in parsed:
+        if not override.input_line.startswith("+") or override.is_hydra_override():
+            continue
+        key = override.key_or_group
+        if OmegaConf.select(base, key, throw_on_missing=False) is not None:
+            continue
+        if OmegaConf.select(cfg, key, throw_on_missing=False) is not None and "." not in key and \
+                not isinstance(OmegaConf.select(cfg, key, throw_on_missing=False), (int, float, str, bool)):
+            continue                                  # a config group appended (+experiment=...)
+        if "." not in key and _is_group(key):
+            continue
+        raise ConfigError(f"{key}: unknown key{composer._suggest(key)}; the keys are listed by "
+                          "studies <command> --help")
+
+
+def _is_group(name: str) -> bool:
+    """Whether ``name`` is a config group of the packaged ``conf/`` (a folder of options)."""
+    return (Path(__file__).resolve().parent / "conf" / name).is_dir()
+
+
 def _typed(cfg):
     """The job's typed settings (:mod:`studies.config`): converting runs the
     checks of every dataclass. Hydra's own node is left out."""
@@ -360,6 +386,7 @@ def check_arguments(config_name: str, args: list[str], root: Path, command: str 
                     done.add(row)
                     job_cfg = composer.compose(row)
                     _structure(job_cfg, base, parsed)
+                    _appended_keys(job_cfg, base, parsed, composer)
                     _resolve(job_cfg)
                     if check is not None:
                         check(job_cfg, root)
