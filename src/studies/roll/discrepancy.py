@@ -64,6 +64,7 @@ Prentice Hall (prediction-error methods, ch. 7).
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from dataclasses import dataclass, field
@@ -80,6 +81,8 @@ from studies.roll.records import initial_state_covariance
 
 __all__ = ["DISCREPANCIES", "RollDiscrepancy", "FILTER_POINTS_PER_PERIOD", "compiled_filter",
            "innovation_loglik", "estimate_wander", "noise_level"]
+
+log = logging.getLogger(__name__)
 
 #: samples per roll period the filter runs on (the records are thinned to it)
 FILTER_POINTS_PER_PERIOD = 20
@@ -282,9 +285,13 @@ def compiled_filter():
                 body(np.array([0.0, 0.1]), np.zeros(2), 1e-6, 0.1, 0.0, 1e-6, 0.0, 1e-6, 0.0, 0.0, 0.0,
                      1.0, 0.0, 0.1, 0.01, 1.0, 1, deriv)
                 break
-            except Exception:
+            except Exception as exc:  # noqa: BLE001 - numba's errors are of many types
                 deriv, body = _deriv, _filter_kernel
+                failure = exc
                 continue
+        else:
+            log.warning("numba cannot compile the roll Kalman filter (%s): it runs in plain Python, about 100 times "
+                        "slower", failure)
 
         def kern(*args, _body=body, _deriv=deriv):
             return _body(*args, _deriv)

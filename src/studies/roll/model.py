@@ -34,6 +34,7 @@ https://doi.org/10.1016/j.oceaneng.2019.106479
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass
 from typing import Mapping, Sequence
@@ -49,6 +50,8 @@ __all__ = [
     "equivalent_linear_damping",
     "damping_ratio",
 ]
+
+log = logging.getLogger(__name__)
 
 #: Optional terms in canonical order; ``omega0`` is always part of the model.
 OPTIONAL_TERMS: tuple[str, ...] = ("b1", "b2", "b3", "c3")
@@ -139,8 +142,12 @@ def compiled_rk4():
                 cand(0.1, 0.0, np.array([0.0, 0.1]), 0.0, 0.0, 0.0, 1.0, 0.0, 1, NO_WANDER, NO_WANDER)
                 kern = cand
                 break
-            except Exception:
+            except Exception as exc:  # noqa: BLE001 - numba's errors are of many types
+                failure = exc
                 continue
+        else:
+            log.warning("numba cannot compile the roll simulator (%s): it runs in plain Python, about 100 times "
+                        "slower", failure)
         _COMPILED["rk4"] = kern
     return kern
 

@@ -32,6 +32,7 @@ released).
 from __future__ import annotations
 
 import math
+import logging
 import re
 from pathlib import Path
 
@@ -59,6 +60,8 @@ __all__ = [
     "record_vessel",
     "split_cycles",
 ]
+
+log = logging.getLogger(__name__)
 
 _TIME_COLUMNS = ("t", "time", "Time")
 _MAX_ROLL_RAD = math.pi / 2  # a roll record beyond 90 deg is in degrees, not radians
@@ -656,7 +659,9 @@ def find_particulars(path) -> dict | None:
         return None
     try:
         table = pd.read_csv(params)
-    except Exception:
+    except Exception as exc:  # noqa: BLE001 - any unreadable file: the record's scale is then unknown
+        log.warning("%s beside %s cannot be read (%s: %s): the record's scale and ship are unknown",
+                    params, p.name, type(exc).__name__, str(exc).strip().splitlines()[0] if str(exc).strip() else "")
         return None
     stem = p.stem
     run_id = None
@@ -706,7 +711,8 @@ def _vessel_name(folder: Path, table: pd.DataFrame, row) -> dict:
     fp = folder / "fnpf_parameters.csv"
     try:
         f = pd.read_csv(fp).iloc[0].to_dict() if fp.is_file() else {}
-    except Exception:
+    except Exception as exc:  # noqa: BLE001 - any unreadable file: the ship's name is then unknown
+        log.warning("%s cannot be read (%s): the ship's name of the tests is unknown", fp, type(exc).__name__)
         return {}
     title = str(f.get("title") or "").strip()
     if not title or "id" not in f:
