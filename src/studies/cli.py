@@ -225,11 +225,23 @@ def _study(cfg, root: Path, out_dir: Path, on_create) -> dict:
         logged = run.log_model(model, settings.tracking.register, linked) if model.is_file() else None
         run.log_outputs(metrics, out_dir)
     print(f"run '{name}' ({run.run_id}) -> {out_dir}")
+    print(_browse(settings, root))
     if logged:
         print(f"model {logged['uri']}" + (f", registered as {logged['registered']}"
                                           if logged["registered"] else ""))
     print(_console(summary))
     return {"status": "finished", "run_id": run.run_id, "config_hash": digest}
+
+
+def _browse(settings, root: Path) -> str:
+    """Where the run was logged and how to browse it."""
+    from .runtime import tracking
+
+    uri = tracking.resolve_uri(settings.tracking.uri, root)
+    if uri.startswith(("http://", "https://")):
+        return f"logged to {uri} (experiment '{settings.tracking.experiment}'): open it in a browser"
+    return (f"logged to {uri} (experiment '{settings.tracking.experiment}'): browse with `studies ui`, "
+            f"compare with `studies report report.experiment={settings.tracking.experiment}`")
 
 
 def _rounded(value):
@@ -297,6 +309,7 @@ def _discover(cfg, root: Path, out_dir: Path, on_create) -> dict:
         run.set_tags({"cause": discovery["cause"],
                       **({"vessel": named.get("name") or "unknown"} if isinstance(named, dict) else {})})
     print(f"discovery '{name}' ({run.run_id}) -> {out_dir}")
+    print(_browse(settings, root))
     print(_console({"cause": discovery["cause"], "gain_pct": discovery["gain_pct"],
                     **{f"parameters/{k}": v for k, v in (discovery.get("parameters") or {}).items()},
                     **{f"uncertainty/{k}": v for k, v in (discovery.get("uncertainty") or {}).items()},
