@@ -31,7 +31,8 @@ LAYERS = [
     ("studies", {"workflows"}),
     ("runtime", {"runtime"}),
     ("report", {"report"}),
-    ("command line", {"cli", "cli_help", "config_check", "progress", "bench", "bench_discovery", "__main__",
+    ("command line", {"cli", "cli_help", "config_check", "progress", "bench", "bench_discovery", "benchmarks",
+                      "__main__",
                       "<root>"}),
 ]
 

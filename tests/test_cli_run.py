@@ -130,3 +130,16 @@ def test_an_appended_key_the_schema_does_not_know_is_refused(tmp_path, refused_i
                               "wind.speed")
     assert "+wind" not in line                       # no advice to append the misspelt key
     refused_in_process("discover", ["+discover.nosuch=1"], tmp_path, "discover", "discover.nosuch: unknown key")
+
+
+def test_studies_bench_runs_from_anywhere_and_refuses_an_unknown_name(tmp_path):
+    """The benchmarks ship in the package: run from a folder with no benchmarks/ beside it."""
+    import json as _json
+
+    proc = run_studies(["bench", "simulator"], tmp_path)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    figures = _json.loads(proc.stdout)
+    assert figures["sim_40001_steps_ms"] > 0 and "bench_simulator_wall_s" in figures
+    proc = run_studies(["bench", "nosuch"], tmp_path)
+    assert proc.returncode == 2 and proc.stderr.strip().count("\n") == 0
+    assert "unknown benchmark nosuch" in proc.stderr and "simulator" in proc.stderr

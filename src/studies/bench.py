@@ -1,55 +1,56 @@
-"""``studies bench``: run the benchmarks of ``benchmarks/`` and collect their figures.
+"""``studies bench``: run the benchmarks of :mod:`studies.benchmarks` and collect their figures.
 
-Each ``benchmarks/bench_*.py`` defines ``run() -> dict`` of named figures
-(DESIGN.md: ``sim_40001_steps_ms``, ``ga_200_generations_s``,
+Each module of :mod:`studies.benchmarks` defines ``run() -> dict`` of named
+figures (DESIGN.md: ``sim_40001_steps_ms``, ``ga_200_generations_s``,
 ``bayes_regression_s``, ``sweep_thesis_s``). Figures are medians or single
-timings on the machine at hand; compare ratios within one run.
+timings on the machine at hand; compare ratios within one run. The
+benchmarks ship inside the package, so ``studies bench`` works from an
+installed wheel as from the source tree.
 """
 
 from __future__ import annotations
 
-import importlib.util
+import importlib
 import os
 import platform
 import time
-from pathlib import Path
 
-__all__ = ["run_benchmarks", "benchmark_dir", "BENCH_HELP"]
+from .benchmarks import NAMES
+from .errors import ConfigError
 
-BENCH_HELP = """studies bench [NAME ...]: performance figures as JSON (every benchmarks/bench_NAME.py, or those named)
+__all__ = ["run_benchmarks", "BENCH_HELP"]
 
+BENCH_HELP = f"""studies bench [NAME ...]: performance figures as JSON (every benchmark but those run on request, or those named)
+
+  names: {', '.join(NAMES)} (sweep: on request only, it takes minutes)
   studies bench simulator ga        two of them
   studies bench discover key=value  hit rates of studies discover with intervals (studies bench discover --help)
 """
 
 
-def benchmark_dir() -> Path:
-    """``benchmarks/`` of the source tree (editable install) or of the working directory."""
-    for candidate in (Path(__file__).resolve().parents[2] / "benchmarks", Path.cwd() / "benchmarks"):
-        if candidate.is_dir():
-            return candidate
-    raise FileNotFoundError("no benchmarks/ directory next to the source tree or in the working directory")
+def _module(name: str):
+    return importlib.import_module(f"studies.benchmarks.{name}")
 
 
 def run_benchmarks(names: list[str] | None = None) -> dict:
-    """Run ``bench_<name>.py`` for each name (all when empty) and merge their figures."""
-    folder = benchmark_dir()
-    files = sorted(folder.glob("bench_*.py"))
-    if names:
-        wanted = {n.removeprefix("bench_").removesuffix(".py") for n in names}
-        known = {f.stem.removeprefix("bench_") for f in files}
-        unknown = sorted(wanted - known)
-        if unknown:
-            raise ValueError(f"unknown benchmark {', '.join(unknown)}; known: {', '.join(sorted(known))}")
-        files = [f for f in files if f.stem.removeprefix("bench_") in wanted]
+    """Run the named benchmarks (all but those run on request when empty) and merge their figures.
+
+    Raises
+    ------
+    ConfigError
+        A name that is not a benchmark of :data:`studies.benchmarks.NAMES`.
+    """
+    wanted = [n.removeprefix("bench_").removesuffix(".py") for n in names or []]
+    unknown = sorted(set(wanted) - set(NAMES))
+    if unknown:
+        raise ConfigError(f"unknown benchmark {', '.join(unknown)}; known: {', '.join(NAMES)}")
+    chosen = wanted or [n for n in NAMES if not getattr(_module(n), "ON_REQUEST", False)]
     out = {"machine": {"cpus": os.cpu_count(), "python": platform.python_version(),
                        "processor": platform.processor() or platform.machine()}}
-    for path in files:
-        spec = importlib.util.spec_from_file_location(path.stem, path)
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
+    for name in chosen:
+        module = _module(name)
         t0 = time.perf_counter()
         figures = module.run()
-        figures[f"{path.stem}_wall_s"] = time.perf_counter() - t0
+        figures[f"bench_{name}_wall_s"] = time.perf_counter() - t0
         out.update(figures)
     return out

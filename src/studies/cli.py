@@ -661,7 +661,7 @@ def _bench(rest: list) -> int:
         return 0
     try:
         figures = run_benchmarks(rest)
-    except ValueError as error:         # an unknown benchmark name
+    except StudiesError as error:       # an unknown benchmark name
         print(f"studies: error: {error}", file=sys.stderr)
         return 2
     print(json.dumps(figures, indent=1))

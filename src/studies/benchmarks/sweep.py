@@ -2,18 +2,19 @@
 direction) with all four thesis methods (LS, LS+GA, SVM, SVM+GA) at the
 thesis durations (4000 s training zig-zag at 0.1 s, 600 s validation
 zig-zags): 48 jobs through the default parallel launcher into a fresh store.
-Set STUDIES_BENCH_SWEEP=0 to skip it (it takes minutes)."""
+It runs only when named (``studies bench sweep``): it takes minutes."""
 
-import os
 import subprocess
 import sys
 import tempfile
 import time
 
 
+#: run only when named
+ON_REQUEST = True
+
+
 def run() -> dict:
-    if os.environ.get("STUDIES_BENCH_SWEEP", "1") == "0":
-        return {}
     out = {}
     total = 0.0
     with tempfile.TemporaryDirectory() as tmp:

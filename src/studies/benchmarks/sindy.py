@@ -22,8 +22,9 @@ from studies.models import abkowitz
 from studies.vessels import get_vessel
 from studies.workflows.kinds import study_for
 from studies.workflows.measured import estimate_all, load_measured, problems_from_estimates
+from studies.benchmarks import shared_data
 
-DATA = Path(__file__).resolve().parents[1].parent / "shared/data/kvlcc2_free_running"
+DATA = shared_data("kvlcc2_free_running")
 
 
 def _median(fn, repeats: int = 3) -> float:

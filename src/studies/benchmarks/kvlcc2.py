@@ -17,8 +17,9 @@ from studies.identify.ls import LeastSquares
 from studies.models import abkowitz
 from studies.vessels import get_vessel
 from studies.workflows.measured import identify_measured, load_measured
+from studies.benchmarks import shared_data
 
-DATA = Path(__file__).resolve().parents[1].parent / "shared/data/kvlcc2_free_running"
+DATA = shared_data("kvlcc2_free_running")
 
 
 def run() -> dict:

@@ -13,10 +13,11 @@ import numpy as np
 
 from studies.bench_discovery import MARIN, real_case, simulated_case
 from studies.scenarios.injected import Injection
+from studies.benchmarks import shared_data
 
 SINGLES = ("current", "rudder_offset", "environmental_bias")
 PAIRS = ("current+rudder_offset", "rudder_offset+environmental_bias", "wind_speed_bias+environmental_bias")
-MARIN_FOLDER = Path(__file__).resolve().parents[2] / "shared" / "data" / "kvlcc2_free_running"
+MARIN_FOLDER = shared_data("kvlcc2_free_running")
 
 
 def run() -> dict:
