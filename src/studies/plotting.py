@@ -15,7 +15,15 @@ __all__ = ["pyplot"]
 
 @functools.cache
 def pyplot():
-    """``matplotlib.pyplot`` with the Agg backend (loaded on the first call)."""
+    """``matplotlib.pyplot`` with the Agg backend (loaded on the first call).
+
+    Matplotlib's one-time "building the font cache" notice on a fresh
+    machine is library bookkeeping, not a message for the user: its logger
+    is kept to errors.
+    """
+    import logging
+
+    logging.getLogger("matplotlib.font_manager").setLevel(logging.ERROR)
     import matplotlib
 
     matplotlib.use("Agg")

@@ -29,6 +29,7 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import hashlib
+import logging
 import math
 import os
 import subprocess
@@ -39,6 +40,11 @@ from pathlib import Path
 
 from .. import interrupt
 from ..errors import ConfigError
+
+# MLflow announces at INFO on stderr that it creates a new store's tables (alembic's
+# migrations): bookkeeping of the library, not something a user acts on
+for _name in ("mlflow.store.db.utils", "alembic.runtime.migration"):
+    logging.getLogger(_name).setLevel(logging.WARNING)
 
 __all__ = ["start_sweep", "end_sweep", "experiment_of", "sweep_tags", "select_sweep", "file_digest", "source_tags", "default_uri", "resolve_uri", "check_store", "configure", "start_run", "RunLogger", "store_lock", "flatten",
            "StoredRun", "read_experiment", "find_finished_run", "close_if_running", "load_model"]
