@@ -30,6 +30,10 @@ def serve(uri: str | None, root, host: str = "127.0.0.1", port: int = 5000) -> i
     # no job executor: it serves GenAI evaluation jobs that `studies` never submits,
     # and its worker processes cost several times the memory of the UI itself
     env = dict(os.environ, MLFLOW_DISABLE_TELEMETRY="true", MLFLOW_SERVER_ENABLE_JOB_EXECUTION="false")
+    # the server's libraries warn their own maintainers of deprecations (Starlette's WSGI
+    # middleware in MLflow, a UserWarning): nothing a user of the UI can act on
+    quiet = ("ignore::DeprecationWarning", "ignore:starlette.middleware.wsgi is deprecated")
+    env["PYTHONWARNINGS"] = ",".join(w for w in (os.environ.get("PYTHONWARNINGS"), *quiet) if w)
     print(f"MLflow UI for {cmd[cmd.index('--backend-store-uri') + 1]} at http://{host}:{port}", flush=True)
     if host not in ("127.0.0.1", "localhost", "::1"):
         print(f"warning: listening on {host}, reachable from other machines", file=sys.stderr)
