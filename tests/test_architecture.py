@@ -177,3 +177,29 @@ def test_nothing_but_the_command_line_imports_report(graph):
     found = [f"{name}:{line}" for name, targets in edges.items() for target, line in targets
              if _package(target) == "report" and _package(name) not in ("report", "cli", "<root>")]
     assert not found, "imports of studies.report outside the command line:\n" + "\n".join(sorted(found))
+
+
+def _string_tuples(path: Path) -> dict:
+    """Module-level ``NAME = ("a", "b", ...)`` assignments of strings: {name: values}."""
+    out = {}
+    for node in ast.parse(path.read_text(), str(path)).body:
+        if isinstance(node, ast.Assign) and isinstance(node.value, ast.Tuple) and node.value.elts and \
+                all(isinstance(e, ast.Constant) and isinstance(e.value, str) for e in node.value.elts):
+            for target in node.targets:
+                if isinstance(target, ast.Name):
+                    out[target.id] = tuple(e.value for e in node.value.elts)
+    return out
+
+
+def test_allowed_values_are_defined_once():
+    """The allowed values of a setting live in config.py; a module that needs them imports
+    them, so a new option cannot be accepted by one and refused by the other."""
+    allowed = {values: name for name, values in _string_tuples(SRC / "config.py").items() if len(values) > 1}
+    repeated = []
+    for path in SRC.rglob("*.py"):
+        if path == SRC / "config.py":
+            continue
+        for name, values in _string_tuples(path).items():
+            if values in allowed:
+                repeated.append(f"{path.relative_to(SRC)}: {name} repeats config.{allowed[values]} {values}")
+    assert not repeated, "allowed values defined twice:\n" + "\n".join(sorted(repeated))

@@ -100,11 +100,12 @@ from scipy.signal import lfilter
 from ..errors import ConfigError
 from ..simulate.simulator import acceleration_forces
 from .kalman import KalmanSettings, _default_qc, innovation_loglik
+from ..config import BAYES_DISCREPANCIES
 
 __all__ = ["DISCREPANCIES", "Discrepancy", "estimate_process_noise", "thin_record"]
 
 #: ``method.discrepancy``
-DISCREPANCIES = ("none", "process_noise")
+DISCREPANCIES = BAYES_DISCREPANCIES
 #: names of the three discrepancy accelerations
 CHANNELS = ("u", "v", "r")
 

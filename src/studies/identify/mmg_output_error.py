@@ -34,12 +34,12 @@ from ..models.abkowitz import ManoeuvringModel
 from ..models.mmg import MMGParameters
 from ..simulate.mmg import replay_mmg
 from .objective import TrajectoryObjective
+from ..config import MMG_REFINABLE
 
 __all__ = ["MMGObjective", "refine_modules", "REFINABLE"]
 
 #: interaction factors :func:`refine_modules` may fit
-REFINABLE = ("tP", "wP0", "C1", "C2_plus", "C2_minus", "tR", "aH", "xH", "gammaR_minus",
-             "gammaR_plus", "lR", "epsilon", "kappa", "f_alpha")
+REFINABLE = MMG_REFINABLE
 
 
 class MMGObjective(TrajectoryObjective):

@@ -114,12 +114,13 @@ from ..models.terms import candidate_terms
 from .base import Identification
 from .ls import regression_diagnostics
 from .regression import RegressionProblem, build_problems
+from ..config import SINDY_LIBRARIES
 
 __all__ = ["SparseRegression", "term_library", "LIBRARIES"]
 
 log = logging.getLogger(__name__)
 
-LIBRARIES = ("model", "extended")
+LIBRARIES = SINDY_LIBRARIES
 
 
 def term_library(terms):

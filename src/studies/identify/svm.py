@@ -93,12 +93,13 @@ from ..errors import ConfigError
 from .base import Identification
 from .ls import regression_diagnostics
 from .regression import RegressionProblem
+from ..config import SVM_LOSSES
 
 __all__ = ["SupportVectorRegression", "time_blocked_splits", "search_rows", "scale_problem"]
 
 log = logging.getLogger(__name__)
 
-LOSSES = ("squared_epsilon_insensitive", "epsilon_insensitive")
+LOSSES = SVM_LOSSES
 
 
 def scale_problem(problem: RegressionProblem):

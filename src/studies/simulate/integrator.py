@@ -44,13 +44,14 @@ from numba import njit, prange
 
 from ..environment.wind import wind_load
 from .monomials import coefficient_tuple, dense_coefficients, scaled_forces
+from ..config import DATA_SCHEMES
 
 __all__ = ["rk4_simulate", "rk4_simulate_many", "N_STATES"]
 
 N_STATES = 7
 #: fixed-step schemes: classical RK4 (the default), or forward Euler, ``x += dt f(x)``, as
 #: the Marine Systems Simulator's ``zigzag.m`` (its ``euler2``) steps the ship (the thesis' data)
-SCHEMES = ("rk4", "euler")
+SCHEMES = DATA_SCHEMES
 DIVERGED_SPEED_FACTOR = 5.0
 
 

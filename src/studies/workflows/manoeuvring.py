@@ -67,6 +67,7 @@ from .settings import Settings, named_manoeuvre, read_settings
 from .simplify import ensure_definition
 from .study import Recorder
 from .vessel_choice import settle_vessel
+from ..config import DERIVATIVES
 
 __all__ = ["Study", "prepare", "execute", "simulate_training", "coefficient_table", "run_name",
            "identified_model", "compare_simulated", "validation_manoeuvre"]
@@ -236,8 +237,6 @@ def prepare(cfg: RunConfig, root: Path | None = None, record: Recorder | None = 
     return Study(cfg, settings, vessel, model, method, records, truth, validation, measured)
 
 
-#: accepted ``data.derivative`` values
-DERIVATIVES = ("auto", "central", "savgol", "forward") + _measured.EKF_METHODS
 
 
 def _is_measured_study(vessel: Vessel, paths, derivative: str, resample_dt) -> bool:

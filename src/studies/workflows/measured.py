@@ -69,6 +69,7 @@ from ..analysis.characteristics import steady_turn_rows
 from ..plotting import pyplot
 from ..simulate.simulator import replay_many
 from ..vessels.base import Vessel
+from ..config import WEIGHTINGS
 
 __all__ = ["steady_turn", "EKF_METHODS", "load_measured", "load_study_records", "one_scale", "resample", "estimate_all", "problems_from_estimates",
            "identify_measured", "posterior_vectors", "posterior_band", "kalman_options",
@@ -216,8 +217,6 @@ def estimate_all(records, method: str, settings: KalmanSettings | None = None, m
     return [estimate_derivatives(rec, method) for rec in records]
 
 
-#: row weightings of the measured regression (``identify.weights``)
-WEIGHTINGS = ("none", "speed", "record", "speed_record")
 
 
 def problems_from_estimates(model: ManoeuvringModel, vessel: Vessel, records, estimates,

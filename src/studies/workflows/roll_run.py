@@ -18,10 +18,10 @@ from ..roll.methods import ROLL_METHODS
 from ..roll.simulate import simulate_decay_record
 from .roll import run_roll_study
 from .settings import as_path_list
+from ..config import ROLL_TERMS
 
 __all__ = ["RollStudy", "prepare_roll", "execute_roll", "ROLL_TERMS", "BAYES_SETTINGS"]
 
-ROLL_TERMS = ("b1", "b2", "b3", "c3")
 #: the ``method=bayes`` settings the roll posterior reads (the others, ``trajectory_*`` and
 #: ``discrepancy_step``, belong to the manoeuvring posterior)
 BAYES_SETTINGS = ("n_walkers", "n_samples", "burn_in", "thin", "seed", "init_scale", "moves",
