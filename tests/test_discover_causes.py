@@ -154,3 +154,21 @@ def test_an_mmg_baseline_replays_a_missing_term_the_simulator_does_not_hold():
     turned, less = plain["psi"].iloc[-1] - plain["psi"].iloc[0], opposed["psi"].iloc[-1] - opposed["psi"].iloc[0]
     assert abs(turned) > np.deg2rad(20.0)
     assert 0.0 < less / turned < 0.95
+
+
+def test_an_asymmetric_mmg_baseline_carries_its_constants(tmp_path):
+    """``studies discover model=mmg model.asymmetry=true``: the baseline's hull has Y0 and N0
+    (a single-screw ship's asymmetry is then the baseline's, not a cause's)."""
+    from types import SimpleNamespace
+
+    from conftest import marin_file
+    from studies.config import compose_settings
+    from studies.data import read_marin
+    from studies.workflows.discover_inference import baseline_dynamics
+
+    record = read_marin(marin_file("zz_10"))
+    for asymmetric in (False, True):
+        cfg = compose_settings("discover", overrides=["vessel=kvlcc2", "model=mmg",
+                                                      f"model.asymmetry={str(asymmetric).lower()}"])
+        dynamics = baseline_dynamics(SimpleNamespace(cfg=cfg, train=[record]))
+        assert ({"Y0", "N0"} <= set(dynamics.model.names)) is asymmetric

@@ -75,6 +75,8 @@ keys (defaults):
   real_sets=[marin,hsva]  which facilities' records
   real_folder=../shared/data/kvlcc2_free_running
   hsva_folder=../shared/data/kvlcc2_hsva
+  real_overrides=[]       settings of the real records' discoveries besides vessel=kvlcc2 model=mmg
+                          (e.g. [model.asymmetry=true])
   jobs=2                  parallel discoveries
   out=bench_discover.jsonl  every case's line (JSON), appended as it finishes
 """
@@ -95,6 +97,7 @@ class DiscoveryBench:
     real_sets: list = field(default_factory=lambda: list(REAL_SETS))
     real_folder: str = "../shared/data/kvlcc2_free_running"
     hsva_folder: str = "../shared/data/kvlcc2_hsva"
+    real_overrides: list = field(default_factory=list)
     jobs: int = 2
     out: str = "bench_discover.jsonl"
 
@@ -210,7 +213,7 @@ REAL_SETS = {
 MARIN = REAL_SETS["marin"][0] + REAL_SETS["marin"][1]
 
 
-def real_case(folder: str, injection: Injection, real_set: str = "marin") -> dict:
+def real_case(folder: str, injection: Injection, real_set: str = "marin", overrides=()) -> dict:
     """One discovery on a set of KVLCC2 records (:data:`REAL_SETS`) at full scale with
     ``injection`` added (MMG baseline)."""
     import numba
@@ -230,7 +233,8 @@ def real_case(folder: str, injection: Injection, real_set: str = "marin") -> dic
             rec[[c for c in ("t", "x0", "y0", "psi", "u", "v", "r", "delta", "n") if c in rec]].to_csv(
                 path, index=False)
             paths.append(path)
-        d, elapsed = _discover(paths[:len(train)], paths[len(train):], ["vessel=kvlcc2", "model=mmg"], tmp)
+        d, elapsed = _discover(paths[:len(train)], paths[len(train):], ["vessel=kvlcc2", "model=mmg", *overrides],
+                               tmp)
     return _clean({"kind": "real", "set": real_set, "injection": injection.label, "injected": injection.truth(),
                    "named": d["cause"], "confidence": d.get("confidence"), "parameters": d.get("parameters") or {},
                    "candidates": d.get("candidates") or {}, "gain_pct": d.get("gain_pct"), "elapsed": elapsed})
@@ -323,7 +327,8 @@ def run_discovery_bench(settings: DiscoveryBench) -> dict:
             missing = [f for f in sum(REAL_SETS[real_set], ()) if not (folder / f).is_file()]
             if missing:
                 raise ConfigError(f"bench discover: {key} {folder} lacks {', '.join(missing)}")
-            jobs += [(real_case, (str(folder), inj, real_set)) for inj in [Injection()] + injection_grid()]
+            jobs += [(real_case, (str(folder), inj, real_set, tuple(settings.real_overrides)))
+                     for inj in [Injection()] + injection_grid()]
     if settings.pairs:
         jobs += [(simulated_case, (p, f, s, settings.noise, "pair")) for s in seeds
                  for f in settings.pair_families for p in hidden_pairs()]

@@ -51,7 +51,8 @@ def baseline_dynamics(study: DiscoverStudy) -> MMGDynamics | None:
         from ..errors import ConfigError
         raise ConfigError(f"model=mmg: vessel {name} has no MMG particulars (propeller, rudder, K_T curve)")
     first = study.train[0]
-    return MMGDynamics(mmg_vessel_at_speed(name, float(np.hypot(first["u"].iloc[0], first["v"].iloc[0]))))
+    return MMGDynamics(mmg_vessel_at_speed(name, float(np.hypot(first["u"].iloc[0], first["v"].iloc[0]))),
+                       asymmetry=bool(getattr(study.cfg.model, "asymmetry", False)))
 
 
 def _scale(study: DiscoverStudy, dynamics) -> str:

@@ -36,10 +36,10 @@ class MMGDynamics:
     so MMG residuals are multiplied by ``d / L``.
     """
 
-    def __init__(self, vessel, modules: MMGParameters | None = None):
+    def __init__(self, vessel, modules: MMGParameters | None = None, asymmetry: bool = False):
         self.vessel = vessel
         self.modules = modules or vessel.modules
-        self.model = mmg()
+        self.model = mmg(asymmetry=asymmetry)      # with Y0, N0: the single-screw ship's asymmetry
         self._estimates = {}
 
     def estimates(self, records, derivative: str) -> list:
