@@ -143,3 +143,25 @@ def test_studies_bench_runs_from_anywhere_and_refuses_an_unknown_name(tmp_path):
     proc = run_studies(["bench", "nosuch"], tmp_path)
     assert proc.returncode == 2 and proc.stderr.strip().count("\n") == 0
     assert "unknown benchmark nosuch" in proc.stderr and "simulator" in proc.stderr
+
+
+@pytest.mark.slow
+def test_runs_started_together_write_to_their_own_folders(tmp_path):
+    """Two runs started in the same second once shared outputs/<date>/<time>/ and overwrote
+    each other's files; the folder is named to the microsecond."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    env = dict(os.environ, MLFLOW_DISABLE_TELEMETRY="true")
+    cmd = [sys.executable, "-m", "studies", "run", "manoeuvre.duration=200", "validate.manoeuvres=[zigzag_10_10]"]
+    procs = [subprocess.Popen(cmd, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              text=True) for _ in range(2)]
+    outputs = [p.communicate(timeout=300) for p in procs]
+    assert all(p.returncode == 0 for p in procs), [err[-1000:] for _, err in outputs]
+    folders = {line.rsplit("-> ", 1)[1].strip() for out, _ in outputs for line in out.splitlines()
+               if line.startswith("run '")}
+    assert len(folders) == 2
+    for folder in folders:
+        assert (Path(folder) / "metrics.json").is_file()
