@@ -12,9 +12,14 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import math
+
+import numpy as np
+
 from studies.errors import DataError
 
-__all__ = ["SNIFF_BYTES", "label_and_path", "read_file_bytes", "refuse_binary", "decode_text"]
+__all__ = ["SNIFF_BYTES", "label_and_path", "read_file_bytes", "refuse_binary", "decode_text",
+           "number_rows"]
 
 #: bytes inspected at the start of a file to tell text from binary content
 SNIFF_BYTES = 4096
@@ -103,3 +108,42 @@ def decode_text(data: bytes) -> str:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError:
         return data.decode("latin-1")
+
+
+def number_rows(label: str, lines: list[str], first_line: int, columns, layout: str
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Rows of whitespace-separated numbers of a test facility's ``.dat`` file.
+
+    ``lines`` are the data lines, the first being line ``first_line`` of the
+    file; blank lines are skipped. Returns the numbers (one row per data
+    line, one column per name of ``columns``) and each row's line number.
+    A row with another number of values, a value that is not a number or
+    is not finite, or no row at all is a :class:`DataError` naming the line,
+    the column and the zero-based data row (``layout`` says what is expected).
+    """
+    rows, numbers = [], []
+    for line_number, line in enumerate(lines, start=first_line):
+        tokens = line.split()
+        if not tokens:               # blank or tab-only lines (a file's tail)
+            continue
+        row = len(rows)
+        if len(tokens) != len(columns):
+            raise DataError(label, f"line {line_number} has {len(tokens)} values "
+                            f"instead of {len(columns)}; {layout}", row=row)
+        values = []
+        for name, token in zip(columns, tokens):
+            try:
+                value = float(token)
+            except ValueError:
+                shown = token if len(token) <= 20 else token[:17] + "..."
+                raise DataError(label, f"value '{shown}' on line {line_number} "
+                                "is not a number", column=name, row=row) from None
+            if not math.isfinite(value):
+                raise DataError(label, f"value '{token}' on line {line_number} "
+                                "is not a finite number", column=name, row=row)
+            values.append(value)
+        rows.append(values)
+        numbers.append(line_number)
+    if not rows:
+        raise DataError(label, f"no data rows after the title lines; {layout}")
+    return np.asarray(rows, dtype=np.float64), np.asarray(numbers)

@@ -39,7 +39,7 @@ import numpy as np
 import pandas as pd
 
 from studies.data.contract import validate_manoeuvre
-from studies.data.files import read_file_bytes, refuse_binary
+from studies.data.files import number_rows, read_file_bytes, refuse_binary
 from studies.data.scaling import froude_scale
 from studies.data.ships import ship_named
 from studies.errors import ConfigError, DataError
@@ -78,33 +78,10 @@ def _parse(label: str, text: str) -> tuple[list[str], np.ndarray, np.ndarray]:
     lines = text.splitlines()
     if len(lines) <= HSVA_TITLE_LINES:
         raise DataError(label, f"the file is too short: {_LAYOUT}")
-    rows, numbers = [], []
-    for line_number, line in enumerate(lines[HSVA_TITLE_LINES:], start=HSVA_TITLE_LINES + 1):
-        tokens = line.split()
-        if not tokens:
-            continue
-        row = len(rows)
-        if len(tokens) != len(HSVA_COLUMNS):
-            raise DataError(label, f"line {line_number} has {len(tokens)} values instead of "
-                            f"{len(HSVA_COLUMNS)}; {_LAYOUT}", row=row)
-        values = []
-        for name, token in zip(HSVA_COLUMNS, tokens):
-            try:
-                value = float(token)
-            except ValueError:
-                shown = token if len(token) <= 20 else token[:17] + "..."
-                raise DataError(label, f"value '{shown}' on line {line_number} is not a number",
-                                column=name, row=row) from None
-            if not math.isfinite(value):
-                raise DataError(label, f"value '{token}' on line {line_number} is not a finite "
-                                "number", column=name, row=row)
-            values.append(value)
-        rows.append(values)
-        numbers.append(line_number)
-    if not rows:
-        raise DataError(label, f"no data rows after the title lines; {_LAYOUT}")
+    numbers, line_numbers = number_rows(label, lines[HSVA_TITLE_LINES:], HSVA_TITLE_LINES + 1, HSVA_COLUMNS,
+                                        _LAYOUT)
     titles = [line.strip() for line in lines[:HSVA_TITLE_LINES]]
-    return titles, np.asarray(rows, dtype=np.float64), np.asarray(numbers)
+    return titles, numbers, line_numbers
 
 
 def read_hsva(path, full_scale: bool = False, scale: float = HSVA_SCALE, *,

@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from studies.data.contract import validate_manoeuvre
-from studies.data.files import decode_text, read_file_bytes, refuse_binary
+from studies.data.files import decode_text, number_rows, read_file_bytes, refuse_binary
 from studies.data.scaling import froude_scale
 from studies.data.ships import ship_named
 from studies.errors import ConfigError, DataError
@@ -51,34 +51,8 @@ def _parse(label: str, text: str) -> tuple[str, np.ndarray, np.ndarray]:
                 continue
             raise DataError(label, f"line {k + 1} holds numbers, not a title; "
                             f"{layout}")
-    rows: list[list[float]] = []
-    line_numbers: list[int] = []
-    for line_number, line in enumerate(lines[2:], start=3):
-        tokens = line.split()
-        if not tokens:               # blank or tab-only lines (the file's tail)
-            continue
-        row = len(rows)
-        if len(tokens) != len(MARIN_COLUMNS):
-            raise DataError(label, f"line {line_number} has {len(tokens)} values "
-                            f"instead of {len(MARIN_COLUMNS)}; {layout}", row=row)
-        values = []
-        for name, token in zip(MARIN_COLUMNS, tokens):
-            try:
-                value = float(token)
-            except ValueError:
-                shown = token if len(token) <= 20 else token[:17] + "..."
-                raise DataError(label, f"value '{shown}' on line {line_number} "
-                                "is not a number", column=name, row=row) from None
-            if not math.isfinite(value):
-                raise DataError(label, f"value '{token}' on line {line_number} "
-                                "is not a finite number", column=name, row=row)
-            values.append(value)
-        rows.append(values)
-        line_numbers.append(line_number)
-    if not rows:
-        raise DataError(label, f"no data rows after the title lines; {layout}")
-    return lines[1].strip(), np.asarray(rows, dtype=np.float64), \
-        np.asarray(line_numbers)
+    numbers, line_numbers = number_rows(label, lines[2:], 3, MARIN_COLUMNS, layout)
+    return lines[1].strip(), numbers, line_numbers
 
 
 def _uniform_time(label: str, stamps: np.ndarray) -> np.ndarray:
