@@ -352,8 +352,9 @@ class SparseRegression:
             kept += xi != 0.0
         return kept / self.ensemble
 
-    def fit_one(self, problem: RegressionProblem) -> tuple[np.ndarray, dict]:
-        """Coefficients (prime, in ``problem.names`` order; 0 = not selected) and metrics."""
+    def fit_one(self, problem: RegressionProblem) -> tuple[np.ndarray, dict, dict]:
+        """Coefficients (prime, in ``problem.names`` order; 0 = not selected), metrics, and what
+        ``sindy_terms.json`` lists of the DOF (threshold, ridge, cross-validation, inclusion)."""
         dof = problem.dof
         x, y, col, ys = _unit_rms(problem)
         metrics, info = {}, {}
@@ -382,9 +383,7 @@ class SparseRegression:
         if not np.any(xi):
             log.warning("sindy %s: threshold %g removed every term", dof, threshold)
         metrics[f"sindy/{dof}/converged"] = float(converged)
-        self._info = getattr(self, "_info", {})
-        self._info[dof] = info
-        return xi * ys / col, metrics
+        return xi * ys / col, metrics, info
 
     def fit(self, problems: dict, objective=None) -> Identification:
         """Select and fit terms per DOF.
@@ -414,13 +413,12 @@ class SparseRegression:
             fitted = problems
         result = Identification()
         terms = {}
-        self._info = {}
         for dof, problem in fitted.items():
             model_names = list(problems[dof].names)
             if problem.theta.shape[1] == 0:
                 terms[dof] = {"selected": [], "extra": [], "dropped": []}
                 continue
-            coef, metrics = self.fit_one(problem)
+            coef, metrics, info = self.fit_one(problem)
             selected = [n for n, c in zip(problem.names, coef) if c != 0.0]
             extra = [n for n in selected if n not in model_names]
             dropped = [n for n in model_names if n not in selected]
@@ -438,7 +436,7 @@ class SparseRegression:
                                    f"sindy/{dof}/n_candidates": float(len(problem.names))})
             if extra:
                 log.info("sindy %s: selected terms beyond the model: %s", dof, ", ".join(extra))
-            terms[dof] = {"selected": selected, "extra": extra, "dropped": dropped, **self._info.get(dof, {})}
+            terms[dof] = {"selected": selected, "extra": extra, "dropped": dropped, **info}
         text = json.dumps(terms, indent=2)
         result.writers["sindy_terms.json"] = lambda path: Path(path).write_text(text + "\n")
         return result
