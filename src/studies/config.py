@@ -43,7 +43,7 @@ __all__ = [
     "MethodConfig", "SvmMethod", "GaMethod", "BayesMethod", "SindyMethod", "ManoeuvreConfig",
     "RunConfig", "DiscoverOptions", "SimulationInput", "DiscoverConfig", "ReportCommandConfig",
     "SimulateCommandConfig",
-    "register", "SCHEMAS", "known_manoeuvres", "manoeuvre_config", "explain_validation_error",
+    "register", "settled_discrepancy", "SCHEMAS", "known_manoeuvres", "manoeuvre_config", "explain_validation_error",
     "CONF_DIR", "compose_settings", "DERIVATIVES", "DISCOVERY_METHODS", "WEIGHTINGS", "STUDIES", "ROLL_TERMS", "ROLL_DAMPING_TERMS",
     "MANOEUVRE_KINDS",
     "SVM_LOSSES", "SINDY_LIBRARIES", "BAYES_MOVES", "BAYES_DISCREPANCIES", "DISTURBANCE_SCALINGS",
@@ -77,7 +77,7 @@ SINDY_LIBRARIES = ("model", "extended")
 #: ``method.moves`` of the Bayesian regression
 BAYES_MOVES = ("de", "stretch")
 #: ``method.discrepancy`` of the Bayesian regression (:mod:`studies.identify.discrepancy`)
-BAYES_DISCREPANCIES = ("none", "process_noise")
+BAYES_DISCREPANCIES = ("auto", "none", "process_noise")
 #: ``wind.convention``: the relative wind and moment of the Blendermann loads
 #: (:class:`studies.vessels.base.WindParticulars`)
 WIND_CONVENTIONS = ("downwind", "zhu2021")
@@ -840,7 +840,11 @@ class MMGModelConfig(ModelConfig):
     cross_validate : bool
         Also hold each measured training record out in turn, identify from
         the others and predict it (``cross_validation.md``, ``cv/...``
-        metrics; :mod:`studies.workflows.cross_validation`).
+        metrics; :mod:`studies.workflows.cross_validation`); with
+        ``method=bayes`` also judge each held-out record's predictive band
+        (``calibration.md``, :mod:`studies.workflows.band_calibration`).
+    cross_validate_jobs : int
+        Folds identified at once (processes), >= 1; results do not depend on it.
     asymmetry : bool
         Add the constant side force and yaw moment ``Y0``, ``N0`` (prime,
         no prior) to the hull: a single-screw ship is not symmetric in calm
@@ -864,6 +868,7 @@ class MMGModelConfig(ModelConfig):
     captive: bool = True
     captive_weight: float = 0.0
     cross_validate: bool = False
+    cross_validate_jobs: int = 1
     asymmetry: bool = False
     fit_wake: bool = False
 
@@ -884,6 +889,9 @@ class MMGModelConfig(ModelConfig):
             raise ConfigError(f"model.weights must be none or speed, got '{self.weights}'")
         if not self.captive_weight >= 0:
             raise ConfigError(f"model.captive_weight must be >= 0, got {self.captive_weight}")
+        self.cross_validate_jobs = _integer("model.cross_validate_jobs", self.cross_validate_jobs)
+        if self.cross_validate_jobs < 1:
+            raise ConfigError(f"model.cross_validate_jobs must be >= 1, got {self.cross_validate_jobs}")
         if self.scale not in MMG_SCALES:
             raise ConfigError(f"model.scale must be one of {', '.join(MMG_SCALES)}, got '{self.scale}'")
 
@@ -1052,7 +1060,9 @@ class BayesMethod(MethodConfig):
         One of :data:`BAYES_DISCREPANCIES`: ``process_noise`` estimates a model
         discrepancy (AR(1) accelerations in surge, sway and yaw) from the
         training records and puts it into the predictive bands; ``none``
-        takes the model as exact.
+        takes the model as exact; ``auto`` (default) is ``process_noise`` on
+        measured records and ``none`` on records the run simulates from a
+        known model (:func:`settled_discrepancy`).
     discrepancy_step : float or None
         Records thinned to about this step [s] for its Kalman filter, > 0;
         None: as sampled.
@@ -1079,7 +1089,7 @@ class BayesMethod(MethodConfig):
     trajectory_prior_width: float = 1.0
     trajectory_init_scale: float = 0.01
     trajectory_autocorr_correction: bool = True
-    discrepancy: str = "none"
+    discrepancy: str = "auto"
     discrepancy_step: Optional[float] = 0.5
     discrepancy_evaluations: int = 600
 
@@ -1613,3 +1623,24 @@ def compose_settings(config_name: str = "config", overrides=()) -> "RunConfig":
 
 
 register()
+
+
+def settled_discrepancy(method, measured: bool) -> str | None:
+    """Settle ``method.discrepancy=auto`` in place; the sentence to log, or None.
+
+    On measured records the model is never exact: the bands carry the
+    model discrepancy (``process_noise``), the setting the leave-one-record-out
+    calibration of the KVLCC2 records judges (``experiment=kvlcc2_calibration``);
+    a model without it is overconfident there. On records simulated from a
+    known model the model is exact and ``auto`` is ``none``. An explicit
+    ``none`` or ``process_noise`` is kept. ``method`` is the typed
+    ``method`` settings; other methods are left alone.
+    """
+    if getattr(method, "discrepancy", None) != "auto":
+        return None
+    method.discrepancy = "process_noise" if measured else "none"
+    if measured:
+        return ("method.discrepancy=auto: process_noise on measured records (the model discrepancy in the "
+                "bands; without it they are overconfident on records the model was not trained on); "
+                "method.discrepancy=none takes the model as exact")
+    return "method.discrepancy=auto: none on records simulated from a known model (the model is exact)"

@@ -65,7 +65,7 @@ from ..plotting import pyplot
 from ..simulate.simulator import replay_plan
 
 __all__ = ["LEVELS", "Z_SCORES", "TRUSTED_COVERAGE", "interval_score", "crps_ensemble", "joint_coverage",
-           "predictive_draws", "band_statistics", "training_envelope", "outside_fraction",
+           "predictive_draws", "band_statistics", "pit_values", "training_envelope", "outside_fraction",
            "trust_verdict", "plot_calibration"]
 
 #: nominal levels of the calibration check
@@ -230,6 +230,47 @@ def band_statistics(states: np.ndarray, diverged: np.ndarray, record: pd.DataFra
             out[f"crps_{ch}_m"] = float("nan")
     out["interval_score_xy_m"] = 0.5 * (out["interval_score_x0_m"] + out["interval_score_y0_m"])
     out["crps_xy_m"] = 0.5 * (out["crps_x0_m"] + out["crps_y0_m"])
+    out.update(pit_values(values, measured, sd, seed))
+    return out
+
+
+#: most samples per record kept for the PIT (one record's neighbouring samples are nearly the same)
+PIT_SAMPLES = 200
+
+
+def pit_values(values: dict, measured: dict, sd: dict, seed: int = 0, samples: int = PIT_SAMPLES) -> dict:
+    """Probability integral transforms of the measurement in the replays, at most ``samples`` per record.
+
+    ``values[ch]`` (m, n) are the finite replays of ``x0`` and ``y0``,
+    ``measured[ch]`` (n,) the measurement and ``sd[ch]`` (n,) its noise [m],
+    added to every replay. Returns ``pit_x0`` and ``pit_y0``: the share of
+    the replays below the measurement at evenly spaced samples, ties split
+    at random (uniform on [0, 1] for a calibrated ensemble; a U shape is an
+    overconfident band, a hump a band wider than needed, a slope a bias);
+    and ``joint_level``: the smallest level of the joint band
+    (:func:`joint_coverage`) that holds the measurement, uniform for a
+    calibrated ensemble, so that its share at or below ``p`` is the joint
+    coverage at level ``p``. Empty arrays without replays.
+    """
+    if not len(values["x0"]) or len(values["x0"]) != len(values["y0"]):
+        return {"pit_x0": np.zeros(0), "pit_y0": np.zeros(0), "joint_level": np.zeros(0)}
+    n = values["x0"].shape[1]
+    rows = np.unique(np.linspace(0, n - 1, min(samples, n)).astype(int))
+    rng = np.random.default_rng([seed, 2])
+    noisy = {ch: values[ch][:, rows] + sd[ch][None, rows] * rng.standard_normal((len(values[ch]), len(rows)))
+             for ch in ("x0", "y0")}
+    out = {}
+    for ch in ("x0", "y0"):
+        y = measured[ch][rows]
+        below = np.sum(noisy[ch] < y[None, :], axis=0)
+        ties = np.sum(noisy[ch] == y[None, :], axis=0)
+        out[f"pit_{ch}"] = (below + rng.uniform(size=len(rows)) * (ties + 1)) / (len(noisy[ch]) + 1)
+    pool = [np.vstack([noisy[ch], measured[ch][None, rows]]) for ch in ("x0", "y0")]
+    score = np.maximum(central_rank_level(pool[0]), central_rank_level(pool[1]))
+    members, mine = score[:-1], score[-1]
+    smaller = np.sum(members < mine[None, :], axis=0)
+    equal = np.sum(members == mine[None, :], axis=0)
+    out["joint_level"] = (smaller + rng.uniform(size=len(rows)) * (equal + 1)) / (len(members) + 1)
     return out
 
 

@@ -393,6 +393,9 @@ class BayesRollEstimator(_Estimator):
                             "bayes/roll/ar_root_modulus": float(np.max(roots))})
         metrics["bayes/runtime_s"] = time.perf_counter() - started
         disc = None
+        if self.discrepancy == "auto":
+            raise ValueError("bayes roll: method.discrepancy=auto must be settled by the run before fitting "
+                             "(studies.config.settled_discrepancy: process_noise on measured records)")
         if self.discrepancy != "none":
             disc = estimate_wander(params, self.terms, records, self.discrepancy_evaluations)
             logger.info("bayes roll: coefficient wander sigma(omega0^2) = %.3g 1/s^2, sigma(b1) = %.3g 1/s, "

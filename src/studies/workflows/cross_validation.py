@@ -26,8 +26,10 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from joblib import Parallel, delayed
 
 from . import manoeuvring as _manoeuvring
+from .band_calibration import held_out_bands
 
 __all__ = ["CV_QUANTITIES", "cross_validate", "cv_table_markdown"]
 
@@ -41,8 +43,28 @@ _HEADINGS = {"rmse_position": "RMSE position [m]", "advance_error_pct": "advance
              "overshoot1_error_deg": "1st overshoot [deg]", "overshoot2_error_deg": "2nd overshoot [deg]"}
 
 
-def cross_validate(run, identify, out_dir: Path) -> tuple[pd.DataFrame, dict]:
-    """Hold each training record of ``run`` out in turn; ``(table, metrics)``.
+def _fold(run, i: int, identify, out_dir: Path, band_draws: int, seed: int):
+    """Record ``i`` of ``run`` held out: ``(name, validation metrics, band rows, PITs)``."""
+    records = list(run.records)
+    held = records[i]
+    name = str(held.attrs.get("name", f"record_{i}"))
+    fold = dataclasses.replace(run, records=records[:i] + records[i + 1:], validation_records=[held])
+    fold.modules = run.modules
+    result, modules, _ = identify(fold)
+    fold.modules = modules
+    params = {n: result.params[n] for n in run.model.names}
+    fold_dir = out_dir / "cross_validation" / name
+    fold_dir.mkdir(parents=True, exist_ok=True)
+    found = _manoeuvring._validate_records(fold, params, fold_dir)
+    if band_draws > 0 and getattr(result, "samples", None):
+        found_rows, pit = held_out_bands(fold, result, held, fold.replay(params, held), band_draws, seed)
+        return name, found, found_rows, pit
+    return name, found, [], {}
+
+
+def cross_validate(run, identify, out_dir: Path, band_draws: int = 0, seed: int = 0,
+                   jobs: int = 1) -> tuple[pd.DataFrame, dict, tuple | None]:
+    """Hold each training record of ``run`` out in turn; ``(table, metrics, bands)``.
 
     Parameters
     ----------
@@ -54,6 +76,16 @@ def cross_validate(run, identify, out_dir: Path) -> tuple[pd.DataFrame, dict]:
     out_dir : Path
         The run's output folder; each fold writes under
         ``cross_validation/<record>/``.
+    band_draws : int
+        With posterior samples (``method=bayes``) and ``band_draws > 0``,
+        each held-out record's predictive band and its coefficient-only
+        baseline are judged on it
+        (:func:`studies.workflows.band_calibration.held_out_bands`).
+    seed : int
+        Seed of the posterior draws and the discrepancy's realisations.
+    jobs : int
+        Folds identified at once (joblib processes); the results do not
+        depend on it.
 
     Returns
     -------
@@ -63,20 +95,21 @@ def cross_validate(run, identify, out_dir: Path) -> tuple[pd.DataFrame, dict]:
     metrics : dict
         ``cv/<record>/<quantity>``, ``cv/median_abs/<quantity>`` and
         ``cv/folds``.
+    bands : tuple or None
+        ``(table, pit)``: one row per record and band, and per band the
+        list of the records' PIT arrays; None without posterior samples.
     """
     rows, metrics = [], {}
+    band_rows, pits = [], {}
     records = list(run.records)
-    for i, held in enumerate(records):
-        name = str(held.attrs.get("name", f"record_{i}"))
-        others = records[:i] + records[i + 1:]
-        fold = dataclasses.replace(run, records=others, validation_records=[held])
-        fold.modules = run.modules
-        result, modules, _ = identify(fold)
-        fold.modules = modules
-        params = {n: result.params[n] for n in run.model.names}
-        fold_dir = Path(out_dir) / "cross_validation" / name
-        fold_dir.mkdir(parents=True, exist_ok=True)
-        found = _manoeuvring._validate_records(fold, params, fold_dir)
+    n_jobs = max(1, min(int(jobs), len(records)))
+    folds = Parallel(n_jobs=n_jobs)(delayed(_fold)(run, i, identify, Path(out_dir), band_draws, seed)
+                                    for i in range(len(records))) if n_jobs > 1 else \
+        [_fold(run, i, identify, Path(out_dir), band_draws, seed) for i in range(len(records))]
+    for name, found, found_rows, pit in folds:
+        band_rows += found_rows
+        for band, values in pit.items():
+            pits.setdefault(band, []).append(values)
         for quantity in CV_QUANTITIES:
             value = found.get(f"{name}/{quantity}")
             if value is None or not np.isfinite(value):
@@ -89,7 +122,8 @@ def cross_validate(run, identify, out_dir: Path) -> tuple[pd.DataFrame, dict]:
         if len(values):
             metrics[f"cv/median_abs/{quantity}"] = float(np.median(np.abs(values)))
     metrics["cv/folds"] = float(len(records))
-    return table, metrics
+    bands = (pd.DataFrame(band_rows), pits) if band_rows else None
+    return table, metrics, bands
 
 
 def cv_table_markdown(table: pd.DataFrame, title: str, scale: str) -> str:

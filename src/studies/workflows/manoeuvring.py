@@ -28,6 +28,8 @@ with units, in :mod:`studies.config`.
 
 from __future__ import annotations
 
+import logging
+
 import dataclasses
 import json
 import time
@@ -37,7 +39,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..config import RunConfig
+from ..config import RunConfig, settled_discrepancy
 from ..analysis.characteristics import characteristics, manoeuvre_kind
 from ..analysis.bands import (TRUSTED_COVERAGE, outside_fraction, plot_calibration, training_envelope,
                               trust_verdict)
@@ -68,6 +70,8 @@ from .simplify import ensure_definition
 from .study import Recorder
 from .vessel_choice import settle_vessel
 from ..config import DERIVATIVES
+
+logger = logging.getLogger(__name__)
 
 __all__ = ["Study", "prepare", "execute", "simulate_training", "coefficient_table", "run_name",
            "identified_model", "compare_simulated", "validation_manoeuvre"]
@@ -234,6 +238,9 @@ def prepare(cfg: RunConfig, root: Path | None = None, record: Recorder | None = 
         validation = _measured.load_measured(settings.validate_paths) if settings.validate_paths else []
     measured = bool(settings.data_paths) and _is_measured_study(vessel, settings.data_paths, derivative,
                                                                 resample_dt)
+    said = settled_discrepancy(cfg.method, bool(settings.data_paths))
+    if said:
+        logger.info(said)
     return Study(cfg, settings, vessel, model, method, records, truth, validation, measured)
 
 

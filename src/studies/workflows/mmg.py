@@ -39,6 +39,8 @@ U^2``), the same at every scale.
 
 from __future__ import annotations
 
+import logging
+
 import dataclasses
 import json
 import math
@@ -50,7 +52,7 @@ import numpy as np
 import pandas as pd
 
 from ..analysis.captive import captive_comparison, plot_captive
-from ..config import MethodConfig, MMGModelConfig, RunConfig
+from ..config import MethodConfig, MMGModelConfig, RunConfig, settled_discrepancy
 from ..data.captive import read_captive
 from ..environment.conditions import Environment
 from ..environment.noise import add_measurement_noise
@@ -69,11 +71,14 @@ from . import manoeuvring as _manoeuvring
 from . import measured as _measured
 from ..data.scaling import scale_label
 from ..papers import get_paper, published
+from .band_calibration import write_band_calibration
 from .cross_validation import cross_validate, cv_table_markdown
 from .sparse_terms import sindy_beside_ls
 from .identified_model import IDENTIFIED_MODEL_FILE
 from .settings import read_settings
 from .vessel_choice import settle_vessel
+
+logger = logging.getLogger(__name__)
 
 __all__ = ["MMGRun", "is_mmg", "prepare_mmg", "execute_mmg", "choose_scale"]
 
@@ -198,6 +203,9 @@ def prepare_mmg(cfg: RunConfig, root: Path | None = None, record=None) -> MMGRun
             rec.attrs["name"] = man.name
             records.append(rec)
         measured = False
+    said = settled_discrepancy(cfg.method, measured)
+    if said:
+        logger.info(said)
     return MMGRun(cfg, settings, vessel, model, method, records, truth, validation, measured,
                   vessel.modules)
 
@@ -378,13 +386,21 @@ def _records_scale(run: MMGRun) -> str:
 
 def _cross_validation(run: MMGRun, out_dir: Path) -> dict:
     """Leave-one-record-out over the training records (``model.cross_validate``)."""
-    table, metrics = cross_validate(run, identify_mmg, out_dir)
+    table, metrics, bands = cross_validate(run, identify_mmg, out_dir, int(run.cfg.validate.band_draws),
+                                           run.settings.seed, run.cfg.model.cross_validate_jobs)
     table.to_csv(out_dir / "cross_validation.csv", index=False)
     facilities = sorted({str(r.attrs.get("facility", "")) for r in run.records} - {""})
     title = "Leave-one-record-out cross-validation" + (f" over the {' and '.join(facilities)} records"
                                                       if facilities else "")
     (out_dir / "cross_validation.md").write_text(cv_table_markdown(table, title, _records_scale(run)))
+    if bands is not None:
+        metrics.update(write_band_calibration(bands, out_dir, _discrepancy_setting(run), _records_scale(run)))
     return metrics
+
+
+def _discrepancy_setting(run: MMGRun) -> str:
+    return (f"model={run.model.name}, method=bayes, method.discrepancy="
+            f"{getattr(run.cfg.method, 'discrepancy', 'none')}")
 
 
 def _captive(run: MMGRun, params: dict, modules, out_dir: Path) -> dict:

@@ -6,12 +6,14 @@ study itself is :func:`studies.workflows.roll.run_roll_study`.
 
 from __future__ import annotations
 
+import logging
+
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ..config import BayesMethod, RunConfig
+from ..config import BayesMethod, RunConfig, settled_discrepancy
 from ..roll.records import find_particulars, load_roll_decay, record_vessel
 from ..errors import ConfigError
 from ..roll.methods import ROLL_METHODS
@@ -19,6 +21,8 @@ from ..roll.simulate import simulate_decay_record
 from .roll import run_roll_study
 from .settings import as_path_list
 from ..config import ROLL_TERMS
+
+logger = logging.getLogger(__name__)
 
 __all__ = ["RollStudy", "prepare_roll", "execute_roll", "ROLL_TERMS", "BAYES_SETTINGS"]
 
@@ -95,6 +99,9 @@ def prepare_roll(cfg: RunConfig) -> RollStudy:
     synthetic = None
     if not data:
         synthetic = asdict(cfg.model.synthetic)
+    said = settled_discrepancy(cfg.method, bool(data))
+    if said:
+        logger.info(said)
     settings = ({key: getattr(cfg.method, key) for key in BAYES_SETTINGS}
                 if isinstance(cfg.method, BayesMethod) else None)
     return RollStudy(cfg, data, validate, str(simulation) if simulation else None, terms, method,

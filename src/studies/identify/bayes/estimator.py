@@ -248,6 +248,9 @@ class BayesianRegression:
             traj = self.sample_trajectory(objective, result.params, terms)
             result.update(traj)
         result.metrics["bayes/runtime_s"] = time.perf_counter() - started
+        if self.discrepancy == "auto":
+            raise ValueError("bayes: method.discrepancy=auto must be settled by the run before fitting "
+                             "(studies.config.settled_discrepancy: process_noise on measured records)")
         if self.discrepancy != "none":
             result.update(self.estimate_discrepancy(objective, result.params))
         return result
