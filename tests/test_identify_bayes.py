@@ -232,3 +232,37 @@ def test_bad_settings_are_refused():
                 {"trajectory_terms": "Yv"}):
         with pytest.raises(ConfigError):
             BayesianRegression(**bad)
+
+
+def _short_chain_problem():
+    """A two-coefficient regression whose planned chain (two steps after burn-in) is far
+    shorter than 50 autocorrelation times."""
+    from studies.identify.regression import RegressionProblem
+
+    rng = np.random.default_rng(4)
+    theta = rng.standard_normal((400, 2))
+    theta[:, 1] = theta[:, 0] + 0.05 * rng.standard_normal(400)     # nearly collinear: slow mixing
+    y = theta @ np.array([1.0, -0.5]) + 0.1 * rng.standard_normal(400)
+    return RegressionProblem("Y", theta, y, ["a", "b"], record=np.zeros(400, int), time=np.arange(400.0))
+
+
+def test_a_chain_that_has_not_converged_runs_longer_by_itself_within_its_budget(caplog):
+    problem = _short_chain_problem()
+    planned = dict(n_walkers=8, n_samples=16, burn_in=200, thin=1, autocorr_correction=False)
+    with caplog.at_level(logging.WARNING):
+        short = BayesianRegression(**planned).fit_one(problem)
+    assert short.metrics["bayes/Y/converged"] == 0.0
+    assert any("has not converged" in r.getMessage() and "method.max_steps" in r.getMessage()
+               for r in caplog.records)
+    caplog.clear()
+    with caplog.at_level(logging.WARNING):
+        longer = BayesianRegression(**planned, max_steps=20000).fit_one(problem)
+    assert longer.metrics["bayes/Y/converged"] == 1.0
+    assert longer.metrics["bayes/Y/steps"] > 200 + 50 * longer.metrics["bayes/Y/autocorr_time_max"]
+    assert len(longer.samples["Y"]["values"]) == 16
+    assert not [r for r in caplog.records if r.levelno >= logging.WARNING]   # nor emcee's raw warning
+    caplog.clear()
+    with caplog.at_level(logging.WARNING):
+        capped = BayesianRegression(**planned, max_steps=20).fit_one(problem)
+    assert capped.metrics["bayes/Y/converged"] == 0.0
+    assert [r.getMessage() for r in caplog.records if "within method.max_steps=20" in r.getMessage()]

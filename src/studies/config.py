@@ -1013,7 +1013,7 @@ class BayesMethod(MethodConfig):
     residuals; false: independent ones, the model taken as exact),
     ``discrepancy`` (``process_noise``: wander of the roll stiffness and
     linear damping, :mod:`studies.roll.discrepancy`) and
-    ``discrepancy_evaluations``; the ``trajectory_*`` settings and
+    ``discrepancy_evaluations`` and ``max_steps``; the ``trajectory_*`` settings and
     ``discrepancy_step`` belong to the manoeuvring posterior.
 
     Attributes
@@ -1068,6 +1068,11 @@ class BayesMethod(MethodConfig):
         None: as sampled.
     discrepancy_evaluations : int
         Most likelihood evaluations of its estimate, >= 1.
+    max_steps : int or None
+        The budget of a chain that has not converged (shorter than 50
+        autocorrelation times): it runs on by itself up to this many steps
+        after burn-in, then warns in one line naming this setting; None:
+        never extended.
     """
 
     n_walkers: Optional[int] = None
@@ -1092,9 +1097,14 @@ class BayesMethod(MethodConfig):
     discrepancy: str = "auto"
     discrepancy_step: Optional[float] = 0.5
     discrepancy_evaluations: int = 600
+    max_steps: Optional[int] = 50000
 
     def __post_init__(self):
         self.discrepancy = _choice("method.discrepancy", self.discrepancy, BAYES_DISCREPANCIES)
+        if self.max_steps is not None:
+            self.max_steps = _integer("method.max_steps", self.max_steps)
+            if self.max_steps < 1:
+                raise ConfigError(f"method.max_steps must be null or >= 1, got {self.max_steps}")
         self.discrepancy_step = _optional_number("method.discrepancy_step", self.discrepancy_step)
         if self.discrepancy_step is not None and self.discrepancy_step <= 0:
             raise ConfigError("method.discrepancy_step must be positive [s] or null, "

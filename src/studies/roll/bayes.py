@@ -148,6 +148,9 @@ class DecayPosterior:
         The NLS initial state of each record [rad, rad/s].
     points_per_period : int
         Compared samples per roll period.
+    max_steps : int, optional
+        A chain shorter than 50 autocorrelation times runs on by itself up to
+        this many steps after burn-in (``method.max_steps``); None: never.
     autoregressive : bool
         AR(2) residuals (module docstring); ``False`` takes them as
         independent (``pacf1 = pacf2 = 0``, not sampled).
@@ -332,7 +335,7 @@ class BayesRollEstimator(_Estimator):
                  n_samples: int = 10_000, burn_in: int = 500, thin: int = 12, seed: int = 0,
                  init_scale: float = 0.1, moves: str = "de", autocorr_correction: bool = True,
                  discrepancy: str = "none", discrepancy_evaluations: int = 300,
-                 points_per_period: int = POINTS_PER_PERIOD):
+                 points_per_period: int = POINTS_PER_PERIOD, max_steps: int | None = None):
         super().__init__(terms, seed)
         if discrepancy not in DISCREPANCIES:
             raise ConfigError(f"method.discrepancy must be one of {', '.join(DISCREPANCIES)}, got {discrepancy!r}")
@@ -353,6 +356,9 @@ class BayesRollEstimator(_Estimator):
         self.discrepancy = str(discrepancy)
         self.discrepancy_evaluations = int(discrepancy_evaluations)
         self.points_per_period = int(points_per_period)
+        if max_steps is not None and (int(max_steps) != max_steps or max_steps < 1):
+            raise ConfigError(f"method.max_steps must be null or an integer >= 1, got {max_steps!r}")
+        self.max_steps = None if max_steps is None else int(max_steps)
 
     def _prepare(self) -> None:
         compiled_rk4()
@@ -365,7 +371,7 @@ class BayesRollEstimator(_Estimator):
                               self.autocorr_correction)
         walkers = self.n_walkers or max(32, 2 * post.ndim)
         chain, diag = sample_regression_chain(post, walkers, self.n_samples, self.burn_in, self.thin,
-                                              self.init_scale, self.moves, self.seed, "roll")
+                                              self.init_scale, self.moves, self.seed, "roll", self.max_steps)
         values = post.values(chain)
         k = post.k
         names = list(self.model.param_names)

@@ -29,7 +29,7 @@ __all__ = ["RollStudy", "prepare_roll", "execute_roll", "ROLL_TERMS", "BAYES_SET
 #: the ``method=bayes`` settings the roll posterior reads (the others, ``trajectory_*`` and
 #: ``discrepancy_step``, belong to the manoeuvring posterior)
 BAYES_SETTINGS = ("n_walkers", "n_samples", "burn_in", "thin", "seed", "init_scale", "moves",
-                  "autocorr_correction", "discrepancy", "discrepancy_evaluations")
+                  "autocorr_correction", "discrepancy", "discrepancy_evaluations", "max_steps")
 
 
 @dataclass

@@ -11,6 +11,8 @@ run goes on, for the run's step metrics.
 
 from __future__ import annotations
 
+import warnings
+
 import logging
 from dataclasses import dataclass, field
 
@@ -144,8 +146,20 @@ class ChainHistory:
         return {k: v for k, v in out.items() if v}
 
 
+def autocorr_time(sampler, burn_in: int) -> float:
+    """Largest integrated autocorrelation time [steps] of the chain after
+    ``burn_in``, without emcee's warning about a short chain (nan when it
+    cannot be estimated)."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)       # a chain of one or two steps
+            return float(np.max(sampler.get_autocorr_time(discard=burn_in, tol=0)))
+    except (AutocorrError, ValueError, FloatingPointError):
+        return float("nan")
+
+
 def diagnose(sampler, burn_in: int, steps: int, label: str,
-             history: ChainHistory | None = None) -> ChainDiagnostics:
+             history: ChainHistory | None = None, budget: int | None = None) -> ChainDiagnostics:
     """Acceptance, autocorrelation time and the convergence verdict; warns when bad.
 
     Parameters
@@ -160,15 +174,13 @@ def diagnose(sampler, burn_in: int, steps: int, label: str,
         Names the run in the warning (a DOF or ``"trajectory"``).
     history : ChainHistory, optional
         The run's checkpoints; the final autocorrelation time is added to it.
+    budget : int, optional
+        The chain was extended up to this many steps (``method.max_steps``):
+        the warning names that setting.
     """
     acc = float(np.mean(sampler.acceptance_fraction))
     reasons = []
-    try:
-        tau = sampler.get_autocorr_time(discard=burn_in, quiet=True)
-        tau_max = float(np.max(tau))
-    except AutocorrError as exc:  # only raised with quiet=False, kept for safety
-        tau_max = float("nan")
-        reasons.append(f"autocorrelation time not estimable ({exc})")
+    tau_max = autocorr_time(sampler, burn_in)
     if not np.isfinite(tau_max):
         if not reasons:
             reasons.append("autocorrelation time not estimable")
@@ -183,9 +195,12 @@ def diagnose(sampler, burn_in: int, steps: int, label: str,
     if history is not None and np.isfinite(tau_max):
         history.autocorr.append((history.offset + burn_in + steps, tau_max))
     diag = ChainDiagnostics(acc, tau_max, n_eff, steps, not reasons, reasons, history)
-    if reasons:
+    if reasons and budget is not None:
+        logger.warning("bayes %s: the sampler has not converged within method.max_steps=%d: %s; the "
+                       "quantiles are not reliable (raise method.max_steps)", label, budget, "; ".join(reasons))
+    elif reasons:
         logger.warning("bayes %s: the sampler has not converged: %s; the quantiles are not "
-                       "reliable (run longer: burn_in, n_samples, thin, or more walkers)",
+                       "reliable (run longer: method.max_steps, burn_in, n_samples, thin, or more walkers)",
                        label, "; ".join(reasons))
     return diag
 

@@ -114,7 +114,7 @@ class BayesianRegression:
                  trajectory_duration: float | None = 600.0, trajectory_prior_width: float = 1.0,
                  trajectory_init_scale: float = 0.01, trajectory_autocorr_correction: bool = True,
                  discrepancy: str = "none", discrepancy_step: float | None = 0.5,
-                 discrepancy_evaluations: int = 600):
+                 discrepancy_evaluations: int = 600, max_steps: int | None = None):
         for key, value, low in (("n_samples", n_samples, 1), ("burn_in", burn_in, 0),
                                 ("thin", thin, 1), ("trajectory_steps", trajectory_steps, 1),
                                 ("trajectory_burn_in", trajectory_burn_in, 0),
@@ -166,6 +166,9 @@ class BayesianRegression:
         self.discrepancy = str(discrepancy)
         self.discrepancy_step = None if discrepancy_step is None else float(discrepancy_step)
         self.discrepancy_evaluations = int(discrepancy_evaluations)
+        if max_steps is not None and (int(max_steps) != max_steps or max_steps < 1):
+            raise ConfigError(f"method.max_steps must be null or an integer >= 1, got {max_steps!r}")
+        self.max_steps = None if max_steps is None else int(max_steps)
 
     # ------------------------------------------------------------------ (a)
     def fit_one(self, problem: RegressionProblem, seed: int | None = None) -> Identification:
@@ -182,7 +185,8 @@ class BayesianRegression:
         walkers = self.n_walkers or max(32, 2 * ndim)
         seed = self.seed + "XYN".find(dof) + 1 if seed is None else seed
         chain, diag = sample_regression_chain(post, walkers, self.n_samples, self.burn_in,
-                                              self.thin, self.init_scale, self.moves, seed, dof)
+                                              self.thin, self.init_scale, self.moves, seed, dof,
+                                              self.max_steps)
         coef, sigma = post.to_coefficients(chain)
         q05, q50, q95 = np.quantile(coef, [0.05, 0.5, 0.95], axis=0)
         names = list(problem.names)

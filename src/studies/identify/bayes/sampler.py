@@ -24,7 +24,7 @@ from emcee.state import State
 
 from ... import interrupt
 from ...errors import ConfigError
-from .diagnostics import ChainDiagnostics, ChainHistory, diagnose
+from .diagnostics import MIN_TAU_MULTIPLE, ChainDiagnostics, ChainHistory, autocorr_time, diagnose
 from .likelihood import RegressionPosterior, TrajectoryLikelihood
 
 __all__ = ["ensemble_moves", "run_with_progress", "ensemble_sampler", "sample_regression_chain",
@@ -118,15 +118,24 @@ def ensemble_sampler(log_prob, n_walkers: int, ndim: int, moves, seed: int) -> e
     return sampler
 
 
+#: a chain extended for convergence is extended to this multiple of 50 autocorrelation times
+EXTENSION_MARGIN = 1.2
+
+
 def sample_regression_chain(post: RegressionPosterior, n_walkers: int, n_samples: int,
                             burn_in: int, thin: int, init_scale: float, moves: str, seed: int,
-                            label: str) -> tuple[np.ndarray, ChainDiagnostics]:
+                            label: str, max_steps: int | None = None) -> tuple[np.ndarray, ChainDiagnostics]:
     """Sample the regression posterior (a) of one DOF.
 
     The walkers start in a ball of radius ``init_scale`` around the
     least-squares solution (sampled coordinates, i.e. LS standard errors);
     the chain after ``burn_in`` has ``thin * ceil(n_samples / n_walkers)``
-    steps.
+    steps. With ``max_steps``, a chain shorter than 50 autocorrelation
+    times runs on by itself from where it stopped, to
+    :data:`EXTENSION_MARGIN` x 50 times the autocorrelation time measured
+    so far, again while it falls short, until it converges or reaches
+    ``max_steps`` steps after burn-in (the budget); the ``n_samples`` kept
+    are then thinned from the whole chain.
 
     Parameters
     ----------
@@ -140,6 +149,9 @@ def sample_regression_chain(post: RegressionPosterior, n_walkers: int, n_samples
         Seed of the initial ball and of the sampler.
     label : str
         The DOF, for the progress log and the diagnostics.
+    max_steps : int, optional
+        Most steps after burn-in when the chain is extended for convergence
+        (``method.max_steps``); None: never extended.
 
     Returns
     -------
@@ -156,9 +168,25 @@ def sample_regression_chain(post: RegressionPosterior, n_walkers: int, n_samples
     sampler = ensemble_sampler(post.log_prob, n_walkers, ndim,
                                ensemble_moves(moves, n_walkers, ndim), seed)
     history = ChainHistory(burn_in + steps, burn_in)
-    run_with_progress(sampler, x0, burn_in + steps, f"bayes {label}", history)
-    diag = diagnose(sampler, burn_in, steps, label, history)
-    chain = sampler.get_chain(discard=burn_in, thin=thin, flat=True)[-n_samples:]
+    state = run_with_progress(sampler, x0, burn_in + steps, f"bayes {label}", history)
+    planned = steps
+    while max_steps is not None and steps < max_steps:
+        tau = autocorr_time(sampler, burn_in)
+        if np.isfinite(tau) and steps > MIN_TAU_MULTIPLE * tau:
+            break
+        # too short to estimate the autocorrelation time: double it
+        target = EXTENSION_MARGIN * MIN_TAU_MULTIPLE * tau if np.isfinite(tau) else 2 * steps + 100
+        more = min(int(np.ceil(target)), int(max_steps)) - steps
+        if more <= 0:
+            break
+        logger.info("bayes %s: chain of %d steps shorter than %g autocorrelation times (%s): "
+                    "running %d more (method.max_steps=%d)", label, steps, MIN_TAU_MULTIPLE,
+                    f"{tau:.0f} steps" if np.isfinite(tau) else "not yet estimable", more, max_steps)
+        state = run_with_progress(sampler, state, more, f"bayes {label} (longer)")
+        steps += more
+    diag = diagnose(sampler, burn_in, steps, label, history, budget=max_steps if steps > planned else None)
+    every = max(thin, (steps * n_walkers) // max(n_samples, 1)) if steps > planned else thin
+    chain = sampler.get_chain(discard=burn_in, thin=every, flat=True)[-n_samples:]
     return chain, diag
 
 
