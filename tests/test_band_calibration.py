@@ -120,3 +120,38 @@ def test_bands_of_held_out_kvlcc2_records_are_calibrated_and_the_model_alone_is_
     assert band["interval_score_m"] < base["interval_score_m"]
     for name in ("calibration.md", "pit.png", "calibration_pooled.png"):
         assert (out / name).is_file()
+
+
+def test_the_report_shows_the_calibration_page_of_a_run_that_held_each_record_out(tmp_path):
+    from studies.report.builder import build_report
+    from studies.workflows.band_calibration import write_band_calibration
+
+    base = _rows("coefficients_only", [0.3, 0.5, 0.4, 0.6], [0.3, 0.4, 0.5, 0.4], [100, 120, 90, 110])
+    table = pd.DataFrame(_rows("band", [0.9, 0.85, 0.95, 0.9], [1.1, 1.2, 0.9, 1.0], [60, 70, 50, 60]) + base)
+    pit = {band: [_pit(1.0 if band == "band" else 0.4)] for band in ("band", "coefficients_only")}
+    artifacts = tmp_path / "artifacts"
+    artifacts.mkdir()
+    metrics = write_band_calibration((table, pit), artifacts, "model=mmg, method=bayes", "full scale")
+    assert metrics["calibration/band/coverage_90"] == pytest.approx(0.9)
+    assert metrics["calibration/band/crps_gain"] == pytest.approx(1 - 60 / 105)
+
+    class _Run:
+        run_id = "ab" * 16
+        name = "bands held out"
+        status, start_time, tags, url = "FINISHED", 1, {}, "http://127.0.0.1:5000/"
+        params = {"method.name": "bayes", "model.name": "mmg"}
+
+        def __init__(self):
+            self.metrics = metrics
+
+        def artifact(self, path, destination):
+            found = artifacts / path
+            return found if found.is_file() else None
+
+    page = build_report("calibration", [_Run()], tmp_path / "report")
+    text = page.read_text()
+    section = text.split("## Calibration of the bands, each record held out in turn", 1)[1]
+    assert "| r0 | 0.50 | 0.80 | 0.90 | 0.95 |" in section
+    assert "pooled 90 % coverage within 0.85-0.95: 0.90: met" in section
+    for figure in ("pit", "calibration_pooled"):
+        assert (page.parent / f"{figure}_abababab.png").is_file() and f"({figure}_abababab.png)" in section

@@ -400,6 +400,8 @@ def build_report(name: str, runs, report_dir, condition: str | None = None) -> P
         bands = _band_section(items, key, out)
         if bands:
             sections.append(("Predictive bands and their calibration", bands))
+        for title, body in _held_out_calibration(finished, scratch, out):
+            sections.append((title, body))
 
         conditions = sorted({i["condition"] for i in finished}, key=lambda c: (_as_float(c), str(c)))
         extremes = [conditions[0], conditions[-1]] if len(conditions) > 1 else conditions
@@ -431,6 +433,32 @@ def build_report(name: str, runs, report_dir, condition: str | None = None) -> P
     (out / "index.md").write_text(md)
     _write_html(out / "index.html", name, md)
     return out / "index.md"
+
+
+#: figures of a run's calibration page over held-out records (studies.workflows.band_calibration)
+CALIBRATION_FIGURES = ("pit.png", "calibration_pooled.png")
+
+
+def _held_out_calibration(items: list[dict], scratch: Path, out: Path) -> list[tuple[str, str]]:
+    """The calibration page of every run that held each record out with its band
+    (``calibration.md``, :mod:`studies.workflows.band_calibration`): its tables,
+    verdicts and figures (copied beside the report as ``<figure>_<run id>.png``)."""
+    sections = []
+    for i in items:
+        run = i["run"]
+        local = run.artifact("calibration.md", scratch / run.run_id / "calibration")
+        if local is None:
+            continue
+        body = local.read_text().split("\n", 1)[1].replace("\n## ", "\n### ")
+        for figure in CALIBRATION_FIGURES:
+            found = run.artifact(figure, scratch / run.run_id / "calibration")
+            if found is not None:
+                name = f"{Path(figure).stem}_{run.run_id[:8]}.png"
+                shutil.copyfile(found, out / name)
+                body += f"\n![{figure}]({name})\n"
+        label = getattr(run, "name", run.run_id)
+        sections.append((f"Calibration of the bands, each record held out in turn: run {label}", body))
+    return sections
 
 
 def _band_section(items: list[dict], key: str | None, out: Path) -> str:
