@@ -155,3 +155,19 @@ def test_the_report_shows_the_calibration_page_of_a_run_that_held_each_record_ou
     assert "pooled 90 % coverage within 0.85-0.95: 0.90: met" in section
     for figure in ("pit", "calibration_pooled"):
         assert (page.parent / f"{figure}_abababab.png").is_file() and f"({figure}_abababab.png)" in section
+
+
+def test_the_spread_of_a_constant_per_record_is_what_the_records_hold_beyond_the_process():
+    from studies.identify.discrepancy import Discrepancy, record_offsets
+
+    rng = np.random.default_rng(7)
+    sigma, tau, step, n = np.array([1e-3, 2e-3, 2e-5]), 40.0, 2.0, 600       # 1200 s records
+    offset = np.array([0.0, 1.5e-3, 3e-5])
+    with_offsets = Discrepancy("process_noise", sigma, tau, offset_sd=offset)
+    without = Discrepancy("process_noise", sigma, tau)
+    for made, expected in ((with_offsets, offset), (without, np.zeros(3))):
+        means = np.array([made.realise(n, step, rng).mean(axis=0) for _ in range(300)])
+        found = record_offsets(means, np.full(300, n * step), sigma, tau)
+        # the OU part alone leaves about sigma sqrt(2 tau / T) = 0.26 sigma in a record's mean
+        assert np.all(np.abs(found - expected) <= 0.25 * expected + 0.12 * sigma), (found, expected)
+    assert np.all(record_offsets(means[:2], np.full(2, 1200.0), sigma, tau) == 0.0)

@@ -57,6 +57,15 @@ jitter in the velocity channels is otherwise taken for process noise (the
 estimate of sigma grows twenty-fold). Only the training records are used;
 nothing is tuned on the validation records.
 
+Records of the same ship also differ by what stays the same over a run (the
+day's rudder zero, a propeller's side force, a basin's drift): a constant
+acceleration per record, which an Ornstein-Uhlenbeck process correlated over
+tens of seconds does not hold. Its spread (``offset_sd``) is estimated from
+the training records' mean smoothed discrepancy at the estimate, beyond what
+the process alone leaves in a mean over a record (:func:`record_offsets`, a
+method-of-moments random effect; zero with fewer than three records), and
+each replay of a band draws one constant from it.
+
 The error of a replay's measured initial ``u, v, r`` (``initial_sd``) is
 the sensor bias at the start of a record: the smoothed bias at the first
 sample of each training record, with its posterior variance. The RMS of
@@ -102,7 +111,7 @@ from ..simulate.simulator import acceleration_forces
 from .kalman import KalmanSettings, _default_qc, innovation_loglik
 from ..config import BAYES_DISCREPANCIES
 
-__all__ = ["DISCREPANCIES", "Discrepancy", "estimate_process_noise", "thin_record"]
+__all__ = ["DISCREPANCIES", "Discrepancy", "estimate_process_noise", "record_offsets", "thin_record"]
 
 #: ``method.discrepancy``
 DISCREPANCIES = BAYES_DISCREPANCIES
@@ -136,6 +145,15 @@ class Discrepancy:
         How the discrepancy's size grows with the turn: the accelerations act
         as ``(1 + rate_gain |r'|) a`` with ``r' = r L / U`` the prime yaw
         rate (0: the same size in every state).
+    offset_sd : ndarray (3,)
+        Standard deviations of a constant acceleration per record [m/s^2,
+        m/s^2, rad/s^2]: records of the same ship differ by what stays the
+        same over a run (the day's rudder zero, a propeller's side force, a
+        basin's drift), which the Ornstein-Uhlenbeck part, correlated over
+        tens of seconds, does not hold. Estimated from the spread between the
+        training records' mean smoothed discrepancy beyond what the
+        Ornstein-Uhlenbeck part alone gives a mean over the record
+        (:func:`record_offsets`); each replay draws one constant. Zero: none.
     """
 
     kind: str
@@ -145,6 +163,7 @@ class Discrepancy:
     initial_sd: np.ndarray = field(default_factory=lambda: np.zeros(3))
     info: dict = field(default_factory=dict)
     rate_gain: float = 0.0
+    offset_sd: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     @property
     def taus(self) -> np.ndarray:
@@ -172,6 +191,9 @@ class Discrepancy:
         out = np.empty_like(shocks)
         for j in range(3):
             out[:, j], _ = lfilter([1.0], [1.0, -phi[j]], shocks[:, j], zi=[phi[j] * start[j]])
+        offset_sd = np.asarray(self.offset_sd, float)
+        if np.any(offset_sd > 0):
+            out += rng.standard_normal(3) * offset_sd
         return out
 
     @staticmethod
@@ -220,7 +242,10 @@ class Discrepancy:
                f"{prefix}/loglik": float(self.loglik),
                f"{prefix}/initial_sd_u_m_s": float(self.initial_sd[0]),
                f"{prefix}/initial_sd_v_m_s": float(self.initial_sd[1]),
-               f"{prefix}/initial_sd_r_rad_s": float(self.initial_sd[2])}
+               f"{prefix}/initial_sd_r_rad_s": float(self.initial_sd[2]),
+               f"{prefix}/offset_sd_u_m_s2": float(self.offset_sd[0]),
+               f"{prefix}/offset_sd_v_m_s2": float(self.offset_sd[1]),
+               f"{prefix}/offset_sd_r_rad_s2": float(self.offset_sd[2])}
         if vessel is not None:
             for dof, value in zip("XYN", self.force_sigma(vessel)):
                 out[f"{prefix}/sigma_{dof}_prime"] = float(value)
@@ -231,7 +256,7 @@ class Discrepancy:
         """The entry kept in ``Identification.samples["discrepancy"]``."""
         return {"kind": self.kind, "sigma": np.asarray(self.sigma, float).copy(), "tau": self.taus,
                 "loglik": float(self.loglik), "initial_sd": np.asarray(self.initial_sd, float).copy(),
-                "rate_gain": float(self.rate_gain)}
+                "rate_gain": float(self.rate_gain), "offset_sd": np.asarray(self.offset_sd, float).copy()}
 
     @classmethod
     def from_sample(cls, entry: dict | None) -> "Discrepancy | None":
@@ -242,7 +267,8 @@ class Discrepancy:
                    np.broadcast_to(np.asarray(entry["tau"], float), (3,)).copy(),
                    float(entry.get("loglik", float("nan"))),
                    np.asarray(entry.get("initial_sd", np.zeros(3)), float), {},
-                   float(entry.get("rate_gain", 0.0)))
+                   float(entry.get("rate_gain", 0.0)),
+                   np.asarray(entry.get("offset_sd", np.zeros(3)), float))
 
 
 def thin_record(record: pd.DataFrame, step: float | None) -> pd.DataFrame:
@@ -271,7 +297,8 @@ def _reference_acceleration(records) -> np.ndarray:
 
 def estimate_process_noise(model, values: dict, vessel, records, settings: KalmanSettings | None = None,
                            step: float | None = 0.5, max_evaluations: int = 600, modules=None,
-                           channel_taus: bool = True, rate_gain: bool = True) -> Discrepancy:
+                           channel_taus: bool = True, rate_gain: bool = True,
+                           offsets: bool = True) -> Discrepancy:
     """Prediction-error estimate of the discrepancy (module docstring).
 
     Parameters
@@ -294,6 +321,9 @@ def estimate_process_noise(model, values: dict, vessel, records, settings: Kalma
         One correlation time per channel (else one shared by the three).
     rate_gain : bool
         Estimate the growth of the discrepancy's size with ``|r'|`` (else 0).
+    offsets : bool
+        Estimate the spread of a constant acceleration per record
+        (:func:`record_offsets`; else none).
     """
     started = time.perf_counter()
     if not records:
@@ -378,16 +408,45 @@ def estimate_process_noise(model, values: dict, vessel, records, settings: Kalma
     # the error of a record's measured first u, v, r beyond the sensor noise: the smoothed
     # sensor bias at the training records' first samples, with its posterior variance (the
     # RMS over whole records would count what the biases absorb later, e.g. in a turn)
-    starts = []
+    starts, means, durations = [], [], []
     for rec in thinned:
         _, states, var = innovation_loglik(rec, model, values, vessel, sigma, tau, used, smooth=True,
                                            modules=modules, gain=gain)
         starts.append(states[0, 9:12] ** 2 + var[0, 9:12])
+        means.append(np.mean(states[:, 6:9], axis=0))
+        t = rec["t"].to_numpy(float)
+        durations.append(float(t[-1] - t[0]))
     initial_sd = np.sqrt(np.mean(starts, axis=0))
+    offset_sd = record_offsets(np.asarray(means), np.asarray(durations), sigma, tau) if offsets \
+        else np.zeros(3)
     free = slice(0, len(theta) - int(with_gain))          # a slope of zero is no bound
     info = {"evaluations": float(evaluations[0]), "runtime_s": time.perf_counter() - started,
             "bias_fraction": float(used.bias_fraction) if biased else 0.0,
             "step_s": float(dt), "converged": float(all(converged)),
             "at_bound": float(bool(np.any(np.isclose(theta[free], low[free], atol=1e-3))
                                    or np.any(np.isclose(theta, high, atol=1e-3))))}
-    return Discrepancy("process_noise", sigma, tau, -value, initial_sd, info, gain)
+    return Discrepancy("process_noise", sigma, tau, -value, initial_sd, info, gain, offset_sd)
+
+
+def record_offsets(means: np.ndarray, durations: np.ndarray, sigma, tau) -> np.ndarray:
+    """Standard deviations (3,) of a constant acceleration per record.
+
+    ``means`` (records, 3) are the records' mean smoothed discrepancy
+    accelerations, ``durations`` (records,) their lengths [s]. An
+    Ornstein-Uhlenbeck process of standard deviation ``sigma`` and
+    correlation time ``tau`` averaged over ``T`` seconds has the variance
+    ``2 sigma^2 tau / T`` (``T >> tau``; at most ``sigma^2``); what the
+    records' mean squares hold beyond that, averaged over the records, is
+    the variance of the constant (the method of moments of a random effect,
+    zero when the records do not differ more than the process explains).
+    Fewer than three records: zeros (a spread needs several).
+    """
+    means = np.atleast_2d(np.asarray(means, float))
+    if len(means) < 3:
+        return np.zeros(3)
+    sigma = np.asarray(sigma, float)
+    tau = np.broadcast_to(np.asarray(tau, float), (3,))
+    durations = np.maximum(np.asarray(durations, float), 1e-9)
+    explained = np.minimum(2.0 * sigma[None, :] ** 2 * tau[None, :] / durations[:, None], sigma[None, :] ** 2)
+    excess = np.mean(means ** 2 - explained, axis=0)
+    return np.sqrt(np.maximum(excess, 0.0))

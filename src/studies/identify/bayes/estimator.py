@@ -272,7 +272,8 @@ class BayesianRegression:
                                        max_evaluations=self.discrepancy_evaluations,
                                        modules=getattr(objective, "modules", None))
         logger.info("bayes: model discrepancy (%s) sigma = %.3g m/s^2, %.3g m/s^2, %.3g rad/s^2, "
-                    "tau = %.1f s, %.1f s, %.1f s", found.kind, *found.sigma, *found.taus)
+                    "tau = %.1f s, %.1f s, %.1f s; constant per record: sd %.3g m/s^2, %.3g m/s^2, "
+                    "%.3g rad/s^2", found.kind, *found.sigma, *found.taus, *found.offset_sd)
         out = Identification()
         out.samples["discrepancy"] = found.as_sample()
         out.metrics.update(found.metrics(objective.vessel))
