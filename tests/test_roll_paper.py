@@ -301,3 +301,24 @@ def test_roll_methods_preset_and_its_report_as_a_user_runs_them(tmp_path):
             assert f"**{short}** ({where})" in causes, (claim, case, start)
     assert "`model_test_21338` (KVLCC2, model 1:68, 0 kn" in page
     assert re.search(r"stands in for the paper's ULCV decay at 12 kn and 20 % UKC", page)
+
+
+def test_the_roll_page_verdicts_follow_their_numbers():
+    """The same numbers on either side of a threshold give the opposite verdict."""
+    from types import SimpleNamespace
+
+    from studies.report.reproduction.roll_paper import (Cell, _period_sentence, quadratic_share_sentence)
+
+    assert "hardly depends" in quadratic_share_sentence(0.03)
+    assert "depends on Table 5's b_phi_phi, and its errors measure" in quadratic_share_sentence(0.4)
+    assert "not measured" in quadratic_share_sentence(float("nan"))
+
+    def cell(p_first, p_last):
+        metrics = {"d/period_first_s": p_first, "d/period_last_s": p_last, "d/amplitude_first_deg": 8.0,
+                   "d/amplitude_last_deg": 1.0, "d/duration_s": 30 * 0.5 * (p_first + p_last),
+                   "d/noise_deg": 0.01}
+        return Cell("d", "nls", SimpleNamespace(metrics=metrics, params={}))
+
+    assert "cannot follow" in _period_sentence(cell(2.0, 2.1), "d")       # 5 %: about 135 deg over 30 periods
+    steady = _period_sentence(cell(2.0, 2.002), "d")                      # 0.1 %: about 3 deg
+    assert "follows it" in steady and "cannot" not in steady
