@@ -416,3 +416,10 @@ def test_a_disagreement_is_called_ill_determined_only_where_the_record_does_not_
     empty = pd.DataFrame()
     assert _cause(-12.5, 14.5, spread["Xuu"], "ls", empty, np.nan, False, True)[0] == ILL_DETERMINED
     assert _cause(44.9, 4.0, spread["Xrr"], "ls", empty, np.nan, False, False)[0] == UNEXPLAINED
+
+
+def test_the_thesis_page_says_how_many_ga_starts_lie_above_the_stop_as_measured():
+    from studies.report.reproduction.thesis import _above_stop
+
+    assert _above_stop([2e-5, 3e-4, 1e-3]) == "every start lies above the stop 1e-05 (3 of 3)"
+    assert _above_stop([2e-5, 5e-6, 1e-3]) == "2 of 3 starts lie above the stop 1e-05"
