@@ -190,8 +190,11 @@ def test_the_scatter_of_the_averaged_model_shrinks_to_its_one_model_when_the_tri
     """Bootstrap of the paper's procedure: trials that all identified the same
     model (Nr 5 % too large) scatter nowhere, their range is that model's
     error; half 5 % too large and half 5 % too small average to the
-    reference within a range that holds zero and lies inside the two, and
-    narrows with the number of trials averaged."""
+    reference within a range that holds zero and lies inside the two. The
+    range holds the uncertainty of the six trials' own mean (two-level
+    bootstrap): far wider than 100 trials drawn from those six alone would
+    give (about 0.33 times the single model's error), and it narrows, less
+    than in proportion, with the number of trials averaged."""
     model = abkowitz()
     names = list(model.names)
     high = np.array([TRUTH[n] * (1.05 if n == "Nr" else 1.0) for n in names])
@@ -208,11 +211,12 @@ def test_the_scatter_of_the_averaged_model_shrinks_to_its_one_model_when_the_tri
                                        draws=20)
     lo, hi = mixed["steady_radius_m/scatter_lo"], mixed["steady_radius_m/scatter_hi"]
     assert mixed["scatter_draws"] == 20 and mixed["scatter_trials"] == svm_paper.PAPER_TRIALS
-    assert lo < 0.0 < hi and hi - lo < abs(single)
+    assert lo < 0.0 < hi and -abs(single) - 0.5 < lo and hi < abs(single) + 0.5
+    assert hi - lo > 0.8 * abs(single)
     # four trials average less of the scatter away than the paper's hundred
     few = svm_paper.averaged_scatter(np.vstack([high] * 3 + [low] * 3), model, VESSEL, manoeuvre, reference,
                                      trials=4, draws=20)
-    assert few["steady_radius_m/scatter_hi"] - few["steady_radius_m/scatter_lo"] > 2 * (hi - lo)
+    assert few["steady_radius_m/scatter_hi"] - few["steady_radius_m/scatter_lo"] > 1.2 * (hi - lo)
 
 
 S3 = "['zigzag_20_20_300', 'zigzag_15_15_300', 'zigzag_10_10_300']"
