@@ -139,12 +139,18 @@ def test_the_thesis_conventions_make_its_data_as_mss_does(hydra):
     """conventions=zhu2021: the thesis' wind and GA fitness, and its records as MSS
     zigzag.m makes them (Euler steps, the rudder laid at 9.5 s, starboard first)
     differenced forward (eq. 3.9)."""
-    cfg = _typed("config", ["experiment=thesis_wind_speed", "conventions=zhu2021"])
-    assert (cfg.wind.convention, cfg.objective.simulation) == ("zhu2021", "closed_loop")
-    assert (cfg.data.scheme, cfg.data.derivative, cfg.manoeuvre.first_sign, cfg.manoeuvre.execute) == \
-        ("euler", "forward", -1, 9.5)
-    plain = _typed("config", ["experiment=thesis_wind_speed"])
-    assert (plain.data.scheme, plain.manoeuvre.first_sign, plain.manoeuvre.execute) == ("rk4", None, None)
+    for preset in ("thesis_wind_speed", "thesis_noise", "thesis_direction"):
+        # a preset named after the thesis uses its set-up by default
+        for cfg in (_typed("config", [f"experiment={preset}"]),
+                    _typed("config", [f"experiment={preset}", "conventions=zhu2021"])):
+            assert (cfg.wind.convention, cfg.objective.simulation) == ("zhu2021", "closed_loop")
+            assert (cfg.data.scheme, cfg.data.derivative, cfg.manoeuvre.first_sign, cfg.manoeuvre.execute) == \
+                ("euler", "forward", -1, 9.5)
+        # the project's own set-up is the named variant
+        project = _typed("config", [f"experiment={preset}", "conventions=project"])
+        assert (project.data.scheme, project.manoeuvre.first_sign, project.manoeuvre.execute) == ("rk4", None, None)
+        assert project.objective.simulation != "closed_loop"
+    assert _typed("config", []).data.scheme == "rk4"
 
 
 def test_roll_model_says_which_study_runs_it(hydra):

@@ -63,7 +63,7 @@ GROUPS = {
 }
 EXPERIMENTS = tuple(GROUPS)
 COMMANDS = [f"studies run experiment={e}" for e in EXPERIMENTS] + \
-    [f"studies run experiment={e} conventions=zhu2021" for e in EXPERIMENTS]
+    [f"studies run experiment={e} conventions=project" for e in EXPERIMENTS]
 METHODS = ("ls", "ls_ga", "svm", "svm_ga")
 #: the thesis' GA stop: eq. 3.43 at or below it ends the GA before its first generation
 STOP_FITNESS = 1e-5
