@@ -62,6 +62,11 @@ PAPERS = {
         "model under disturbance using support vector machine method, Ships and Offshore Structures "
         "16(S1), 13-21",
         {"table4": "wang2021_table4.csv"}),
+    "li2023": Paper(
+        "li2023",
+        "S. Li, T. Wang, G. Li, H. Zhang (2023), Ship maneuvering model optimization for improved "
+        "identification with less excitation, Ocean Engineering 280, 114540",
+        {"tables": "li2023.csv"}),
     "alexandersson2022": Paper(
         "alexandersson2022",
         "M. Alexandersson, W. Mao, J.W. Ringsberg (2022), System identification of vessel manoeuvring "

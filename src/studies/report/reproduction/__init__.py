@@ -30,12 +30,12 @@ from pathlib import Path
 from ...errors import ConfigError
 from ...papers import get_paper
 from ..builder import _report_directory, _write_html
-from . import roll_paper, svm_paper, thesis
+from . import li2023, roll_paper, svm_paper, thesis
 
 __all__ = ["REPRODUCTIONS", "experiments", "build_reproduction"]
 
 #: ``report.compare`` value -> the module that compares that paper
-REPRODUCTIONS = {"thesis": thesis, "svm_paper": svm_paper, "roll_paper": roll_paper}
+REPRODUCTIONS = {"thesis": thesis, "svm_paper": svm_paper, "roll_paper": roll_paper, "li2023": li2023}
 
 
 def _module(paper_id: str):
