@@ -423,3 +423,25 @@ def test_the_thesis_page_says_how_many_ga_starts_lie_above_the_stop_as_measured(
 
     assert _above_stop([2e-5, 3e-4, 1e-3]) == "every start lies above the stop 1e-05 (3 of 3)"
     assert _above_stop([2e-5, 5e-6, 1e-3]) == "2 of 3 starts lie above the stop 1e-05"
+
+
+def test_the_calm_water_tables_are_judged_at_their_printed_precision():
+    """Tables 4.3-4.5: the same page from altered values changes its verdicts."""
+    from studies.papers import published
+    from studies.report.reproduction.thesis import calm_verdicts
+
+    paper = published("thesis", "calm")
+    assert len(paper) == 40 and set(paper["table"]) == {"4.3", "4.4", "4.5"}
+    exact = {(m, r.coefficient): float(r.original) for r in paper.itertuples() for m in ("ls", "svm")}
+    found = calm_verdicts(paper, exact).set_index(["coefficient", "method"])
+    assert (found.xs("LS", level="method")["verdict"] == "same").all()            # the thesis' LS is exact
+    assert found.loc[("Y0uu", "SVM"), "verdict"] == "differs"                      # its SVM: -56 %
+    assert "the project's value is the original" in found.loc[("Y0uu", "SVM"), "cause"]
+    assert found.loc[("Xu", "SVM"), "verdict"] == "same"
+    altered = dict(exact)
+    altered[("ls", "Xu")] = -1.90e-3                          # 3 % off: no longer the thesis' -1.84e-3
+    altered[("svm", "Y0uu")] = -1.75e-5                       # the thesis' own SVM value
+    found = calm_verdicts(paper, altered).set_index(["coefficient", "method"])
+    assert found.loc[("Xu", "LS"), "verdict"] == "differs"
+    assert "the project's departs" in found.loc[("Xu", "LS"), "cause"]
+    assert found.loc[("Y0uu", "SVM"), "verdict"] == "same"

@@ -49,7 +49,7 @@ PAPERS = {
         "thesis",
         "M. Zhu (2021), Genetic-algorithm-based parameter identification for ship manoeuvring "
         "model under wind disturbance, MSc thesis, NTNU",
-        {"deviations": "zhu2021_deviations.csv"}),
+        {"deviations": "zhu2021_deviations.csv", "calm": "zhu2021_calm.csv"}),
     "roll_paper": Paper(
         "roll_paper",
         "C. Chen, M. Tello Ruiz, G. Delefortrie, T. Mei, M. Vantorre, E. Lataire (2019), Parameter "

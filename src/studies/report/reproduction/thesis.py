@@ -61,9 +61,9 @@ GROUPS = {
                      "wind-speed error (12 m/s from 45 deg)"),
     "thesis_direction": ("wind.direction", ("4.12", "4.13", "4.14"), "wind direction (12 m/s, -5 % error)"),
 }
-EXPERIMENTS = tuple(GROUPS)
+EXPERIMENTS = tuple(GROUPS) + ("thesis_calm",)
 COMMANDS = [f"studies run experiment={e}" for e in EXPERIMENTS] + \
-    [f"studies run experiment={e} conventions=project" for e in EXPERIMENTS]
+    [f"studies run experiment={e} conventions=project" for e in GROUPS]
 METHODS = ("ls", "ls_ga", "svm", "svm_ga")
 #: the thesis' GA stop: eq. 3.43 at or below it ends the GA before its first generation
 STOP_FITNESS = 1e-5
@@ -789,16 +789,110 @@ def conventions(runs: dict) -> list:
     ]
 
 
+#: the calm-water experiment of Tables 4.3-4.5
+CALM = "thesis_calm"
+
+
+def _printed_digits(value: float, digits: int = 3) -> float:
+    """``value`` rounded to ``digits`` significant digits, as the thesis prints its tables."""
+    if not np.isfinite(value) or value == 0:
+        return value
+    return float(f"{value:.{digits - 1}e}")
+
+
+def calm_verdicts(paper: pd.DataFrame, ours: dict) -> pd.DataFrame:
+    """Tables 4.3-4.5 beside the project's calm-water runs, one row per coefficient and method.
+
+    ``ours`` maps ``(method, coefficient)`` to the project's identified value. A value agrees with
+    the thesis' when both round to the same three significant digits (the tables' precision); for a
+    value that does not, the deviations from the original are compared: ``both off`` when both
+    depart from the original at its printed precision, else ``differs``."""
+    rows = []
+    for r in paper.itertuples():
+        original = float(r.original)
+        for method in ("ls", "svm"):
+            theirs = float(getattr(r, method))
+            mine = ours.get((method, r.coefficient), np.nan)
+            if not np.isfinite(mine):
+                verdict = "not measured"
+            elif _printed_digits(mine) == _printed_digits(theirs):
+                verdict = "same"
+            elif _printed_digits(mine) != _printed_digits(original) and \
+                    _printed_digits(theirs) != _printed_digits(original):
+                verdict = "both off"
+            else:
+                verdict = "differs"
+            cause = "-"
+            if verdict == "differs":
+                if _printed_digits(mine) == _printed_digits(original):
+                    cause = ("the project's value is the original; the thesis' departs"
+                             + (" (its LinearSVR: C = 1, epsilon = 0, unscaled regressors, appendix A.2)"
+                                if method == "svm" else ""))
+                elif _printed_digits(theirs) == _printed_digits(original):
+                    cause = "the thesis' value is the original; the project's departs: not explained"
+                else:
+                    cause = "not explained"
+            rows.append({"table": r.table, "coefficient": r.coefficient, "method": method.upper(),
+                         "original": original, "thesis": theirs, "project": mine,
+                         "thesis dev [%]": 100 * (theirs - original) / original,
+                         "project dev [%]": 100 * (mine - original) / original if np.isfinite(mine) else np.nan,
+                         "verdict": verdict, "cause": cause})
+    return pd.DataFrame(rows)
+
+
+def _calm_section(runs: list, scratch: Path) -> str | None:
+    """Tables 4.3-4.5 (calm water, clean data) beside the latest finished LS and SVM runs of
+    ``experiment=thesis_calm`` in the thesis' set-up; None without such runs."""
+    latest = {}
+    for run in runs or []:
+        if run.status != "FINISHED" or _setup_of(run) != THESIS_SETUP:
+            continue
+        method = run.params.get("method.name")
+        if method in ("ls", "svm") and (method not in latest or run.start_time > latest[method].start_time):
+            latest[method] = run
+    if not latest:
+        return None
+    ours = {}
+    for method, run in latest.items():
+        local = run.artifact("coefficients.csv", scratch / run.run_id)
+        if local is not None:
+            for r in pd.read_csv(local).itertuples():
+                ours[(method, r.name)] = float(r.value)
+    table = calm_verdicts(published("thesis", "calm"), ours)
+    lines = [f"The thesis' Tables 4.3-4.5 (20/20 zig-zag in calm water, clean data) beside the project's "
+             f"`{CALM}` runs in the thesis' set-up. A value agrees when it rounds to the thesis' three "
+             "significant digits; `both off` when both depart from the original at that precision. "
+             "Per table and method:", ""]
+    for (t, method), part in table.groupby(["table", "method"], sort=True):
+        counts = part["verdict"].value_counts()
+        lines.append(f"- Table {t}, {method}: {counts.get('same', 0)} of {len(part)} the same, "
+                     f"{counts.get('both off', 0)} both off the original, {counts.get('differs', 0)} differ"
+                     + (f", {counts.get('not measured', 0)} not measured" if counts.get("not measured") else ""))
+    off = table[table["verdict"] != "same"].copy()
+    if len(off):
+        for col in ("original", "thesis", "project"):
+            off[col] = off[col].map(lambda x: f"{x:.3e}" if np.isfinite(x) else "-")
+        for col in ("thesis dev [%]", "project dev [%]"):
+            off[col] = off[col].map(lambda x: f"{x:+.2f}" if np.isfinite(x) else "-")
+        lines += ["", "The coefficients that are not the same, with the measured cause (the thesis attributes "
+                  "its SVM's departures to \"the instability of the method or selection of regularization "
+                  "factor C\", section 4.1; the project's SVM chooses C by cross-validation):", "",
+                  markdown_table(off.set_index("table"), "table")]
+    return "\n".join(lines) + "\n"
+
+
 def sections(runs: dict, out: Path) -> list:
     scratch = Path(tempfile.mkdtemp(prefix="studies-reproduce-"))
     try:
         ours = _collect(runs, scratch)
+        calm = _calm_section(runs.get(CALM), scratch)
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
     thesis = _thesis()
+    calm_part = [("Tables 4.3-4.5: calm water, clean data", calm)] if calm else []
     if ours.empty:
-        return [("No runs", "The store holds no finished run of the thesis presets.\n")]
-    result = [("Agreement with Tables 4.6-4.14", _overview(ours, thesis)),
+        return calm_part + [("No runs", "The store holds no finished run of the wind presets.\n")]
+    result = calm_part + [("Agreement with Tables 4.6-4.14", _overview(ours, thesis)),
               ("Trends the thesis describes", _trends(ours, thesis))]
     ga = _ga(ours, thesis)
     if ga:
