@@ -445,3 +445,26 @@ def test_the_calm_water_tables_are_judged_at_their_printed_precision():
     assert found.loc[("Xu", "LS"), "verdict"] == "differs"
     assert "the project's departs" in found.loc[("Xu", "LS"), "cause"]
     assert found.loc[("Y0uu", "SVM"), "verdict"] == "same"
+
+
+def test_the_cells_the_thesis_names_for_its_validation_figures_are_judged_on_the_runs():
+    from studies.report.reproduction.thesis import THESIS_SETUP, figure_claims
+
+    rows = []
+    for manoeuvre in ("zigzag_10_10", "zigzag_20_20", "zigzag_40_40"):
+        for speed in (4.0, 8.0, 12.0, 16.0):
+            for method, fitness in (("ls", 3.0), ("ls_ga", 2.0), ("svm", 1.0), ("svm_ga", 1.5)):
+                rows.append({"experiment": "thesis_wind_speed", "setup": THESIS_SETUP, "value": speed,
+                             "series": method, "manoeuvre": manoeuvre, "fitness": fitness, "diverged": False,
+                             "start": 1})
+    table = pd.DataFrame(rows)
+    found = figure_claims(table, THESIS_SETUP)
+    wind = found[found["figure"] == "4.1"]
+    assert (wind["verdict"] == "holds").sum() == 11           # SVM lowest in 9 cells, LS+GA below LS twice
+    assert wind[wind["thesis"] == "SVM+GA lowest"]["verdict"].tolist() == ["does not hold"]
+    assert (found[found["figure"] != "4.1"]["verdict"] == "not measured").all()
+    # the same cells with SVM's prediction diverged at 4 m/s in zig-zag 10/10: that claim fails
+    table.loc[(table["value"] == 4.0) & (table["manoeuvre"] == "zigzag_10_10") & (table["series"] == "svm"),
+              "diverged"] = True
+    again = figure_claims(table, THESIS_SETUP)
+    assert (again[again["figure"] == "4.1"]["verdict"] == "holds").sum() == 10

@@ -494,11 +494,72 @@ def svm_departure(ours: pd.DataFrame, thesis: pd.DataFrame, experiment: str, set
     return mine, theirs
 
 
+#: the cells the thesis' text names for its Figs 4.1-4.3 (sections 4.2.1-4.2.3): (experiment, manoeuvre,
+#: condition value, claim, methods): "best" = the lowest validation fitness of the four methods is one of
+#: ``methods``; "below_ls" = the first method's fitness is below LS's
+FIGURE_CLAIMS = tuple(
+    [("thesis_wind_speed", f"zigzag_{a}_{a}", v, "best", ("svm",)) for v in (4.0, 8.0, 12.0) for a in (10, 20, 40)]
+    + [("thesis_wind_speed", "zigzag_20_20", 16.0, "best", ("svm_ga",)),
+       ("thesis_wind_speed", "zigzag_10_10", 12.0, "below_ls", ("ls_ga",)),
+       ("thesis_wind_speed", "zigzag_20_20", 16.0, "below_ls", ("ls_ga",)),
+       ("thesis_noise", "zigzag_20_20", 0.10, "best", ("svm_ga",)),
+       ("thesis_noise", "zigzag_40_40", 0.10, "best", ("svm_ga",)),
+       ("thesis_noise", "zigzag_10_10", -0.05, "below_ls", ("ls_ga",)),
+       ("thesis_noise", "zigzag_10_10", 0.10, "below_ls", ("ls_ga",)),
+       ("thesis_noise", "zigzag_20_20", 0.05, "below_ls", ("ls_ga",)),
+       ("thesis_noise", "zigzag_20_20", 0.10, "below_ls", ("ls_ga",)),
+       ("thesis_direction", "zigzag_10_10", -45.0, "best", ("ls_ga", "svm_ga")),
+       ("thesis_direction", "zigzag_10_10", -90.0, "best", ("svm_ga",)),
+       ("thesis_direction", "zigzag_20_20", -45.0, "best", ("svm_ga",)),
+       ("thesis_direction", "zigzag_20_20", -90.0, "best", ("svm_ga",)),
+       ("thesis_direction", "zigzag_20_20", 90.0, "best", ("ls_ga",))])
+
+
+def figure_claims(table: pd.DataFrame, setup) -> pd.DataFrame:
+    """Each cell of :data:`FIGURE_CLAIMS` judged on the validation fitnesses of ``setup`` (the latest
+    bounded run per method; a diverged prediction loses): ``holds``, ``does not hold`` or ``not
+    measured`` (a method of the claim, or LS, has no run in that cell)."""
+    rows = []
+    for experiment, manoeuvre, value, kind, methods in FIGURE_CLAIMS:
+        sub = table[(table["experiment"] == experiment) & (table["setup"] == setup)
+                    & (table["manoeuvre"] == manoeuvre) & np.isclose(table["value"], value)]
+        sub = sub.sort_values("start").groupby("series").last()
+        fitness = {m: (np.inf if r.diverged else float(r.fitness)) for m, r in sub.iterrows()
+                   if m in ("ls", "ls_ga", "svm", "svm_ga")}
+        claim = (f"{' or '.join(method_label(m) for m in methods)} lowest" if kind == "best"
+                 else f"{method_label(methods[0])} below LS")
+        needed = set(methods) | ({"ls"} if kind == "below_ls" else set())
+        if kind == "best" and len(fitness) < 4 or not needed <= set(fitness):
+            verdict, found = "not measured", "-"
+        elif kind == "best":
+            lowest = min(fitness, key=fitness.get)
+            verdict = "holds" if lowest in methods else "does not hold"
+            found = f"{method_label(lowest)} lowest ({fitness[lowest]:.3g})"
+        else:
+            ratio = fitness[methods[0]] / fitness["ls"] if fitness["ls"] > 0 else np.nan
+            verdict = "holds" if fitness[methods[0]] < fitness["ls"] else "does not hold"
+            found = f"{ratio:.3g} x LS" if np.isfinite(ratio) else "-"
+        rows.append({"figure": {"thesis_wind_speed": "4.1", "thesis_noise": "4.2", "thesis_direction": "4.3"}[experiment],
+                     "manoeuvre": manoeuvre, "condition": _condition(GROUPS[experiment][0], value),
+                     "thesis": claim, "project": found, "verdict": verdict})
+    return pd.DataFrame(rows)
+
+
 def _validation_section(runs: dict, ours: pd.DataFrame | None = None, thesis: pd.DataFrame | None = None) -> str:
     table = _validation(runs)
     if table.empty:
         return ""
     out = []
+    for setup in _setups(table):
+        claims = figure_claims(table, setup)
+        if (claims["verdict"] != "not measured").any():
+            counts = claims.groupby("figure")["verdict"].value_counts().unstack(fill_value=0)
+            summary = "; ".join(f"Fig. {f}: {int(c.get('holds', 0))} hold, {int(c.get('does not hold', 0))} do not"
+                                + (f", {int(c.get('not measured', 0))} not measured" if c.get("not measured", 0) else "")
+                                for f, c in counts.iterrows())
+            out.append(f"**The cells the thesis' text names for Figs 4.1-4.3, {_setup_label(setup)}** "
+                       f"(sections 4.2.1-4.2.3; a diverged prediction loses): {summary}.\n\n"
+                       + markdown_table(claims.set_index("figure"), "figure") + "\n")
     for experiment, (key, tables, what) in GROUPS.items():
         for setup in _setups(table):
             sub = table[(table["experiment"] == experiment) & (table["setup"] == setup)]
