@@ -89,7 +89,7 @@ def prepare_discovery(cfg: DiscoverConfig, root: Path, kind: Study,
         raise ConfigError("discover.splits=true needs two or more records (data.path + validate.path) "
                           "to hold out in turn")
     if not val:
-        study.train, study.validation, note = holdout(records, float(cfg.discover.holdout))
+        study.train, study.validation, note = holdout(records, cfg.discover.holdout)
         study.notes.append(note)
     return study
 
@@ -120,9 +120,9 @@ def split_discoveries(study: DiscoverStudy, ctx, opts, main: dict, main_training
         else:
             split = Context(ctx.vessel, ctx.model, train, [held], ctx.derivative)
             split.horizon = ctx.horizon
-            result = search(split, float(opts.terms_threshold), int(opts.max_terms), second=False,
-                            seed=int(study.cfg.seed), output_error=opts.output_error,
-                            intervals=False, score=str(opts.score))
+            result = search(split, opts.terms_threshold, opts.max_terms, second=False,
+                            seed=study.cfg.seed, output_error=opts.output_error,
+                            intervals=False, score=opts.score)
             own = training_error(split, result["best"])
         best, base = result["best"], result["baseline"]
         b, e = base.validation_rmse, best.validation_rmse
@@ -196,9 +196,9 @@ def execute_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
     if any(r.attrs.get("smoothed") == "ekf" for r in study.train):
         derivative = "central"      # states already smoothed once by the EKF/RTS pass
     ctx = Context(study.vessel, study.model, study.train, study.validation, derivative)
-    ctx.horizon = float(opts.horizon) if opts.horizon else None
-    result = search(ctx, float(opts.terms_threshold), int(opts.max_terms), bool(opts.second_cause),
-                    int(opts.posterior_steps), int(study.cfg.seed), opts.output_error, score=str(opts.score))
+    ctx.horizon = opts.horizon or None
+    result = search(ctx, opts.terms_threshold, opts.max_terms, opts.second_cause,
+                    opts.posterior_steps, study.cfg.seed, opts.output_error, score=opts.score)
     best, baseline = result["best"], result["baseline"]
     # whole-record predictions for the figures and the characteristics
     full_base, full_best = baseline.whole, best.whole

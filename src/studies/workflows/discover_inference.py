@@ -91,11 +91,11 @@ def execute_inference(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
     t_smooth = time.perf_counter() - t0
     ctx = Context(study.vessel, model, smoothed[:len(study.train)], list(study.validation), "recorded",
                   dynamics=dynamics)
-    ctx.horizon = float(opts.horizon) if opts.horizon else None
+    ctx.horizon = opts.horizon or None
     calibrate(ctx)
     undecidable = [(c.id, c.undecidable(ctx)[1]) for c in manoeuvring_causes(ctx)
                    if c.undecidable(ctx) is not None]
-    result = infer(ctx, smoothed, raw=raw, pairs=bool(opts.second_cause), seed=int(study.cfg.seed))
+    result = infer(ctx, smoothed, raw=raw, pairs=opts.second_cause, seed=study.cfg.seed)
     named = result.verdict_of(result.named)
     # the verdict and its parameters come from every record; the held-out gain from the named
     # model and the baseline refitted on the training records alone
@@ -133,7 +133,7 @@ def execute_inference(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
         cause=named,
         parameters=(result.fit.cause.parameters(result.fit.theta, result.fit.params) if result.named else {}),
         parameter_units=dict(cause.units), fixed_parameters=cause.fixed_parameters(),
-        uncertainty=intervals(result, seed=int(study.cfg.seed)), confidence=confidence,
+        uncertainty=intervals(result, seed=study.cfg.seed), confidence=confidence,
         confidence_basis=("posterior probability of the verdict among every model compared (BIC with the "
                           "likelihood-ratio dispersion of a parametric bootstrap; uniform prior over 0, 1 "
                           "and 2 causes)"),

@@ -135,7 +135,7 @@ def identified_model(study: Study, params: dict, modules=None,
         study.model, dict(params), study.vessel,
         study.settings.validation_environment if environment is None else environment, modules,
         tuple(study.settings.validate_manoeuvres) if simulated else (),
-        float(study.cfg.validate.duration) if study.cfg.validate.duration else None,
+        study.cfg.validate.duration or None,
         {"method": study.method, "vessel": str(study.cfg.vessel.name), "model": study.model.name,
          "data": "measured" if study.settings.data_paths else "simulated",
          "training": [str(r.attrs.get("name", "record")) for r in study.records]})
@@ -413,7 +413,7 @@ def _validate_records(study: Study, params: dict, out_dir: Path, result=None) ->
     """
     metrics = {}
     rows = []
-    n_draws = int(study.cfg.validate.band_draws)
+    n_draws = study.cfg.validate.band_draws
     vectors = None
     if result is not None and result.samples and n_draws > 0:
         vectors = _measured.posterior_vectors(study.model, result, n_draws, study.settings.seed)

@@ -248,8 +248,8 @@ def identify_mmg(run: MMGRun):
     def fit_hull(modules):
         return LeastSquares().fit(problems(modules)).params
 
-    metrics = {"mmg/prior_scale": float(cfg.prior_scale), "mmg/scale": float(run.vessel.scale),
-               "mmg/captive_weight": float(cfg.captive_weight)}
+    metrics = {"mmg/prior_scale": cfg.prior_scale, "mmg/scale": float(run.vessel.scale),
+               "mmg/captive_weight": cfg.captive_weight}
     modules = run.modules
     if cfg.fit_wake:
         modules, wake = fit_wake(run.records, run.vessel, modules)
@@ -386,7 +386,7 @@ def _records_scale(run: MMGRun) -> str:
 
 def _cross_validation(run: MMGRun, out_dir: Path) -> dict:
     """Leave-one-record-out over the training records (``model.cross_validate``)."""
-    table, metrics, bands = cross_validate(run, identify_mmg, out_dir, int(run.cfg.validate.band_draws),
+    table, metrics, bands = cross_validate(run, identify_mmg, out_dir, run.cfg.validate.band_draws,
                                            run.settings.seed, run.cfg.model.cross_validate_jobs)
     table.to_csv(out_dir / "cross_validation.csv", index=False)
     facilities = sorted({str(r.attrs.get("facility", "")) for r in run.records} - {""})

@@ -62,7 +62,7 @@ def prepare_roll_discovery(cfg: DiscoverConfig, root: Path, kind: Study,
             study.train, study.validation = train[:-1], train[-1:]
             study.notes.append(f"held out the decay {train[-1].attrs.get('name')}")
         else:
-            share = float(cfg.discover.holdout)
+            share = cfg.discover.holdout
             try:
                 first, last = split_cycles(train[0], share)
             except ValueError as error:
@@ -201,7 +201,7 @@ def execute_roll_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, d
     best, base = res["best"], res["baseline"]
     params = {k: float(v) for k, v in best["added"].items()}
     interval = roll_interval(best, study.train, res["simulation_params"],
-                             seed=int(study.cfg.seed)) if params else {}
+                             seed=study.cfg.seed) if params else {}
     b, e = base["validation_rmse_deg"], best["validation_rmse_deg"]
     b_train, e_train = (float(np.degrees(np.sqrt(np.mean(f["resid"] ** 2)))) for f in (base, best))
     release = float(np.degrees(np.mean([abs(r["phi"].iloc[0]) for r in study.validation])))

@@ -105,7 +105,7 @@ def prepare_roll(cfg: RunConfig) -> RollStudy:
     settings = ({key: getattr(cfg.method, key) for key in BAYES_SETTINGS}
                 if isinstance(cfg.method, BayesMethod) else None)
     return RollStudy(cfg, data, validate, str(simulation) if simulation else None, terms, method,
-                     synthetic, int(cfg.seed), settings)
+                     synthetic, cfg.seed, settings)
 
 
 def execute_roll(study: RollStudy, out_dir: Path) -> dict:
@@ -128,5 +128,5 @@ def execute_roll(study: RollStudy, out_dir: Path) -> dict:
     corner_max = int(getattr(study.cfg.method, "corner_max", 8))
     _, metrics, _ = run_roll_study(data, study.method, str(out_dir), validate or None, study.terms,
                                    study.simulation_path, truth, study.seed, study.method_settings,
-                                   int(study.cfg.validate.band_draws), study.cfg.model.holdout, corner_max)
+                                   study.cfg.validate.band_draws, study.cfg.model.holdout, corner_max)
     return metrics
