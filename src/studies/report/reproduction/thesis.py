@@ -494,6 +494,8 @@ def svm_departure(ours: pd.DataFrame, thesis: pd.DataFrame, experiment: str, set
     return mine, theirs
 
 
+#: two validation fitnesses within this fraction of each other tie (the project's SVM often lands on its LS)
+FIGURE_TIE = 0.01
 #: the cells the thesis' text names for its Figs 4.1-4.3 (sections 4.2.1-4.2.3): (experiment, manoeuvre,
 #: condition value, claim, methods): "best" = the lowest validation fitness of the four methods is one of
 #: ``methods``; "below_ls" = the first method's fitness is below LS's
@@ -533,8 +535,15 @@ def figure_claims(table: pd.DataFrame, setup) -> pd.DataFrame:
             verdict, found = "not measured", "-"
         elif kind == "best":
             lowest = min(fitness, key=fitness.get)
-            verdict = "holds" if lowest in methods else "does not hold"
-            found = f"{method_label(lowest)} lowest ({fitness[lowest]:.3g})"
+            claimed = min(fitness[m] for m in methods)
+            if lowest in methods:
+                verdict = "holds"
+            elif claimed <= (1.0 + FIGURE_TIE) * fitness[lowest]:
+                verdict = "tied"
+            else:
+                verdict = "does not hold"
+            found = f"{method_label(lowest)} lowest ({fitness[lowest]:.3g})" + (
+                f", the claimed {claimed:.3g}" if lowest not in methods else "")
         else:
             ratio = fitness[methods[0]] / fitness["ls"] if fitness["ls"] > 0 else np.nan
             verdict = "holds" if fitness[methods[0]] < fitness["ls"] else "does not hold"
@@ -554,11 +563,13 @@ def _validation_section(runs: dict, ours: pd.DataFrame | None = None, thesis: pd
         claims = figure_claims(table, setup)
         if (claims["verdict"] != "not measured").any():
             counts = claims.groupby("figure")["verdict"].value_counts().unstack(fill_value=0)
-            summary = "; ".join(f"Fig. {f}: {int(c.get('holds', 0))} hold, {int(c.get('does not hold', 0))} do not"
+            summary = "; ".join(f"Fig. {f}: {int(c.get('holds', 0))} hold, {int(c.get('tied', 0))} tied, "
+                                f"{int(c.get('does not hold', 0))} do not"
                                 + (f", {int(c.get('not measured', 0))} not measured" if c.get("not measured", 0) else "")
                                 for f, c in counts.iterrows())
             out.append(f"**The cells the thesis' text names for Figs 4.1-4.3, {_setup_label(setup)}** "
-                       f"(sections 4.2.1-4.2.3; a diverged prediction loses): {summary}.\n\n"
+                       f"(sections 4.2.1-4.2.3; a diverged prediction loses; within {100 * FIGURE_TIE:g} % of the "
+                       f"lowest the claimed method ties): {summary}.\n\n"
                        + markdown_table(claims.set_index("figure"), "figure") + "\n")
     for experiment, (key, tables, what) in GROUPS.items():
         for setup in _setups(table):
