@@ -330,3 +330,23 @@ def test_the_systematic_turning_error_at_nl1_is_the_bias_s():
     assert len(bias) == 4 and (bias > 0).all() and bias.mean() > 1.0
     assert np.abs(noise).max() < 0.2
     assert "the systematic part is the bias's" in svm_paper.systematic_source(setup, 1, seeds=4)
+
+
+def test_table_1_deviations_are_judged_two_sided_with_a_cause():
+    """Wang et al. Table 1: the same page from altered deviations changes its verdicts."""
+    paper = published("svm_paper", "table1")
+    assert len(paper) == 40 and paper.groupby("dof").size().to_dict() == {"X": 10, "Y": 15, "N": 15}
+    theirs = {r.coefficient: 100.0 * (r.svm - r.pmm) / r.pmm for r in paper.itertuples()}
+    same = {(m, c): d for c, d in theirs.items() for m in ("ls", "svm")}
+    found = svm_paper.table1_verdicts(paper, same)
+    assert (found["verdict"] == "agrees").all()
+    altered = dict(same)
+    altered[("svm", "N0uu")] = 0.1          # the paper's -113 %: the project recovers it
+    altered[("svm", "Xu")] = 5.0            # the paper's +0.65 %: the project departs
+    altered[("svm", "Nuud")] = theirs["Nuud"] / 3   # one third of the paper's -36.8 %
+    found = svm_paper.table1_verdicts(paper, altered).set_index(["coefficient", "method"])
+    assert found.loc[("N0uu", "SVM"), "verdict"] == "differs"
+    assert found.loc[("N0uu", "SVM"), "cause"].startswith("the project recovers it")
+    assert found.loc[("Xu", "SVM"), "cause"].startswith("the paper's SVM recovers it")
+    assert found.loc[("Nuud", "SVM"), "verdict"] == "differs"
+    assert found.loc[("Nuud", "LS"), "verdict"] == "agrees"

@@ -61,7 +61,7 @@ PAPERS = {
         "T. Wang, G. Li, B. Wu, V. Aesoy, H. Zhang (2021), Parameter identification of ship manoeuvring "
         "model under disturbance using support vector machine method, Ships and Offshore Structures "
         "16(S1), 13-21",
-        {"table4": "wang2021_table4.csv"}),
+        {"table4": "wang2021_table4.csv", "table1": "wang2021_table1.csv"}),
     "li2023": Paper(
         "li2023",
         "S. Li, T. Wang, G. Li, H. Zhang (2023), Ship maneuvering model optimization for improved "
