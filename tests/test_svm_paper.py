@@ -250,8 +250,10 @@ def test_the_sign_of_the_radius_error_is_traced_to_the_training_excitation(tmp_p
     line = found[0]
     assert line.startswith("NL1, LS: ")
     assert "the averaged model's error has the opposite sign to the paper's for the steady" in line
-    # errors far below the paper's are listed too (agreement is two-sided)
-    assert "maximum advance per-trial median 2.0 % (0.3 times)" in line
+    # errors far below the paper's are listed too (agreement is two-sided), judged on the averaged model,
+    # the paper's own quantity (the per-trial median is not judged)
+    assert "maximum advance averaged model 2.9 % (0.4 times)" in line
+    assert "per-trial median 2.0 %" not in line
     assert "the sign of the systematic error follows the training excitation" in line
     assert "zigzag_20_20_300" in line and "the 18 deg steady turn runs at u' -0.19" in line
     assert "`train.manoeuvres=" in svm_paper._setup_label(setups[1], setups)
@@ -278,9 +280,10 @@ def test_a_reduced_svm_disturbance_sweep_shows_the_papers_findings(tmp_path):
     """Three trials of the SVM at NL1 and NL3 (the preset, with the 18 deg turning
     circle as its only validation), then the reproduction report: at NL1 no
     prediction diverges and every characteristic's error, per-trial median
-    and averaged model, is within twice the paper's (Table 4); from NL1 to
-    NL3 the errors grow, as the paper's do. The report's numbers are those
-    of the store."""
+    and averaged model, is at most twice the paper's (Table 4; several are
+    far below it, which the two-sided agreement lists as disagreements);
+    from NL1 to NL3 the errors grow, as the paper's do. The report's numbers
+    are those of the store."""
     proc = run_studies([*REDUCED, f"hydra.sweep.dir={tmp_path / 'multirun'}"], cwd=tmp_path, timeout=900)
     assert proc.returncode == 0, proc.stderr[-3000:]
     runs = mlflow_runs(tmp_path)
@@ -304,7 +307,9 @@ def test_a_reduced_svm_disturbance_sweep_shows_the_papers_findings(tmp_path):
     nl1_table = table[table["level"] == 1]
     assert len(nl1_table) == 2 * len(TURNING_KEYS)
     for row in nl1_table.itertuples():
-        assert row.within, (row.characteristic, row.statistic, row.project_pct, row.paper_pct)
+        assert abs(row.project_pct) <= 2 * abs(row.paper_pct), (row.characteristic, row.statistic,
+                                                                row.project_pct, row.paper_pct)
+        assert row.within == (0.5 <= row.ratio <= 2.0)
         if row.statistic == "trials":
             logged = nl1[nl1["key"] == f"turning_18/{row.characteristic[:-2]}_error_pct"]["value"]
             assert row.project_pct == pytest.approx(np.median(np.abs(logged)), rel=1e-9)
@@ -350,3 +355,9 @@ def test_table_1_deviations_are_judged_two_sided_with_a_cause():
     assert found.loc[("Xu", "SVM"), "cause"].startswith("the paper's SVM recovers it")
     assert found.loc[("Nuud", "SVM"), "verdict"] == "differs"
     assert found.loc[("Nuud", "LS"), "verdict"] == "agrees"
+
+
+def test_the_extrapolation_mechanism_is_stated_only_when_the_errors_follow_it():
+    assert "as an extrapolation of the u'-terms would make it" in \
+        svm_paper.extrapolation_sentence([0.05, 0.15], [2.0, 6.0])
+    assert "not explained" in svm_paper.extrapolation_sentence([0.05, 0.15], [6.0, 2.0])
