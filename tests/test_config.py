@@ -19,7 +19,7 @@ from omegaconf import OmegaConf, open_dict
 from studies import config as C
 from studies.errors import ConfigError
 
-CONF = Path(C.__file__).resolve().parent / "conf"
+CONF = C.CONF_DIR
 
 #: the dataclass each option of a group becomes
 METHODS = {"ls": C.MethodConfig, "nls": C.MethodConfig, "fls": C.MethodConfig,

@@ -59,7 +59,7 @@ Options are Hydra overrides, e.g.
   studies simulate model_uri=models:/mariner_ls/1 manoeuvre=turning_35
 
 studies --version prints the version; studies ui --help the UI's options; every
-option of run/discover/report/simulate is declared with its unit in studies/config.py
+option of run/discover/report/simulate is declared with its unit in studies/config/
 and listed by `studies <command> --help`.
 """
 
