@@ -543,7 +543,7 @@ def _side_by_side(comp: pd.DataFrame, setup: tuple, setups: list) -> str:
                    + markdown_table(frame, "characteristic"))
     return (f"**{_setup_label(setup, setups)}**: the paper's averaged model beside the project's per-trial "
             "median |error| and averaged model; in brackets the ratio of magnitudes (project / paper) and "
-            f"whether it is within {WITHIN:g} times the paper's.\n\n" + "\n".join(out))
+            f"whether it is within a factor {WITHIN:g} of the paper's either way (the agreement is judged on the averaged model, the paper's own statistic).\n\n" + "\n".join(out))
 
 
 # ------------------------------------------------------------------ trends and disagreements
