@@ -72,6 +72,22 @@ def test_particulars_and_scale_of_the_simulation():
     assert p_sim["scale"] == 68.0 and p_sim["run_id"] == 21338
 
 
+@needs_data
+def test_a_simulation_is_told_from_a_model_test_by_its_columns_not_its_name(tmp_path):
+    """The solver's decay renamed, beside the same parameter files: still read as the simulation
+    of test 21338; a model test under a solver-like name is still the model test it is."""
+    import shutil
+
+    for name in ("model_test_parameters.csv", "fnpf_parameters.csv"):
+        shutil.copy(DATA / name, tmp_path / name)
+    shutil.copy(DATA / FNPF, tmp_path / "decay_potential_flow.csv")
+    shutil.copy(DATA / RUN_VALID, tmp_path / "fnpf_21337.csv")
+    sim = find_particulars(tmp_path / "decay_potential_flow.csv")
+    test = find_particulars(tmp_path / "fnpf_21337.csv")
+    assert sim["run_id"] == 21338 and "fnpf_parameters.csv" in sim["source"]
+    assert test["run_id"] == 21337 and test["source"] == "model_test_parameters.csv"
+
+
 # ------------------------------------------------------ fit one, predict the other
 @pytest.fixture(scope="module")
 def predictions(records):

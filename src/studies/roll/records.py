@@ -633,13 +633,31 @@ def read_fnpf_parameters(path) -> dict:
     return pd.read_csv(path).iloc[0].to_dict()
 
 
+#: the columns of a potential-flow solver's roll decay (time, angle and the solver's own rate and
+#: acceleration), as against a model test's motion record (time, x, y, z, phi, theta, psi)
+SOLVER_COLUMNS = ("Time", "phi", "phi1d", "phi2d")
+
+
+def is_solver_output(path) -> bool:
+    """Whether a roll-decay file is a solver's simulation, judged by its columns
+    (:data:`SOLVER_COLUMNS`: the rate and acceleration it computes beside the angle), not
+    by its name."""
+    try:
+        header = pd.read_csv(path, nrows=0).columns
+    except Exception as exc:  # noqa: BLE001 - an unreadable file is refused by the loader in its own words
+        log.debug("%s: header not read (%s)", path, type(exc).__name__)
+        return False
+    return set(SOLVER_COLUMNS) <= {str(c).strip() for c in header}
+
+
 def find_particulars(path) -> dict | None:
     """Ship particulars for a roll-decay file, from the parameter files beside it.
 
     For ``model_test_<id>.csv`` the row ``<id>`` of ``model_test_parameters.csv``;
-    for ``fnpf_*.csv`` the row of the test named by ``fnpf_parameters.csv``
-    (its ``id``), with the scale of the simulation inferred from its length
-    (``LPP``) relative to the full-scale ``lpp``.
+    for a solver's simulation (its columns, :func:`is_solver_output`) the row of
+    the test named by ``fnpf_parameters.csv`` (its ``id``), with the scale of
+    the simulation inferred from its length (``LPP``) relative to the
+    full-scale ``lpp``.
 
     Returns
     -------
@@ -667,7 +685,8 @@ def find_particulars(path) -> dict | None:
     run_id = None
     scale = None
     source = ""
-    if stem.startswith("fnpf"):
+    simulated = is_solver_output(p)
+    if simulated:
         fp = p.parent / "fnpf_parameters.csv"
         if not fp.is_file():
             return None
@@ -684,7 +703,7 @@ def find_particulars(path) -> dict | None:
         return None
     r = rows.iloc[0]
     lam_tests = float(r["scale_factor"])
-    if stem.startswith("fnpf"):
+    if simulated:
         ratio = float(r["lpp"]) / float(f["LPP"])
         scale = lam_tests if abs(ratio / lam_tests - 1) < 0.02 else (1.0 if abs(ratio - 1) < 0.02 else ratio)
     else:
