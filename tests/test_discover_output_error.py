@@ -30,9 +30,17 @@ def test_auto_refines_noisy_records_only(vessel):
     clean, _ = _context(vessel, "none", 100, 0.0)
     noisy, _ = _context(vessel, "none", 100, 0.05)
     assert not needs_refinement(clean, "auto") and needs_refinement(noisy, "auto")
-    assert needs_refinement(clean, True) and not needs_refinement(noisy, "false")
+    assert needs_refinement(clean, True) and not needs_refinement(noisy, False)
+
+
+def test_the_setting_is_normalised_once_by_the_settings():
+    from studies.config import compose_settings
+
+    assert compose_settings("discover", []).discover.output_error == "auto"
+    assert compose_settings("discover", ["discover.output_error=false"]).discover.output_error is False
+    assert compose_settings("discover", ["discover.output_error=true"]).discover.output_error is True
     with pytest.raises(ConfigError, match="output_error"):
-        needs_refinement(clean, "sometimes")
+        compose_settings("discover", ["discover.output_error=sometimes"])
 
 
 @pytest.mark.slow

@@ -152,6 +152,9 @@ class DiscoverOptions:
         value = self.output_error
         if not isinstance(value, bool) and str(value).lower() not in ("auto", "true", "false"):
             raise ConfigError(f"discover.output_error must be auto, true or false, got {value!r}")
+        # normalised once: "auto", True or False
+        self.output_error = value if isinstance(value, bool) else (
+            "auto" if str(value).lower() == "auto" else str(value).lower() == "true")
         if self.score not in ("prediction_error", "output_error"):
             raise ConfigError(f"discover.score must be prediction_error or output_error, got {self.score!r}")
         share = _number("discover.holdout", self.holdout)

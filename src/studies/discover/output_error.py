@@ -47,14 +47,13 @@ from scipy.optimize import least_squares
 from scipy.signal import savgol_filter
 
 from ..data.resample import block_means
-from ..errors import ConfigError
 from ..identify.regression import prime_states
 from ..simulate.simulator import ReplayPlan
 from .fitting import (CauseFit, Context, integrated_time, sample_intervals, smoothed,
                       smoothing_window)
 from .kinematics import coloured_velocity_noise, kinematic_noise_levels
 
-__all__ = ["Window", "training_windows", "noise_levels", "relative_noise", "refinement_setting",
+__all__ = ["Window", "training_windows", "noise_levels", "relative_noise",
            "needs_refinement", "refine_cause", "restart_from", "refine", "output_error_scores", "score_terms", "refined_posterior"]
 
 #: ``output_error=auto`` refines when the noise of v or r exceeds this share of
@@ -134,27 +133,16 @@ def relative_noise(ctx: Context, records, sigma: np.ndarray | None = None) -> np
     return sigma[3:6] / np.maximum(spread, 1e-300)
 
 
-def refinement_setting(value):
-    """``discover.output_error`` as ``"auto"``, True or False (ConfigError otherwise)."""
-    if isinstance(value, bool):
-        return value
-    text = str(value).lower()
-    if text not in ("auto", "true", "false"):
-        raise ConfigError(f"discover.output_error must be auto, true or false, got {value!r}")
-    return "auto" if text == "auto" else text == "true"
-
-
 def needs_refinement(ctx: Context, setting, sigma: np.ndarray | None = None) -> bool:
-    """Whether ``discover.output_error`` (``auto``, ``true`` or ``false``) asks for
+    """Whether ``discover.output_error`` (``"auto"``, True or False: normalised by the settings) asks for
     the output-error refinement on these training records: ``auto`` when the
     sway or yaw-rate noise exceeds :data:`AUTO_NOISE` of the signal (below that
     the equation-error coefficients are not noise-limited, and on the MARIN
     KVLCC2 zig-zags the refinement predicts the turning circle worse)."""
-    setting = refinement_setting(setting)
     if setting == "auto":
         rel = relative_noise(ctx, ctx.train, sigma)
         return bool(max(rel[1], rel[2]) > AUTO_NOISE)
-    return setting
+    return bool(setting)
 
 
 def training_windows(ctx: Context, records, resolution: float = RESOLUTION) -> list[Window]:
