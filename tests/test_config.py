@@ -7,6 +7,7 @@ into its dataclasses with ``OmegaConf.to_object``; impossible values are
 refused with the key named. In process, no subprocesses.
 """
 
+import re
 from dataclasses import MISSING, fields, is_dataclass
 from pathlib import Path
 
@@ -244,3 +245,17 @@ def test_register_is_idempotent_and_every_yaml_names_a_stored_schema():
         group = None if path.parent == CONF else path.parent.name
         named = {(group, d) for d in defaults if isinstance(d, str)}
         assert named & stored, path
+
+
+def test_ga_settings_are_checked_before_any_run(hydra):
+    from studies.identify.ga import BASE_METHODS
+
+    assert set(BASE_METHODS) == set(C.GA_BASES)
+    for override, message in (("method.base=bogus", "method.base must be one of ls, svm"),
+                              ("method.population=1", "method.population must be >= 2"),
+                              ("method.parents_mating=9", "must not exceed method.population"),
+                              ("method.mutation_probability=1.5", "method.mutation_probability must be in [0, 1]"),
+                              ("method.parent_selection=best", "method.parent_selection must be one of")):
+        with pytest.raises(ConfigError, match=re.escape(message)):
+            _typed("config", ["method=ls_ga", override])
+    assert _typed("config", ["method=svm_ga"]).method.base == "svm"

@@ -7,7 +7,8 @@ from typing import Any, List, Optional
 from omegaconf import II, MISSING
 
 from ..errors import ConfigError
-from .values import (SVM_LOSSES, SINDY_LIBRARIES, BAYES_MOVES, BAYES_DISCREPANCIES, _optional_number,
+from .values import (GA_BASES, GA_PARENT_SELECTIONS, SVM_LOSSES, SINDY_LIBRARIES, BAYES_MOVES,
+                     BAYES_DISCREPANCIES, _optional_number,
                      _integer, _choice)
 
 __all__ = ["MethodConfig", "SvmMethod", "GaMethod", "BayesMethod", "SindyMethod", "settled_discrepancy"]
@@ -118,6 +119,24 @@ class GaMethod(MethodConfig):
     spread: float = 0.5
     stop_fitness: float = 1.0e-5
     seed: int = II("seed")
+
+    def __post_init__(self):
+        self.base = _choice("method.base", self.base, GA_BASES)
+        self.parent_selection = _choice("method.parent_selection", self.parent_selection, GA_PARENT_SELECTIONS)
+        for key, low in (("genes_per_dof", 1), ("sobol_samples", 1), ("generations", 1), ("population", 2),
+                         ("parents_mating", 1), ("keep_parents", -1)):
+            setattr(self, key, _integer(f"method.{key}", getattr(self, key)))
+            if getattr(self, key) < low:
+                raise ConfigError(f"method.{key} must be >= {low}, got {getattr(self, key)}")
+        if self.parents_mating > self.population or self.keep_parents > self.population:
+            raise ConfigError(f"method.parents_mating ({self.parents_mating}) and method.keep_parents "
+                              f"({self.keep_parents}) must not exceed method.population ({self.population})")
+        for key in ("crossover_probability", "mutation_probability"):
+            if not 0.0 <= float(getattr(self, key)) <= 1.0:
+                raise ConfigError(f"method.{key} must be in [0, 1], got {getattr(self, key)}")
+        if not self.spread > 0 or not self.stop_fitness >= 0:
+            raise ConfigError(f"method.spread must be > 0 and method.stop_fitness >= 0, got {self.spread} "
+                              f"and {self.stop_fitness}")
 
 
 @dataclass

@@ -10,7 +10,8 @@ from typing import Optional
 from ..errors import ConfigError
 
 __all__ = ["CONF_DIR", "DERIVATIVES", "DISCOVERY_METHODS", "DATA_SCHEMES", "WEIGHTINGS", "STUDIES", "ROLL_TERMS",
-           "ROLL_DAMPING_TERMS", "MANOEUVRE_KINDS", "SVM_LOSSES", "SINDY_LIBRARIES", "BAYES_MOVES",
+           "ROLL_DAMPING_TERMS", "MANOEUVRE_KINDS", "SVM_LOSSES", "SINDY_LIBRARIES", "BAYES_MOVES", "GA_BASES",
+           "GA_PARENT_SELECTIONS",
            "BAYES_DISCREPANCIES", "WIND_CONVENTIONS", "OBJECTIVE_SIMULATIONS", "DISTURBANCE_SCALINGS",
            "RECORD_SCALES", "MMG_REFINABLE", "MMG_SCALES", "USER_CONF_ENV", "user_conf_dir"]
 
@@ -62,6 +63,15 @@ SINDY_LIBRARIES = ("model", "extended")
 
 #: ``method.moves`` of the Bayesian regression
 BAYES_MOVES = ("de", "stretch")
+
+
+#: ``method.base`` of the GA: the regression that gives its starting solution
+#: (:data:`studies.identify.ga.BASE_METHODS`)
+GA_BASES = ("ls", "svm")
+
+
+#: ``method.parent_selection`` of the GA (pygad's parent selection types)
+GA_PARENT_SELECTIONS = ("sss", "rws", "sus", "rank", "random", "tournament")
 
 
 #: ``method.discrepancy`` of the Bayesian regression (:mod:`studies.identify.discrepancy`)

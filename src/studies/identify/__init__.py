@@ -21,7 +21,7 @@ from .regression import RegressionProblem, build_problems
 
 __all__ = ["Identification", "RegressionProblem", "build_problems", "LeastSquares",
            "GeneticRefinement", "BayesianRegression", "SupportVectorRegression",
-           "SparseRegression", "MANOEUVRING_METHODS", "make_identifier"]
+           "SparseRegression", "MANOEUVRING_METHODS", "make_identifier", "check_method"]
 
 #: manoeuvring identifiers by config name
 MANOEUVRING_METHODS = {"ls": LeastSquares, "svm": SupportVectorRegression,
@@ -29,13 +29,18 @@ MANOEUVRING_METHODS = {"ls": LeastSquares, "svm": SupportVectorRegression,
                        "bayes": BayesianRegression, "sindy": SparseRegression}
 
 
+def check_method(name: str) -> None:
+    """Refuse a method that is not registered for manoeuvring models (ConfigError naming
+    the known ones); its settings are checked by the typed settings of :mod:`studies.config`."""
+    if name not in MANOEUVRING_METHODS:
+        raise ConfigError(f"method '{name}' is not available for manoeuvring models; "
+                          f"known: {', '.join(sorted(MANOEUVRING_METHODS))}")
+
+
 def make_identifier(name: str, options: dict | None = None):
     """Instantiate the identifier registered as ``name`` with ``options``."""
-    try:
-        cls = MANOEUVRING_METHODS[name]
-    except KeyError:
-        raise ConfigError(f"method '{name}' is not available for manoeuvring models; "
-                          f"known: {', '.join(sorted(MANOEUVRING_METHODS))}") from None
+    check_method(name)
+    cls = MANOEUVRING_METHODS[name]
     try:
         return cls(**(options or {}))
     except TypeError as exc:

@@ -37,6 +37,7 @@ import numpy as np
 import pygad
 
 from ..errors import ConfigError
+from ..config import GA_BASES
 from ..plotting import pyplot
 from .base import Identification
 from .ls import LeastSquares
@@ -46,7 +47,7 @@ from .svm import SupportVectorRegression
 __all__ = ["GeneticRefinement", "gene_bounds", "fitness_history", "BASE_METHODS"]
 
 #: regressions that give the GA its starting solution (``base=``)
-BASE_METHODS = {"ls": LeastSquares, "svm": SupportVectorRegression}
+BASE_METHODS = dict(zip(GA_BASES, (LeastSquares, SupportVectorRegression)))
 
 log = logging.getLogger(__name__)
 

@@ -49,7 +49,7 @@ from ..data.derivatives import STATE_COLUMNS, noise_ratio
 from ..errors import ConfigError
 from ..environment.conditions import Environment
 from ..environment.noise import add_measurement_noise, disturbance_forces, record_wind
-from ..identify import build_problems, make_identifier
+from ..identify import build_problems, check_method, make_identifier
 from ..identify.discrepancy import Discrepancy
 from ..identify.ls import LeastSquares
 from ..identify.objective import trajectory_objective
@@ -211,7 +211,7 @@ def prepare(cfg: RunConfig, root: Path | None = None, record: Recorder | None = 
     vessel = with_wind_convention(get_vessel(settle_vessel(cfg, root)), cfg.wind.convention)
     model = get_study_model(cfg, root, record)
     method = str(cfg.method.name)
-    make_identifier(method, _method_options(cfg))
+    check_method(method)
     n_params = max(len(model.terms_of(d)) for d in ("X", "Y", "N"))
     resample_dt = cfg.data.resample
     derivative = cfg.data.derivative
