@@ -7,11 +7,11 @@ study itself is :func:`studies.workflows.roll.run_roll_study`.
 from __future__ import annotations
 
 import logging
-
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from ..config import BayesMethod, RunConfig, settled_discrepancy
 from ..roll.records import find_particulars, load_roll_decay, record_vessel
@@ -51,6 +51,8 @@ class RollStudy:
     synthetic: dict | None
     seed: int
     method_settings: dict | None = None
+    #: every decay file read once by :func:`prepare_roll`: path -> record
+    records: dict = field(default_factory=dict)
 
 
     @property
@@ -77,7 +79,13 @@ class RollStudy:
         """``(path, record, context)`` of every decay file the run reads."""
         given = ([(p, "training") for p in self.data_paths] + [(p, "validation") for p in self.validate_paths]
                  + ([(self.simulation_path, "simulation")] if self.simulation_path else []))
-        return [(p, load_roll_decay(p), context) for p, context in given]
+        return [(p, self._record(p), context) for p, context in given]
+
+    def _record(self, path) -> pd.DataFrame:
+        """The record of ``path`` as :func:`prepare_roll` read it (read now when it did not)."""
+        if path not in self.records:
+            self.records[path] = load_roll_decay(path)
+        return self.records[path]
 
     def execute(self, out_dir: Path) -> dict:
         """Identify and validate (:func:`execute_roll`); the metrics."""
@@ -94,8 +102,7 @@ def prepare_roll(cfg: RunConfig) -> RollStudy:
     data = as_path_list(cfg.data.path)
     validate = as_path_list(cfg.validate.path)
     simulation = cfg.simulation.path
-    for path in data + validate + ([str(simulation)] if simulation else []):
-        load_roll_decay(path)
+    records = {path: load_roll_decay(path) for path in data + validate + ([str(simulation)] if simulation else [])}
     synthetic = None
     if not data:
         synthetic = asdict(cfg.model.synthetic)
@@ -105,14 +112,17 @@ def prepare_roll(cfg: RunConfig) -> RollStudy:
     settings = ({key: getattr(cfg.method, key) for key in BAYES_SETTINGS}
                 if isinstance(cfg.method, BayesMethod) else None)
     return RollStudy(cfg, data, validate, str(simulation) if simulation else None, terms, method,
-                     synthetic, cfg.seed, settings)
+                     synthetic, cfg.seed, settings, records)
 
 
 def execute_roll(study: RollStudy, out_dir: Path) -> dict:
     """Run the roll study into ``out_dir``; returns its metrics."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    data, validate, truth = study.data_paths, study.validate_paths, None
+    data = [study._record(p) for p in study.data_paths]
+    validate = [study._record(p) for p in study.validate_paths]
+    simulation = study._record(study.simulation_path) if study.simulation_path else None
+    truth = None
     if study.synthetic is not None:
         s = study.synthetic
         truth = {"omega0": s["omega0"], **{t: s[t] for t in study.terms}}
@@ -127,6 +137,6 @@ def execute_roll(study: RollStudy, out_dir: Path) -> dict:
         data, validate = [str(train)], validate or [str(other)]
     corner_max = int(getattr(study.cfg.method, "corner_max", 8))
     _, metrics, _ = run_roll_study(data, study.method, str(out_dir), validate or None, study.terms,
-                                   study.simulation_path, truth, study.seed, study.method_settings,
+                                   simulation, truth, study.seed, study.method_settings,
                                    study.cfg.validate.band_draws, study.cfg.model.holdout, corner_max)
     return metrics
