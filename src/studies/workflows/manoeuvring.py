@@ -61,7 +61,7 @@ from ..models.terms import DOFS, candidate_terms
 from .sparse_terms import ls_problems, sindy_beside_ls
 from ..analysis.figures import plot_deviations, plot_overlay
 from ..simulate import replay, simulate, zigzag
-from ..vessels import get_vessel
+from ..vessels import get_vessel, has_mmg_particulars
 from ..vessels.base import Vessel
 from . import measured as _measured
 from .identified_model import IDENTIFIED_MODEL_FILE, IdentifiedModel
@@ -241,6 +241,10 @@ def prepare(cfg: RunConfig, root: Path | None = None, record: Recorder | None = 
     said = settled_discrepancy(cfg.method, bool(settings.data_paths))
     if said:
         logger.info(said)
+    if method == "bayes" and settings.data_paths and has_mmg_particulars(vessel.name):
+        logger.info("the bands of model=%s on %s records are not judged by the calibration page; it judges "
+                    "model=mmg's (experiment=kvlcc2_calibration, each record held out in turn; "
+                    "docs/calibration.md)", cfg.model.name, vessel.name)
     return Study(cfg, settings, vessel, model, method, records, truth, validation, measured)
 
 
