@@ -86,8 +86,6 @@ def held_out_bands(run, result, record: pd.DataFrame, prediction: pd.DataFrame, 
     rows, pit = [], {}
     for band in BANDS:
         with_discrepancy = discrepancy if band == "band" else None
-        if band == "band" and discrepancy is None:
-            with_discrepancy = None
         states, diverged = predictive_draws(run.model, vectors, run.vessel, record, with_discrepancy, seed,
                                             modules=getattr(run, "modules", None))
         stats = band_statistics(states, diverged, record, noise=True, seed=seed)

@@ -65,6 +65,7 @@ from ...simulate import simulate, simulate_many
 from ...simulate.manoeuvres import Manoeuvre
 from ...vessels import get_vessel
 from ..tables import markdown_table, method_label
+from .runs import latest_coefficients
 
 __all__ = ["EXPERIMENTS", "COMMANDS", "sections", "substitutions", "conventions", "collect",
            "cell_statistics", "averaged_models", "comparison", "COMPARISON_FILE", "LEGACY_SCALING"]
@@ -1277,20 +1278,9 @@ def table1_verdicts(paper: pd.DataFrame, ours: dict) -> pd.DataFrame:
 
 
 def _table1_section(runs: list, scratch: Path) -> str | None:
-    latest = {}
-    for run in runs or []:
-        method = run.params.get("method.name")
-        if run.status == "FINISHED" and method in ("ls", "svm") and \
-                (method not in latest or run.start_time > latest[method].start_time):
-            latest[method] = run
-    if not latest:
+    ours = latest_coefficients(runs, scratch, "deviation_pct")
+    if not ours:
         return None
-    ours = {}
-    for method, run in latest.items():
-        local = run.artifact("coefficients.csv", scratch / run.run_id)
-        if local is not None:
-            for r in pd.read_csv(local).itertuples():
-                ours[(method, r.name)] = float(r.deviation_pct)
     table = table1_verdicts(published("svm_paper", "table1"), ours)
     lines = [f"Table 1 (section 3.2, SVM from clean 20/20, 15/15 and 10/10 zig-zags) beside the project's "
              f"`{CLEAN}` runs: deviations from the reference. Two deviations agree when both are below "

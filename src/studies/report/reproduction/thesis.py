@@ -51,6 +51,7 @@ from ...simulate import simulate
 from ...simulate.manoeuvres import zigzag
 from ...vessels import get_vessel
 from ..tables import markdown_table, method_label
+from .runs import latest_coefficients
 
 __all__ = ["EXPERIMENTS", "COMMANDS", "sections", "substitutions", "conventions", "GROUPS"]
 
@@ -915,21 +916,9 @@ def calm_verdicts(paper: pd.DataFrame, ours: dict) -> pd.DataFrame:
 def _calm_section(runs: list, scratch: Path) -> str | None:
     """Tables 4.3-4.5 (calm water, clean data) beside the latest finished LS and SVM runs of
     ``experiment=thesis_calm`` in the thesis' set-up; None without such runs."""
-    latest = {}
-    for run in runs or []:
-        if run.status != "FINISHED" or _setup_of(run) != THESIS_SETUP:
-            continue
-        method = run.params.get("method.name")
-        if method in ("ls", "svm") and (method not in latest or run.start_time > latest[method].start_time):
-            latest[method] = run
-    if not latest:
+    ours = latest_coefficients(runs, scratch, "value", keep=lambda run: _setup_of(run) == THESIS_SETUP)
+    if not ours:
         return None
-    ours = {}
-    for method, run in latest.items():
-        local = run.artifact("coefficients.csv", scratch / run.run_id)
-        if local is not None:
-            for r in pd.read_csv(local).itertuples():
-                ours[(method, r.name)] = float(r.value)
     table = calm_verdicts(published("thesis", "calm"), ours)
     lines = [f"The thesis' Tables 4.3-4.5 (20/20 zig-zag in calm water, clean data) beside the project's "
              f"`{CALM}` runs in the thesis' set-up. A value agrees when it rounds to the thesis' three "
