@@ -260,6 +260,10 @@ def test_a_chain_that_has_not_converged_runs_longer_by_itself_within_its_budget(
     assert longer.metrics["bayes/Y/converged"] == 1.0
     assert longer.metrics["bayes/Y/steps"] > 200 + 50 * longer.metrics["bayes/Y/autocorr_time_max"]
     assert len(longer.samples["Y"]["values"]) == 16
+    # the logged histories run to the end of the longer chain
+    steps = int(longer.metrics["bayes/Y/steps"])
+    assert longer.history["bayes/Y/acceptance_fraction"][-1][0] == steps
+    assert longer.history["bayes/Y/autocorr_time_max"][-1][0] == steps
     assert not [r for r in caplog.records if r.levelno >= logging.WARNING]   # nor emcee's raw warning
     caplog.clear()
     with caplog.at_level(logging.WARNING):

@@ -123,7 +123,7 @@ def test_bayes_logs_its_acceptance_per_iteration(tmp_path):
 
     db = tmp_path / "store.db"
     proc = run_studies(["run", "method=bayes", "method.n_samples=640", "method.burn_in=100", "method.thin=2",
-                        f"tracking.uri=sqlite:///{db}", *SHORT], tmp_path)
+                        "method.max_steps=null", f"tracking.uri=sqlite:///{db}", *SHORT], tmp_path)
     assert proc.returncode == 0, proc.stderr[-3000:]
     client = mlflow.MlflowClient(f"sqlite:///{db}")
     run = client.search_runs([client.get_experiment_by_name("studies").experiment_id])[0]

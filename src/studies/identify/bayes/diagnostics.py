@@ -112,6 +112,9 @@ class ChainHistory:
     autocorr : list of (int, float)
         ``(step, largest integrated autocorrelation time of the chain after
         burn_in so far [steps])``.
+    with_autocorr : bool
+        Estimate the autocorrelation time at the checkpoints (not in a run
+        that continues a chain: its time is taken at the end).
     """
 
     steps: int
@@ -119,6 +122,7 @@ class ChainHistory:
     offset: int = 0
     acceptance: list = field(default_factory=list)
     autocorr: list = field(default_factory=list)
+    with_autocorr: bool = True
 
     def record(self, sampler, step: int) -> None:
         """Record the run of ``sampler`` after ``step`` steps (1-based) when
@@ -127,7 +131,7 @@ class ChainHistory:
             self.acceptance.append((self.offset + step, float(np.mean(sampler.acceptance_fraction))))
         kept = step - self.burn_in
         marks = {round(share * (self.steps - self.burn_in)) for share in AUTOCORR_SHARES}
-        if kept >= MIN_AUTOCORR_STEPS and kept in marks:
+        if self.with_autocorr and kept >= MIN_AUTOCORR_STEPS and kept in marks:
             # tol=0: the estimate without emcee's warning about a short chain
             chain = sampler.get_chain(discard=self.burn_in)
             tau = float(np.max(integrated_time(chain, tol=0, quiet=True)))

@@ -182,7 +182,9 @@ def sample_regression_chain(post: RegressionPosterior, n_walkers: int, n_samples
         logger.info("bayes %s: chain of %d steps shorter than %g autocorrelation times (%s): "
                     "running %d more (method.max_steps=%d)", label, steps, MIN_TAU_MULTIPLE,
                     f"{tau:.0f} steps" if np.isfinite(tau) else "not yet estimable", more, max_steps)
-        state = run_with_progress(sampler, state, more, f"bayes {label} (longer)")
+        longer = ChainHistory(more, offset=burn_in + steps, with_autocorr=False)
+        state = run_with_progress(sampler, state, more, f"bayes {label} (longer)", longer)
+        history.extend(longer)
         steps += more
     diag = diagnose(sampler, burn_in, steps, label, history, budget=max_steps if steps > planned else None)
     every = max(thin, (steps * n_walkers) // max(n_samples, 1)) if steps > planned else thin
