@@ -16,7 +16,7 @@ the probability integral transforms of the measurement (``pit_x0``,
 ``pit_y0``, ``joint_level``), the CRPS and the 90 % interval score [m], the
 median 90 % half-width [m] (half the mean of the ``x0`` and ``y0`` widths)
 against the point prediction's position RMSE [m] on the record (the replay
-with the posterior medians: ``sqrt(mean(dx^2 + dy^2))``).
+with the posterior medians: ``<record>/rmse_position`` of its validation).
 
 Pooled (:func:`pooled`): every record counts once. Coverage at each level
 is the mean of the records' coverages; the miscalibration is the mean of
@@ -49,6 +49,9 @@ from . import measured as _measured
 __all__ = ["BANDS", "TARGETS", "held_out_bands", "pooled", "calibration_markdown", "plot_pit",
            "plot_pooled", "write_band_calibration"]
 
+#: the nominal levels as the columns name them: (level, percent), e.g. (0.9, 90) -> ``coverage_90``
+PERCENT = tuple((lv, int(round(100 * lv))) for lv in LEVELS)
+
 #: the two bands compared on every held-out record
 BANDS = ("band", "coefficients_only")
 _LABELS = {"band": "coefficients and discrepancy", "coefficients_only": "coefficients only (baseline)"}
@@ -60,20 +63,14 @@ TARGETS = {"coverage_90": (0.85, 0.95), "miscalibration": 0.05, "record_min_90":
            "width_over_rmse": 1.5, "crps_gain": 0.20}
 
 
-def _position_rmse(prediction: pd.DataFrame, record: pd.DataFrame) -> float:
-    n = min(len(prediction), len(record))
-    dx = prediction["x0"].to_numpy(float)[:n] - record["x0"].to_numpy(float)[:n]
-    dy = prediction["y0"].to_numpy(float)[:n] - record["y0"].to_numpy(float)[:n]
-    return float(np.sqrt(np.nanmean(dx * dx + dy * dy)))
-
-
-def held_out_bands(run, result, record: pd.DataFrame, prediction: pd.DataFrame, n_draws: int,
+def held_out_bands(run, result, record: pd.DataFrame, rmse: float, n_draws: int,
                    seed: int = 0) -> tuple[list[dict], dict]:
     """Both bands of one held-out record; ``(rows, pit)``.
 
     ``run`` is the fold (its model, vessel and propeller/rudder modules),
-    ``result`` its identification with posterior samples, ``prediction``
-    the replay with the point estimate. ``rows`` holds one dict per band
+    ``result`` its identification with posterior samples, ``rmse`` the
+    position RMSE [m] of the replay with the point estimate (its validation's
+    ``<record>/rmse_position``, nan when it diverged). ``rows`` holds one dict per band
     (:data:`BANDS`) with the record's name, ``coverage_<level>``, ``crps_m``,
     ``interval_score_m``, ``half_width_m``, ``rmse_m``, ``width_over_rmse``,
     ``diverged``; ``pit`` maps each band to its ``pit_x0``, ``pit_y0``,
@@ -82,7 +79,6 @@ def held_out_bands(run, result, record: pd.DataFrame, prediction: pd.DataFrame, 
     name = str(record.attrs.get("name", "record"))
     vectors = _measured.posterior_vectors(run.model, result, n_draws, seed)
     discrepancy = Discrepancy.from_sample(result.samples.get("discrepancy"))
-    rmse = _position_rmse(prediction, record)
     rows, pit = [], {}
     for band in BANDS:
         with_discrepancy = discrepancy if band == "band" else None
@@ -91,8 +87,7 @@ def held_out_bands(run, result, record: pd.DataFrame, prediction: pd.DataFrame, 
         stats = band_statistics(states, diverged, record, noise=True, seed=seed)
         half = 0.25 * ((stats["x0"][-1] - stats["x0"][0]) + (stats["y0"][-1] - stats["y0"][0]))
         row = {"record": name, "band": band, "discrepancy": with_discrepancy is not None,
-               **{f"coverage_{int(round(100 * lv))}": stats[f"coverage_joint_{int(round(100 * lv))}"]
-                  for lv in LEVELS},
+               **{f"coverage_{pc}": stats[f"coverage_joint_{pc}"] for _, pc in PERCENT},
                "crps_m": stats["crps_xy_m"], "interval_score_m": stats["interval_score_xy_m"],
                "half_width_m": float(np.nanmedian(half)), "rmse_m": rmse,
                "diverged": stats["diverged"], "samples": len(record)}
@@ -108,10 +103,8 @@ def pooled(table: pd.DataFrame) -> dict:
     record counts once; ``crps_gain`` is against the coefficient-only band)."""
     out = {}
     for band, part in table.groupby("band", sort=False):
-        figures = {f"coverage_{int(round(100 * lv))}": float(part[f"coverage_{int(round(100 * lv))}"].mean())
-                   for lv in LEVELS}
-        figures["miscalibration"] = float(np.mean([abs(figures[f"coverage_{int(round(100 * lv))}"] - lv)
-                                                   for lv in LEVELS]))
+        figures = {f"coverage_{pc}": float(part[f"coverage_{pc}"].mean()) for _, pc in PERCENT}
+        figures["miscalibration"] = float(np.mean([abs(figures[f"coverage_{pc}"] - lv) for lv, pc in PERCENT]))
         figures["record_min_90"] = float(part["coverage_90"].min())
         figures["records_below_half"] = float(np.sum(part["coverage_90"] < 0.5))
         figures["width_over_rmse"] = float(part["width_over_rmse"].median())
@@ -144,7 +137,7 @@ def verdicts(figures: dict) -> list[tuple[str, str, bool]]:
 
 def calibration_markdown(table: pd.DataFrame, figures: dict, setting: str, scale: str) -> str:
     """``calibration.md``: per record, pooled, and the verdict against :data:`TARGETS`."""
-    levels = [int(round(100 * lv)) for lv in LEVELS]
+    levels = [pc for _, pc in PERCENT]
     lines = ["# Calibration of the predictive bands, each record held out in turn", "",
              f"Each record is predicted by the model and discrepancy identified from all the others ({setting}); "
              f"the joint band of x0 and y0 is judged on it at 50/80/90/95 %, {scale}. "
@@ -215,9 +208,9 @@ def plot_pooled(table: pd.DataFrame, figures: dict, path: Path) -> None:
         if band not in figures:
             continue
         for _, row in table[table["band"] == band].iterrows():
-            ax.plot(levels, [row[f"coverage_{int(round(100 * lv))}"] for lv in levels], color=color,
+            ax.plot(levels, [row[f"coverage_{pc}"] for _, pc in PERCENT], color=color,
                     alpha=0.15, lw=1)
-        ax.plot(levels, [figures[band][f"coverage_{int(round(100 * lv))}"] for lv in levels], "o-",
+        ax.plot(levels, [figures[band][f"coverage_{pc}"] for _, pc in PERCENT], "o-",
                 color=color, label=f"{_LABELS[band]}, pooled")
     ax.set_xlim(0.4, 1.0)
     ax.set_ylim(0.0, 1.02)

@@ -57,7 +57,8 @@ def _fold(run, i: int, identify, out_dir: Path, band_draws: int, seed: int):
     fold_dir.mkdir(parents=True, exist_ok=True)
     found = _manoeuvring._validate_records(fold, params, fold_dir)
     if band_draws > 0 and getattr(result, "samples", None):
-        found_rows, pit = held_out_bands(fold, result, held, fold.replay(params, held), band_draws, seed)
+        rmse = found.get(f"{name}/rmse_position", float("nan"))
+        found_rows, pit = held_out_bands(fold, result, held, rmse, band_draws, seed)
         return name, found, found_rows, pit
     return name, found, [], {}
 
