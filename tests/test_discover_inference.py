@@ -61,16 +61,60 @@ def test_the_residualised_comparison_equals_least_squares_on_the_whole_design(ve
     assert res.fit(np.arange(extra.shape[1]))[0] == pytest.approx(beta[-1], rel=1e-6)
 
 
-def test_evidence_below_its_price_leaves_none_more_probable_and_dispersion_divides_evidence():
-    rss = np.array([[100.0, 100.0, 100.0], [99.9, 100.0, 100.0], [50.0, 100.0, 100.0]])
-    n_params = np.array([0.0, 1.0, 1.0])
-    log_prior = np.log(np.array([1 / 3, 1 / 3, 1 / 3]))
-    _, p = inf.scores_of(rss, n_params, log_prior, 1000.0, 1.0)
-    assert p[2] > 0.99                                   # halving one DOF's residual is plain evidence
-    _, p = inf.scores_of(rss[:2], n_params[:2], log_prior[:2], 1000.0, 1.0)
-    assert p[0] > p[1]                                   # 0.1 % less residual does not pay for a parameter
-    _, weak = inf.scores_of(rss, n_params, log_prior, 1000.0, np.array([1.0, 1.0, 400.0]))
-    assert weak[0] > weak[2]                             # the same ratio, 400 times less trustworthy
+def test_blocks_cut_each_record_and_are_shared_by_the_dofs():
+    from studies.discover.selection import row_blocks
+
+    record = np.concatenate([np.repeat([0, 1], [50, 30])] * 3 + [np.full(4, -1)])
+    dof = np.concatenate([np.full(80, k) for k in range(3)] + [np.full(4, 3)])
+    blocks = row_blocks(record, dof, 20)
+    assert np.all(blocks[-4:] == -1)                            # prior rows are never held out
+    per_dof = blocks[:240].reshape(3, 80)
+    assert np.all(per_dof == per_dof[0])                        # the same rows of every DOF together
+    assert len(np.unique(per_dof[0, :50])) == 2                 # 50 rows: two blocks, the rest joins the last
+    assert not set(per_dof[0, :50]) & set(per_dof[0, 50:])      # no block spans two records
+
+
+def test_leave_one_block_out_fits_equal_least_squares_without_the_block():
+    from studies.discover.selection import BlockGrams
+
+    rng = np.random.default_rng(3)
+    x = rng.standard_normal((120, 4))
+    y = x @ np.array([0.5, 0.0, -1.0, 0.2]) + rng.standard_normal(120)
+    blocks = np.repeat(np.arange(6), 20)
+    grams = BlockGrams(x, y, blocks)
+    index = np.array([[0, 2], [1, 3]])
+    fits = grams.folds(index)
+    for k in range(6):
+        out = blocks == k
+        for m, cols in enumerate(index):
+            beta = np.linalg.lstsq(x[~out][:, cols], y[~out], rcond=None)[0]
+            assert np.allclose(fits.beta[k, m], beta, rtol=1e-6)
+            held = 0.5 * (y[out] @ y[out] - np.sum((y[out] - x[out][:, cols] @ beta) ** 2))
+            assert fits.held[k, m] == pytest.approx(held, rel=1e-6)
+
+
+def test_noise_a_cause_fits_does_not_predict_other_blocks_and_a_real_effect_does():
+    """A slowly varying column that coloured noise happens to follow in-sample
+    (the row-by-row evidence for it is large) is not named; a column that acts
+    everywhere is."""
+    from studies.discover.selection import BlockGains, BlockGrams, bayesian_bootstrap, name_per_draw
+
+    rng = np.random.default_rng(11)
+    n, blocks = 2400, np.repeat(np.arange(40), 60)
+    coloured = np.convolve(rng.standard_normal(n + 59), np.ones(60) / np.sqrt(60), mode="valid")
+    effect = np.sin(np.arange(n) / 37.0)
+    spurious = np.cos(np.arange(n) / 150.0)
+    x = np.column_stack([effect, spurious])
+    beta = np.linalg.lstsq(x[:, 1:], coloured, rcond=None)[0]
+    naive_t = beta[0] / np.sqrt(np.var(coloured - x[:, 1] * beta[0]) / (x[:, 1] @ x[:, 1]))
+    assert abs(naive_t) > 2.5                                    # rows taken as independent: "significant"
+    weights = np.vstack([np.ones(40), bayesian_bootstrap(40, draws=500, seed=1)])
+    quiet = BlockGains.of(BlockGrams(x, coloured, blocks), {"effect": [[0]], "spurious": [[1]]})
+    named = name_per_draw(quiet.held, weights, 2.5)
+    assert named[0] == -1                                        # nothing acts: nothing named
+    acting = BlockGains.of(BlockGrams(x, coloured + effect, blocks), {"effect": [[0]], "spurious": [[1]]})
+    named = name_per_draw(acting.held, weights, 2.5)
+    assert named[0] == 0 and np.mean(named[1:] == 0) > 0.8
 
 
 def test_the_inference_refuses_the_options_of_the_search(tmp_path, vessel_module, clean):

@@ -1,9 +1,10 @@
 """Discovery by one inference over the whole cause catalogue.
 
-What the baseline misses is estimated once, and every cause of the
-catalogue, alone or in pairs, is weighed against it in one Bayesian model
-comparison; the named verdict is the model of highest posterior
-probability, and that probability is its confidence.
+What the baseline misses is estimated once along the smoothed records, and
+every cause of the catalogue is judged by how well it predicts stretches of
+the records it was not fitted to; one criterion names the verdict, and the
+share of resampled records for which the same criterion names it is its
+confidence.
 
 1. **States.** Every record (training and held out) is smoothed by the
    kinematic EKF/RTS smoother (:func:`studies.identify.kalman.ekf_derivatives`,
@@ -26,31 +27,32 @@ probability, and that probability is its confidence.
    a wind the records do not carry acts as the square of its speed, so it
    enters as the secant column of a reference wind from each of
    :data:`WIND_DIRECTIONS` directions.
-3. **One comparison.** Every model ``M`` (``none``, each cause, each pair of
-   causes; a missing term or a wind direction is one of the variants of its
-   cause) is fitted with the baseline's columns projected out
-   (:class:`_Residualised`). Its likelihood ratio over ``none``,
-   ``LR_M = n sum_dof ln(RSS_dof(none) / RSS_dof(M))``, is divided by the
-   dispersion ``phi`` that a parametric bootstrap under the baseline measures
-   on the records' own noise (:func:`null_dispersion`)::
-
-       score(M) = -LR_M / phi + k_M ln(n / phi) - 2 ln prior(M)
-
-   with uniform prior odds over 0, 1 and 2 causes, over the causes of each
-   size and over the variants of a cause. The posterior probability
-   ``exp(-score / 2)`` normalised over all models is the model's; a cause's
-   inclusion probability is the sum over the models that hold it. The
-   contenders (``none``, every single cause, the most probable verdicts)
-   are refined by profiled nonlinear least squares and scored on their exact
-   residuals; a pair's second cause is judged with the dispersion of records
-   made by its first cause's refined model.
-4. **Parameters.** The named verdict is the one of highest posterior
-   probability (summed over its variants), its probability the confidence;
-   its parameters come from the refinement, their 90 % intervals from the
-   regression's covariance times the dispersion (:func:`intervals`). The
-   held-out records then measure the gain (the workflow refits the named
-   model on the training records for it); the gain is reported, it does not
-   name anything.
+3. **One comparison, on unseen blocks.** The records are cut into blocks of
+   several correlation times of the baseline's residual; every cause, with
+   the baseline's columns projected out (:class:`_Residualised`), is fitted
+   with one block left out and predicts that block
+   (:mod:`studies.discover.selection`); a cause with variants (a missing
+   term, a wind direction) picks its variant on the other blocks. A cause's
+   held-out gain is the fall in the held-out blocks' weighted residual sum of
+   squares (half of it, a log-likelihood ratio over ``none``). Noise that
+   the smoother took for signal, coloured or quantised sensor noise, or one
+   manoeuvre's quirk does not repeat in another block, so it earns nothing.
+4. **One criterion.** A cause is named when its held-out gain exceeds
+   ``z = Phi^-1(1 - FALSE_NAMING / causes)`` of its standard error over the
+   blocks (Bonferroni: at most :data:`FALSE_NAMING` of records where nothing
+   acts get a cause); among those, the one of largest gain less the log of
+   its number of variants. A second cause is judged the same way on the
+   records as the first cause's refined model leaves them. The Bayesian
+   bootstrap over the blocks (Dirichlet weights) applies the same criterion
+   to each draw: the share of draws that name a verdict is its probability,
+   the named verdict's share its confidence, a cause's share its inclusion.
+5. **Parameters.** Every single cause is refined by profiled nonlinear
+   least squares from its linear solution (its parameters are reported
+   whether named or not); the named verdict's intervals come from the
+   jackknife over the blocks of its linear coefficients
+   (:func:`intervals`). The held-out records then measure the gain (the
+   workflow refits the named model on the training records for it); the gain
+   is reported, it does not name anything.
 
 Conventions as in :mod:`studies.discover.causes.base`: angles in radians,
 current direction where it flows to, wind direction where it comes from,
@@ -58,15 +60,13 @@ prime forces (thesis eq. 3.6).
 
 References
 ----------
-Schwarz, G. (1978). Estimating the dimension of a model. Ann. Statist. 6(2).
-Kass, R. E., Raftery, A. E. (1995). Bayes factors. JASA 90(430), 773-795.
-Hoeting, J. A. et al. (1999). Bayesian model averaging: a tutorial.
-Statistical Science 14(4), 382-417.
+Rubin, D. B. (1981). The Bayesian bootstrap. Ann. Statist. 9(1), 130-134.
+Arlot, S., Celisse, A. (2010). A survey of cross-validation procedures for
+model selection. Statistics Surveys 4, 40-79.
 """
 
 from __future__ import annotations
 
-import itertools
 import logging
 import time
 from dataclasses import dataclass, field
@@ -81,6 +81,7 @@ from .causes import Combined, Current, MissingTerm, WindUnmodelled, extended_lib
 from .causes.base import Cause, Setup
 from .fitting import (CauseFit, Context, _score, integrated_time, kinematic_smoothing, regression_fit,
                       scored_fit, setup_problems)
+from .selection import BlockGains, BlockGrams, bayesian_bootstrap, name_per_draw, row_blocks
 
 __all__ = ["Variant", "Inference", "infer", "smooth_with_baseline", "WIND_DIRECTIONS", "WIND_REFERENCE"]
 
@@ -128,44 +129,49 @@ class Inference:
 
     Attributes
     ----------
-    models : list of tuple
-        Every model compared: tuples of variant indices (``()`` is ``none``).
-    scores : ndarray
-        Their scores (lower is better, ``2 ln`` Bayes-factor scale, best 0).
-    probabilities : ndarray
-        Their posterior probabilities.
     variants : list of Variant
     named : tuple
-        The model of highest posterior probability.
+        The named model: indices of its variants (``()`` is ``none``).
     inclusion : dict
-        ``{cause id: probability that it acts}``.
+        ``{cause id: probability that it is in the verdict that predicts unseen blocks best}``.
     verdicts : dict
-        ``{verdict id ("none", "current", "current+rudder_offset"): probability}``.
-    linear : dict
-        ``{model: coefficients of its variants' columns}`` for the named model.
+        ``{verdict id ("none", "current", "current+rudder_offset"): probability}`` that it
+        predicts unseen blocks best (Bayesian bootstrap over the blocks), most probable first.
+    coefficients : ndarray
+        The named model's linear coefficients of its variants' columns (every block).
     covariance : ndarray
-        Covariance of the named model's cause coefficients (tau-inflated).
-    dispersion : float
-        The likelihood-ratio dispersion of the named model (:func:`null_dispersion`).
+        Their covariance (jackknife over the blocks).
     n_rows : int
     seconds : dict
         Time spent per stage [s].
-    dispersions : dict
-        ``{cause id: dispersion}`` and ``"all"`` (set by :func:`infer`).
+    gains : dict
+        ``{verdict: held-out gain}`` summed over the blocks (half the fall in the
+        weighted residual sum of squares, a log-likelihood ratio over ``none``).
+    beats_none : dict
+        ``{cause: probability that it predicts unseen blocks better than none}``.
+    beats_first : dict
+        ``{cause: probability that it adds to the first cause's prediction}``.
+    threshold : float
+        Standard errors of its held-out gain a cause needs to be named (:func:`_threshold`).
+    n_blocks : int
+    block_seconds : float
+        Duration of a block [s].
     """
 
-    models: list
-    scores: np.ndarray
-    probabilities: np.ndarray
     variants: list
     named: tuple
     inclusion: dict
     verdicts: dict
     coefficients: np.ndarray
     covariance: np.ndarray
-    dispersion: float
     n_rows: int
     seconds: dict = field(default_factory=dict)
+    gains: dict = field(default_factory=dict)
+    beats_none: dict = field(default_factory=dict)
+    beats_first: dict = field(default_factory=dict)
+    threshold: float = float("nan")
+    n_blocks: int = 0
+    block_seconds: float = float("nan")
 
     def verdict_of(self, model: tuple) -> str:
         """The verdict id of a model: its causes' ids joined by ``+`` in catalogue order, or ``none``."""
@@ -173,16 +179,19 @@ class Inference:
 
     @property
     def confidence(self) -> float:
-        """Posterior probability of the named verdict (every variant of its causes)."""
+        """Probability that the named verdict predicts unseen blocks best."""
         return float(self.verdicts.get(self.verdict_of(self.named), 0.0))
 
     def ranking(self) -> list:
-        """``[{"cause": verdict, "probability", "score"}]`` by verdict, most probable first
-        (score: ``-2 ln`` of its probability relative to the best verdict)."""
-        items = sorted(self.verdicts.items(), key=lambda kv: -kv[1])
-        top = items[0][1] if items else 1.0
-        return [{"cause": k, "probability": float(p),
-                 "score": float(-2.0 * np.log(max(p, 1e-300) / top))} for k, p in items]
+        """``[{"cause": verdict, "probability", "gain", "score"}]``, most probable first
+        (gain: summed held-out log-likelihood gain over none; score: ``-2 ln`` of the
+        probability relative to the most probable verdict)."""
+        items = sorted(set(self.verdicts) | set(self.gains), key=lambda k: (-self.verdicts.get(k, 0.0),
+                                                                            -self.gains.get(k, 0.0)))
+        top = max(self.verdicts.values(), default=1.0)
+        return [{"cause": k, "probability": float(self.verdicts.get(k, 0.0)),
+                 "gain": float(self.gains.get(k, float("nan"))),
+                 "score": float(-2.0 * np.log(max(self.verdicts.get(k, 0.0), 1e-300) / top))} for k in items]
 
 
 # --------------------------------------------------------------- smoothing
@@ -262,6 +271,7 @@ class _Design:
     nominal: list             # per DOF: the nominal-speed factor of the data rows
     n_data: list              # data rows per DOF
     residual: np.ndarray      # weighted data-row residual of the fit on all rows
+    record: np.ndarray = None  # (N,) the record of each row (-1: prior rows)
 
 
 def _design(ctx: Context, setup: Setup, sigma: np.ndarray | None = None) -> _Design:
@@ -296,6 +306,7 @@ def _design(ctx: Context, setup: Setup, sigma: np.ndarray | None = None) -> _Des
     n_cols = sum(r[1].shape[1] for r in rows)
     starts = np.cumsum([0] + [r[1].shape[1] for r in rows])
     xs, ys, dofs, blocks, prior_x, prior_y, prior_b = [], [], [], [], [], [], []
+    records = []
     for k, (y, theta, names, n, _, record, _) in enumerate(rows):
         x = np.zeros((len(y), n_cols))
         x[:, starts[k]:starts[k + 1]] = theta
@@ -303,6 +314,7 @@ def _design(ctx: Context, setup: Setup, sigma: np.ndarray | None = None) -> _Des
         ys.append(y[:n] / sigma[k])
         dofs.append(np.full(n, k))
         blocks.append(np.full(n, k))
+        records.append(record)
         if len(y) > n:
             prior_x.append(x[n:] / sigma[k])
             prior_y.append(y[n:] / sigma[k])
@@ -316,7 +328,8 @@ def _design(ctx: Context, setup: Setup, sigma: np.ndarray | None = None) -> _Des
     return _Design(np.vstack(xs), np.concatenate(ys), np.concatenate(dofs), np.concatenate(blocks), starts,
                    sigma,
                    coef, names, [r[6] for r in rows], [r[4] for r in rows], [r[3] for r in rows],
-                   np.concatenate([r / sigma[k] for k, r in enumerate(resid)]))
+                   np.concatenate([r / sigma[k] for k, r in enumerate(resid)]),
+                   np.concatenate(records + [np.full(n_prior, -1)]))
 
 
 def _residual(ctx: Context, setup: Setup, coef: dict, sigma: np.ndarray) -> np.ndarray:
@@ -436,34 +449,6 @@ def _library_column(ctx: Context, design: _Design, term) -> np.ndarray | None:
 
 # --------------------------------------------------------------- comparison
 
-def _models(variants: list, pairs: bool) -> list:
-    """``()``, every variant, and (``pairs``) every pair of variants of two different causes."""
-    models = [()] + [(i,) for i in range(len(variants))]
-    if pairs:
-        for i, j in itertools.combinations(range(len(variants)), 2):
-            if variants[i].cause.id != variants[j].cause.id:
-                models.append((i, j))
-    return models
-
-
-def _log_prior(models: list, variants: list) -> np.ndarray:
-    """``ln prior``: uniform over 0, 1, 2 causes, over the causes (or pairs of
-    causes) of each size, and over the variants of each cause."""
-    by_cause = {}
-    for v in variants:
-        by_cause[v.cause.id] = by_cause.get(v.cause.id, 0) + 1
-    ids = list(by_cause)
-    sizes = {0: 1, 1: len(ids), 2: len(ids) * (len(ids) - 1) // 2}
-    levels = 3 if any(len(m) == 2 for m in models) else 2
-    out = np.empty(len(models))
-    for m_i, m in enumerate(models):
-        lp = -np.log(levels) - np.log(max(sizes[len(m)], 1))
-        for i in m:
-            lp -= np.log(by_cause[variants[i].cause.id])
-        out[m_i] = lp
-    return out
-
-
 class _Residualised:
     """The cause columns and the target with the baseline's columns projected
     out, DOF by DOF (QR; Frisch-Waugh-Lovell), so that every model is a small,
@@ -485,6 +470,7 @@ class _Residualised:
                 q, _ = np.linalg.qr(base)
                 y[rows] -= q @ (q.T @ y[rows])
                 x[rows] -= q @ (q.T @ x[rows])
+        self.x, self.y = x, y
         self.g, self.b = x.T @ x, x.T @ y
         self.pieces = []
         for k in range(3):
@@ -511,188 +497,57 @@ class _Residualised:
                          for g, b, yy in self.pieces])
 
 
-def scores_of(rss: np.ndarray, n_params: np.ndarray, log_prior: np.ndarray, n_rows: float,
-              dispersion) -> tuple[np.ndarray, np.ndarray]:
-    """``(scores, probabilities)`` of models with per-DOF ``rss`` (m, 3), the
-    parameters they add and their log prior (module docstring, step 3); the
-    first model is ``none``. Each model's likelihood ratio over ``none`` is
-    divided by its dispersion (one value, or one per model) and its BIC
-    penalty taken at ``n_rows / dispersion`` rows; scores relative to the best."""
-    phi = np.maximum(np.broadcast_to(np.asarray(dispersion, float), (len(rss),)), 1.0)
-    n_eff = np.maximum(n_rows / phi, 10.0)
-    ratio = n_rows * np.sum(np.log(rss[0] / rss), axis=1)
-    scores = -ratio / phi + n_params * np.log(n_eff) - 2.0 * log_prior
-    scores = scores - scores.min()
-    w = np.exp(-0.5 * scores)
-    return scores, w / w.sum()
-
-
-#: models refined by nonlinear least squares before the final comparison (the most probable)
-CONTENDERS = 6
-
-
-def _contenders(models: list, variants: list, probs: np.ndarray, top: int) -> list:
-    """Models to refine: ``none``, the most probable variant of every single
-    cause (a cause's first-order signature may miss part of its effect, which
-    only its nonlinear fit recovers), and the most probable model of each of
-    the ``top`` most probable verdicts."""
-    best_of = {}
-    for m_i in np.argsort(-probs):
-        key = tuple(sorted(variants[i].cause.id for i in models[m_i]))
-        best_of.setdefault(key, int(m_i))
-    singles = [m_i for key, m_i in best_of.items() if len(key) == 1]
-    ranked = sorted(best_of.values(), key=lambda m_i: -probs[m_i])[:top]
-    return list(dict.fromkeys([0] + singles + ranked))
-
-
-def _refined_rss(ctx: Context, cause: Cause, theta: np.ndarray, sigma: np.ndarray) -> np.ndarray:
-    """Per-DOF weighted RSS of a cause's model at its refined ``theta`` (the
-    baseline's coefficients re-identified there) on every record of ``ctx``."""
-    design = _design(ctx, _with_dynamics(ctx, cause.setup(ctx, theta)), sigma)
-    return _Residualised(design).rss(np.zeros(0, int))
-
-
-# --------------------------------------------------------------- dispersion
-
-#: replicates of the parametric bootstrap of :func:`null_dispersion`
-NULL_REPLICATES = 3
-#: weight (in ratios) of the mean over every cause in a cause's dispersion (:func:`null_dispersion`)
-SHRINK = 5.0
-
-
-def _block_resample(noise: np.ndarray, block: int, rng) -> np.ndarray:
-    """A circular block bootstrap of a residual series (n, c): blocks of ``block`` rows."""
-    n = len(noise)
-    block = int(min(max(block, 1), n))
-    starts = rng.integers(0, n, size=int(np.ceil(n / block)))
-    idx = (starts[:, None] + np.arange(block)[None, :]).ravel()[:n] % n
-    return noise[idx]
-
-
-def null_records(ctx: Context, raw: list, smoothed: list, params: dict, block: int, rng,
-                 setup: Setup | None = None) -> list:
-    """Records as the baseline with ``params`` (or the extended model of
-    ``setup``) would have made them, with the measured records' own noise:
-    each record's rudder (and propeller rate, wind) replayed from its smoothed
-    initial state, plus a block bootstrap of the record's measurement residual
-    (measured minus smoothed, every channel together, so that coloured,
-    quantised and track-derived noise keep their structure). The recorded
-    rudder is kept as recorded."""
-    out = []
-    setup = setup or _baseline_setup(ctx)
-    for rec, sm in zip(raw, smoothed):
-        channels = [c for c in ("x0", "y0", "psi", "u", "v", "r") if c in rec and c in sm]
-        n = min(len(rec), len(sm))
-        seg = sm.iloc[:n].copy()
-        seg.attrs = dict(rec.attrs)
-        try:
-            sim = setup.replay(params, ctx.vessel, seg)
-        except (ValueError, FloatingPointError):
-            continue
-        if "diverged_at" in sim.attrs:
-            continue
-        t = seg["t"].to_numpy(float)
-        clean = rec.iloc[:n].copy()
-        for c in channels:
-            clean[c] = np.interp(t, sim["t"].to_numpy(float), sim[c].to_numpy(float))
-        noise = np.column_stack([rec[c].to_numpy(float)[:n] - sm[c].to_numpy(float)[:n] for c in channels])
-        noise = _block_resample(noise, block, rng)
-        for j, c in enumerate(channels):
-            clean[c] = clean[c].to_numpy(float) + noise[:, j]
-        clean.attrs = dict(rec.attrs)
-        out.append(clean.reset_index(drop=True))
-    return out
-
-
-def null_dispersion(ctx: Context, raw: list, smoothed: list, causes: list, params: dict, block: int,
-                    replicates: int = NULL_REPLICATES, seed: int = 0, under: CauseFit | None = None) -> dict:
-    """How much the comparison's likelihood ratios are inflated on these records
-    (>= 1), by a parametric bootstrap under the baseline.
-
-    Records made by the identified baseline itself, with the measured
-    records' noise (:func:`null_records`), go through the same smoother and
-    signatures; there every cause is spurious, so each variant's likelihood
-    ratio over ``none``, ``n sum_dof ln(RSS_none / RSS_v)``, would average its
-    number of parameters (a chi-square law) if the rows were independent and
-    the states exact. A cause's dispersion is the mean over its variants and
-    the replicates of the ratio over the number of parameters (the
-    quasi-likelihood estimate), shrunk towards the mean over every cause with
-    the weight of :data:`SHRINK` ratios (a cause with one variant has only
-    ``replicates`` ratios): causes differ in how much of the smoother's and
-    the regressors' errors they can take up (a third-order rudder term far
-    more than an earth-fixed force). It
-    holds the residual's serial correlation, the smoother's errors and the
-    errors in the regressors together (McCullagh & Nelder 1989, quasi-
-    likelihood; Efron & Tibshirani 1993, parametric bootstrap).
-
-    ``block``: rows of the residual's bootstrap blocks (several of its
-    correlation times). ``under``: a single cause's refined fit; the records are then made by its
-    extended model, and the ratios are those of each other cause's variants
-    added to it (the dispersion that judges a second cause).
-
-    Returns ``{cause id: dispersion}`` and ``"all"``: the mean over every cause.
-    """
-    rng = np.random.default_rng(seed)
-    ratios = {}
-    setup = None
-    if under is not None:
-        setup = _with_dynamics(ctx, under.cause.setup(ctx, under.theta))
-        params = under.params
-    for _ in range(int(replicates)):
-        fake = null_records(ctx, raw, smoothed, params, block, rng, setup)
-        if not fake:
-            continue
-        sm = [_smooth_once(ctx, r, params) if s.attrs.get("smoothed") == "ekf_model"
-              else kinematic_smoothing(r, SMOOTHER, rates=True) for r, s in zip(fake, smoothed)]
-        every = Context(ctx.vessel, ctx.model, sm, [], "recorded", dynamics=ctx.dynamics)
-        design = _design(every, _baseline_setup(every))
-        variants = _variants(every, design, causes)
-        res = _Residualised(design, np.hstack([v.columns for v in variants]))
-        spans, col = [], 0
-        for v in variants:
-            spans.append(np.arange(col, col + v.columns.shape[1]))
-            col += v.columns.shape[1]
-        own = np.zeros(0, int)
-        if under is not None:
-            label = _label_of(under)
-            mine = [i for i, v in enumerate(variants) if v.cause.id == under.cause.id
-                    and (label is None or v.label == label)]
-            if mine:
-                best = max(mine, key=lambda i: -float(np.sum(np.log(res.rss(spans[i])))))
-                own = spans[best]
-        base = res.rss(own)
-        for i, v in enumerate(variants):
-            if under is not None and v.cause.id == under.cause.id:
-                continue
-            rss = res.rss(np.concatenate([own, spans[i]]))
-            ratios.setdefault(v.cause.id, []).append(res.n * float(np.sum(np.log(base / rss)))
-                                                      / max(v.n_params, 1))
-    every = [r for values in ratios.values() for r in values]
-    if not every:
-        return {"all": 1.0}
-    overall = float(max(np.mean(every), 1.0))
-    out = {"all": overall}
-    for cid, values in ratios.items():
-        out[cid] = float(max((np.sum(values) + SHRINK * overall) / (len(values) + SHRINK), 1.0))
-    return out
-
-
-def _label_of(fit: CauseFit) -> str | None:
-    """The variant label of a missing term's fit (its one term), else None (any variant of the cause)."""
-    if isinstance(fit.cause, MissingTerm) and fit.cause.params:
-        return f"missing_term:{fit.cause.params[0]}"
-    return None
-
-
 def _tau(residual: np.ndarray, design: _Design) -> float:
     parts = np.split(residual, np.cumsum(design.n_data)[:-1])
     return max(integrated_time(r) for r in parts)
 
 
+#: family-wise probability of naming a cause (or a second one) that does not act: a cause is
+#: named only when its held-out gain exceeds the one-sided ``1 - FALSE_NAMING / (causes
+#: compared)`` normal quantile of its standard error (Bonferroni over the causes)
+FALSE_NAMING = 0.05
+
+
+def _threshold(n_causes: int) -> float:
+    """Standard errors a cause's held-out gain must exceed to be named: the
+    one-sided normal quantile of ``1 - FALSE_NAMING / n_causes``."""
+    from scipy.stats import norm
+
+    return float(norm.ppf(1.0 - FALSE_NAMING / max(n_causes, 1)))
+
+
+def _spans(variants: list) -> list:
+    spans, col = [], 0
+    for v in variants:
+        spans.append(np.arange(col, col + v.columns.shape[1]))
+        col += v.columns.shape[1]
+    return spans
+
+
+def _by_cause(variants: list, skip: str | None = None) -> dict:
+    """``{cause id: [variant indices]}`` in catalogue order (``skip``: a cause id left out)."""
+    out = {}
+    for i, v in enumerate(variants):
+        if v.cause.id != skip:
+            out.setdefault(v.cause.id, []).append(i)
+    return dict(sorted(out.items(), key=lambda kv: _catalogue_order(kv[0])))
+
+
+def _best_variant(res: _Residualised, spans: list, indices: list) -> int:
+    """The variant (of ``indices``) that fits every row best."""
+    return min(indices, key=lambda i: float(np.sum(np.log(res.rss(spans[i])))))
+
+
+def _jackknife(beta: np.ndarray) -> np.ndarray:
+    """Covariance of coefficients from their leave-one-block-out fits ``beta`` (K, s)."""
+    k = len(beta)
+    dev = beta - beta.mean(axis=0)
+    return (k - 1) / k * dev.T @ dev if k > 1 else np.full((beta.shape[1],) * 2, np.nan)
+
+
 def infer(ctx: Context, records: list | None = None, causes: list | None = None, pairs: bool = True,
-          contenders: int = CONTENDERS, raw: list | None = None, dispersion: float | None = None,
           seed: int = 0) -> Inference:
-    """Compare every model of the catalogue (module docstring).
+    """Name the verdict that predicts unseen stretches of the records (module docstring).
 
     Parameters
     ----------
@@ -706,14 +561,9 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
     causes : list of Cause, optional
         Default: the catalogue's applicable causes; undecidable ones are left out.
     pairs : bool
-        Compare pairs of causes too.
-    contenders : int
-        Verdicts refined besides ``none`` and every single cause.
-    raw : list of DataFrame, optional
-        The measured records before smoothing, in the order of ``records``:
-        the dispersion of the likelihood ratios is then estimated by
-        :func:`null_dispersion`; without them (or with ``dispersion``
-        given) the residual's autocorrelation time stands for it.
+        Judge a second cause beside the first.
+    seed : int
+        Seed of the Bayesian bootstrap.
     """
     seconds = {}
     t0 = time.perf_counter()
@@ -727,98 +577,119 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
     causes = [c for c in causes if c.undecidable(ctx) is None]
     variants = _variants(every, design, causes)
     seconds["signatures"] = time.perf_counter() - t0
-    t1 = time.perf_counter()
-    #: bootstrap blocks of several residual correlation times
-    block = max(20, int(4 * _tau(design.residual, design)))
-    if dispersion is None:
-        if raw is not None:
-            dispersion = null_dispersion(ctx, raw, records, causes, design.coef, block, seed=seed)
-        else:
-            dispersion = {"all": _tau(design.residual, design)}
-    elif not isinstance(dispersion, dict):
-        dispersion = {"all": float(dispersion)}
-    seconds["dispersion"] = time.perf_counter() - t1
-    t1 = time.perf_counter()
-    gram = _Residualised(design, np.hstack([v.columns for v in variants]))
-    spans, col = [], 0
-    for v in variants:
-        spans.append(np.arange(col, col + v.columns.shape[1]))
-        col += v.columns.shape[1]
-    models = _models(variants, pairs)
-    index = [np.concatenate([spans[i] for i in m]) if m else np.zeros(0, int) for m in models]
-    rss = np.array([gram.rss(idx) for idx in index])
-    n_params = np.array([sum(variants[i].n_params for i in m) for m in models], float)
-    log_prior = _log_prior(models, variants)
 
-    # one dispersion for every model: a cause's own (dispersions[cause id]) favours the causes
-    # of many variants, whose mean ratio is pulled down by the variants that explain nothing
-    phis = np.full(len(models), dispersion["all"])
-    scores, probs = scores_of(rss, n_params, log_prior, gram.n, phis)
+    # 1. every cause alone against none, each judged on blocks it was not fitted to
+    t1 = time.perf_counter()
+    block_rows = max(20, int(4 * _tau(design.residual, design)))
+    blocks = row_blocks(design.record, design.dof, block_rows)
+    spans = _spans(variants)
+    columns = np.hstack([v.columns for v in variants]) if variants else np.zeros((len(design.y), 0))
+    res = _Residualised(design, columns)
+    grams = BlockGrams(res.x, res.y, blocks)
+    singles = _by_cause(variants)
+    gains = BlockGains.of(grams, {cid: [spans[i] for i in idx] for cid, idx in singles.items()})
     seconds["comparison"] = time.perf_counter() - t1
+
+    # every single cause refined (its parameters are reported as candidates, named or not); a
+    # cause that is not linear in its parameters is judged at its refined fit
     t2 = time.perf_counter()
-    fits = {}
-    for m_i in _contenders(models, variants, probs, contenders):
-        m = models[m_i]
-        if not m:
-            fits[m_i] = baseline_fit(every)
-            continue
-        cause = _model_cause(variants, m)
-        start = _model_theta(variants, m, gram.fit(index[m_i]))
-        fit = refine(every, cause, start)
-        fits[m_i] = fit
-        rss[m_i] = _refined_rss(every, cause, fit.theta, design.sigma)
-    scores, probs = scores_of(rss, n_params, log_prior, gram.n, phis)
-    best = int(np.argmax(probs))
+    fits, chosen = {(): baseline_fit(every)}, {}
+    for j, (cid, idx) in enumerate(singles.items()):
+        i = _best_variant(res, spans, idx)
+        chosen[cid] = i
+        fits[(i,)] = refine(every, variants[i].cause, _model_theta(variants, (i,), res.fit(spans[i])))
+        if not isinstance(variants[i].cause, MissingTerm):
+            refined = _refined_gains(every, fits[(i,)], design, variants[i].columns, blocks, grams.yyk)
+            if refined is not None:
+                gains.held[j] = refined
     seconds["refinement"] = time.perf_counter() - t2
-    if pairs and raw is not None and len(models[best]) == 2:
-        # a second cause is judged against the records its first cause would make
-        t3 = time.perf_counter()
-        singles = [m_i for m_i in fits if len(models[m_i]) == 1 and models[m_i][0] in models[best]]
-        first = max(singles, key=lambda m_i: probs[m_i]) if singles else None
-        if first is not None:
-            a = models[first][0]
-            second = null_dispersion(ctx, raw, records, causes, design.coef, block, seed=seed + 1,
-                                     under=fits[first])
-            own = {i for i, v in enumerate(variants) if v.cause.id == variants[a].cause.id}
-            for m_i, m in enumerate(models):
-                if len(m) == 2 and own & set(m):
-                    others = [i for i in m if i not in own]
-                    phis[m_i] = max(phis[m_i], second["all"])
-            scores, probs = scores_of(rss, n_params, log_prior, gram.n, phis)
-            best = int(np.argmax(probs))
-        seconds["second_dispersion"] = time.perf_counter() - t3
-    inclusion, verdicts, keys = {}, {}, []
-    for m, p in zip(models, probs):
-        key = _verdict_id(variants, m)
-        keys.append(key)
-        verdicts[key] = verdicts.get(key, 0.0) + float(p)
-        for cid in {variants[i].cause.id for i in m}:
-            inclusion[cid] = inclusion.get(cid, 0.0) + float(p)
-    # the verdict of highest posterior probability (summed over its variants), then its most probable model
-    verdict = max(verdicts, key=verdicts.get)
-    best = max((m_i for m_i, k in enumerate(keys) if k == verdict), key=lambda m_i: probs[m_i])
-    if best not in fits and models[best]:
-        cause = _model_cause(variants, models[best])
-        fits[best] = refine(every, cause, _model_theta(variants, models[best], gram.fit(index[best])))
-    named = models[best]
-    cov = np.zeros((0, 0))
-    if named:
-        idx = index[best]
-        try:
-            # rows weighted by the baseline's residual RMS: unit variance, inflated by the dispersion
-            cov = phis[best] * np.linalg.inv(gram.g[np.ix_(idx, idx)])
-        except np.linalg.LinAlgError:
-            cov = np.full((len(idx),) * 2, np.nan)
-    out = Inference(models, scores, probs, variants, named, inclusion, verdicts,
-                    gram.fit(index[best]), cov, float(phis[best]) if named else dispersion["all"],
-                    int(gram.n), seconds)
-    out.dispersions = dispersion
-    out.fits = {models[i]: f for i, f in fits.items()}
-    out.fit = fits.get(best)
-    if out.fit is None:
-        cause = _model_cause(variants, named)
-        out.fit = refine(every, cause, _model_theta(variants, named, out.coefficients))
+
+    weights = np.vstack([np.ones(grams.n_blocks), bayesian_bootstrap(grams.n_blocks, seed=seed)])
+    threshold = _threshold(len(gains.ids))
+    ids = np.array(["none"] + list(gains.ids), dtype=object)
+    draw_verdict = ids[name_per_draw(gains.held, weights, threshold,
+                                     np.log([len(singles[cid]) for cid in gains.ids])) + 1]
+    first = None if draw_verdict[0] == "none" else str(draw_verdict[0])
+    beats_none = dict(zip(gains.ids, np.mean(weights[1:] @ gains.held.T > 0.0, axis=0).tolist()))
+
+    # 2. a second cause beside the first, judged the same way on the first's refined model
+    named, second_beats, held2 = (), {}, None
+    if first is not None:
+        i_first = chosen[first]
+        named = (i_first,)
+        others = _by_cause(variants, skip=first)
+        if pairs and others:
+            t3 = time.perf_counter()
+            fit1 = fits[named]
+            design2 = _design(every, _with_dynamics(every, fit1.cause.setup(every, fit1.theta)), design.sigma)
+            if len(design2.y) == len(design.y):
+                res2 = _Residualised(design2, columns)
+                grams2 = BlockGrams(res2.x, res2.y, blocks)
+                held2 = BlockGains.of(grams2, {cid: [spans[i] for i in idx] for cid, idx in others.items()})
+                second_beats = dict(zip(held2.ids, np.mean(weights[1:] @ held2.held.T > 0.0, axis=0).tolist()))
+                extended = np.array([first] + [_pair_id(first, cid) for cid in held2.ids], dtype=object)
+                pick2 = extended[name_per_draw(held2.held, weights, _threshold(len(held2.ids)),
+                                               np.log([len(others[cid]) for cid in held2.ids])) + 1]
+                draw_verdict = np.where(draw_verdict == first, pick2, draw_verdict)
+                if pick2[0] != first:
+                    second = next(cid for cid in held2.ids if _pair_id(first, cid) == pick2[0])
+                    i_second = _best_variant(res2, spans, others[second])
+                    named = (i_first, i_second)
+                    parts = {i_first: fit1.theta,
+                             i_second: np.atleast_1d(variants[i_second].to_theta(res2.fit(spans[i_second])))}
+                    start = np.concatenate([parts[named[j]] for j in _ordered(variants, named)])
+                    fits[named] = refine(every, _model_cause(variants, named), start)
+            seconds["second_cause"] = time.perf_counter() - t3
+
+    draw_verdict = draw_verdict[1:]
+    verdicts = {}
+    for v in draw_verdict:
+        verdicts[v] = verdicts.get(v, 0) + 1
+    verdicts = {k: n / len(draw_verdict) for k, n in sorted(verdicts.items(), key=lambda kv: -kv[1])}
+    inclusion = {}
+    for k, p in verdicts.items():
+        for cid in k.split("+"):
+            if cid != "none":
+                inclusion[cid] = inclusion.get(cid, 0.0) + p
+    index = np.concatenate([spans[i] for i in named]) if named else np.zeros(0, int)
+    coefficients = res.fit(index)
+    covariance = _jackknife(grams.folds(index[None]).beta[:, 0, :]) if named else np.zeros((0, 0))
+    mean_gain = {"none": 0.0, **{cid: float(np.sum(gains.held[j])) for j, cid in enumerate(gains.ids)}}
+    if held2 is not None:
+        for j, cid in enumerate(held2.ids):
+            mean_gain[_pair_id(first, cid)] = mean_gain[first] + float(np.sum(held2.held[j]))
+    out = Inference(variants, named, inclusion, verdicts, coefficients, covariance, int(res.n), seconds,
+                    gains=mean_gain, beats_none=beats_none, beats_first=second_beats, threshold=threshold,
+                    n_blocks=grams.n_blocks, block_seconds=_block_seconds(records, design, block_rows))
+    out.fits = fits
+    out.fit = fits.get(named)
     return out
+
+
+def _refined_gains(ctx: Context, fit: CauseFit, design: _Design, columns: np.ndarray, blocks: np.ndarray,
+                   none_held: np.ndarray) -> np.ndarray | None:
+    """A cause's held-out gain per block at its refined (nonlinear) fit: the
+    fall from ``none``'s held-out sum of squares (``none_held``, per block) to
+    the refined model's, whose parameters are moved, to first order along the
+    cause's signature ``columns``, to their fit without the block; None when
+    the refined model's rows differ from the design's."""
+    refined = _design(ctx, _with_dynamics(ctx, fit.cause.setup(ctx, fit.theta)), design.sigma)
+    if len(refined.y) != len(design.y) or not columns.shape[1]:
+        return None
+    res = _Residualised(refined, columns)
+    grams = BlockGrams(res.x, res.y, blocks)
+    return 0.5 * (none_held - grams.yyk) + grams.folds(np.arange(columns.shape[1])[None]).held[:, 0]
+
+
+def _pair_id(first: str, second: str) -> str:
+    return "+".join(sorted([first, second], key=_catalogue_order))
+
+
+def _block_seconds(records: list, design: _Design, block_rows: int) -> float:
+    """Duration of a block [s] (rows of the first DOF over the records' time span)."""
+    rows = sum(design.n_data[:1])
+    span = sum(float(r["t"].iloc[-1] - r["t"].iloc[0]) for r in records if "t" in r and len(r) > 1)
+    return float(block_rows * span / rows) if rows else float("nan")
 
 
 def _catalogue_order(cause_id: str) -> int:
@@ -949,8 +820,8 @@ def intervals(inference: Inference, level: float = 0.9, draws: int = 2000, seed:
     """Intervals (``level``, default 90 %) of the named model's parameters,
     shaped as :meth:`Cause.parameters` gives them (``[low, high]`` per value).
 
-    The linear coefficients' covariance (the regression's, inflated by the
-    dispersion) is sampled and mapped through the causes' parameters; the
+    The linear coefficients' covariance (the
+    jackknife over the blocks) is sampled and mapped through the causes' parameters; the
     draws are centred on the refined estimate (the nonlinear refinement moves
     the value, not the spread). Directions are taken about the estimate, on
     the circle."""

@@ -95,7 +95,7 @@ def execute_inference(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
     calibrate(ctx)
     undecidable = [(c.id, c.undecidable(ctx)[1]) for c in manoeuvring_causes(ctx)
                    if c.undecidable(ctx) is not None]
-    result = infer(ctx, smoothed, raw=raw, pairs=opts.second_cause, seed=study.cfg.seed)
+    result = infer(ctx, smoothed, pairs=opts.second_cause, seed=study.cfg.seed)
     named = result.verdict_of(result.named)
     # the verdict and its parameters come from every record; the held-out gain from the named
     # model and the baseline refitted on the training records alone
@@ -116,10 +116,11 @@ def execute_inference(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
     undecided, next_manoeuvre = _undecided(ranking, named, confidence, undecidable)
     cause = best.cause if best is not baseline else NoCause()
     notes = list(study.notes)
-    notes.append(f"{len(result.models)} models compared (none, {len(result.variants)} single-cause variants"
-                 + (", every pair of two causes" if opts.second_cause else "") + f") on {len(raw)} records; "
-                 "likelihood-ratio dispersion per cause (parametric bootstrap under the baseline): "
-                 + ", ".join(f"{k} {v:.3g}" for k, v in result.dispersions.items()))
+    notes.append(f"{len(result.variants)} single-cause variants compared on {len(raw)} records cut into "
+                 f"{result.n_blocks} blocks of {result.block_seconds:.0f} s, each block predicted by models "
+                 f"fitted to the others; a cause is named when its held-out gain exceeds {result.threshold:.2f} "
+                 f"standard errors; probability of beating none: "
+                 + ", ".join(f"{k} {v:.3f}" for k, v in sorted(result.beats_none.items(), key=lambda kv: -kv[1])))
     for cid, manoeuvre in undecidable:
         notes.append(f"{cid} is not compared: the training records cannot decide it ({manoeuvre} would)")
     if best is not baseline and best.validation.get("diverged"):
@@ -134,9 +135,8 @@ def execute_inference(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
         parameters=(result.fit.cause.parameters(result.fit.theta, result.fit.params) if result.named else {}),
         parameter_units=dict(cause.units), fixed_parameters=cause.fixed_parameters(),
         uncertainty=intervals(result, seed=study.cfg.seed), confidence=confidence,
-        confidence_basis=("posterior probability of the verdict among every model compared (BIC with the "
-                          "likelihood-ratio dispersion of a parametric bootstrap; uniform prior over 0, 1 "
-                          "and 2 causes)"),
+        confidence_basis=("probability that the verdict predicts unseen stretches of the records best "
+                          "(leave-one-block-out cross-validation, Bayesian bootstrap over the blocks)"),
         inclusion={k: float(v) for k, v in sorted(result.inclusion.items(), key=lambda kv: -kv[1])},
         ranking=ranking[:12],
         baseline={"validation_rmse": b_rmse, "validation_rmse_whole_records": whole_base["position_rmse"],
@@ -158,8 +158,8 @@ def execute_inference(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
     metrics = {"discover/gain_pct": gain, "discover/confidence": confidence,
                "discover/baseline_validation_rmse": b_rmse, "discover/extended_validation_rmse": e_rmse,
                "discover/baseline_training_rmse": b_train, "discover/extended_training_rmse": e_train,
-               "discover/explains_validation": float(explained), "discover/dispersion": float(result.dispersion),
-               "discover/n_models": float(len(result.models)), "runtime/total_s": time.perf_counter() - t0}
+               "discover/explains_validation": float(explained), "discover/blocks": float(result.n_blocks),
+               "discover/n_variants": float(len(result.variants)), "runtime/total_s": time.perf_counter() - t0}
     for cid, p in result.inclusion.items():
         metrics[f"discover/inclusion/{cid}"] = float(p)
     return out, metrics
@@ -176,8 +176,8 @@ def _sections(ctx, result, whole_base: dict, whole_best: dict, named: str, out_d
     ranking = pd.DataFrame(result.ranking()[:12]).set_index("cause")
     inclusion = pd.DataFrame({"probability": result.inclusion}).sort_values("probability", ascending=False)
     inclusion.index.name = "cause"
-    sections = [("Verdicts compared (posterior probability; score -2 ln of the probability relative "
-                 "to the best)", ranking),
+    sections = [("Verdicts compared (probability of predicting unseen blocks best; gain: held-out "
+                 "log-likelihood gain over none summed over the blocks)", ranking),
                 ("Probability that each cause acts (alone or in a pair)", inclusion)]
     figures, phase_tables = [], []
     for rec, pb, pe in zip(ctx.validation, whole_base["predictions"], whole_best["predictions"]):
