@@ -126,8 +126,9 @@ class DiscoverOptions:
     splits : bool
         Also hold out every record of data.path + validate.path in turn.
     method : str
-        ``inference`` (every cause and pair of causes compared at once, the
-        verdict's posterior probability its confidence:
+        ``inference`` (every cause judged by its gain on time blocks it was
+        not fitted to, one criterion naming the verdict, the share of
+        bootstrap reweightings of the blocks naming it its confidence:
         :mod:`studies.discover.inference`; any baseline, the MMG model
         included) or ``search`` (the earlier search: causes fitted one by
         one, named by rules on training scores and held-out windows;
