@@ -36,8 +36,9 @@ def test_nothing_injected_names_neither_an_offset_nor_a_current(reference):
     assert "rudder_offset" in reference["candidates"] and "current" in reference["candidates"]
 
 
-def test_an_injected_current_is_named_with_its_speed_and_direction(reference):
-    case = judge_real(real_case(str(FOLDER), Injection(current_speed=0.5, current_direction=np.deg2rad(90.0))),
-                      reference)
+@pytest.mark.parametrize("speed,direction", [(0.5, 0.0), (0.5, 90.0), (0.5, 180.0), (0.5, 270.0), (0.8, 90.0)])
+def test_an_injected_current_is_named_with_its_speed_and_direction(reference, speed, direction):
+    case = judge_real(real_case(str(FOLDER), Injection(current_speed=speed,
+                                                       current_direction=np.deg2rad(direction))), reference)
     assert case["named"] == "current", (case["named"], case["confidence"])
     assert case["right"], (case["parameters"], case["truth"])

@@ -1,0 +1,115 @@
+"""``studies discover`` on records the project's simulator did not make: the
+independent SciPy transcription of MSS ``mariner.m`` (``reference_mariner.py``)
+sails a 35 deg turning circle, a 20/20 and a 10/10 zig-zag in still water;
+white sensor noise (1 % or 3 % of each velocity's excursion) is added here with numpy, and an effect whose truth is
+exact is injected into the records (a uniform current added to the track and
+the velocities over ground, or a rudder sensor that reads ``b`` more than
+the rudder the water sees). The discovery must name the effect with its
+parameter within 20 % (directions within 0.2 rad), and nothing when nothing
+is injected. At 3 % noise a 1 deg rudder offset is missed (named ``none``;
+docs/discovery.md gives the rates); the 2 deg one and the currents are not.
+"""
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import reference_mariner as ref
+from hydra import initialize_config_module
+
+from studies.config import compose_settings
+from studies.scenarios.hidden import parameters_match
+from studies.scenarios.injected import Injection, inject
+from studies.workflows.kinds import execute_discover, prepare_discover
+
+pytestmark = pytest.mark.slow
+
+
+def _noisy(record: dict, rng, level: float) -> pd.DataFrame:
+    """White sensor noise: 0.1 m on positions, 0.1 deg on heading and rudder,
+    ``level`` of each velocity's largest excursion."""
+    out = pd.DataFrame(record)
+    for c, sd in (("x0", 0.1), ("y0", 0.1), ("psi", np.deg2rad(0.1)), ("delta", np.deg2rad(0.1))):
+        out[c] = out[c] + sd * rng.standard_normal(len(out))
+    for c in ("u", "v", "r"):
+        x = out[c].to_numpy(float)
+        span = np.max(np.abs(x - ref.U0)) if c == "u" else np.max(np.abs(x))
+        out[c] = x + level * span * rng.standard_normal(len(out))
+    return out
+
+
+@pytest.fixture(scope="module")
+def clean_runs():
+    """Turning circle 35 deg and zig-zag 20/20 (training), zig-zag 10/10 (held out), at 0.5 s."""
+    return [ref.turning_record(35.0, duration=700.0, dt=0.5),
+            ref.zigzag_record(20.0, 20.0, duration=900.0, dt=0.5),
+            ref.zigzag_record(10.0, 10.0, duration=600.0, dt=0.5)]
+
+
+def _measured(runs: list, level: float) -> list:
+    rng = np.random.default_rng(5)
+    out = []
+    for name, rec in zip(("turning_35", "zigzag_20", "zigzag_10"), runs):
+        frame = _noisy(rec, rng, level)
+        frame.attrs["name"] = name
+        out.append(frame)
+    return out
+
+
+@pytest.fixture(scope="module")
+def still_water(clean_runs):
+    return _measured(clean_runs, 0.01)
+
+
+@pytest.fixture(scope="module")
+def still_water_3pct(clean_runs):
+    return _measured(clean_runs, 0.03)
+
+
+def _discover(tmp_path: Path, records: list) -> dict:
+    paths = []
+    for rec in records:
+        path = tmp_path / f"{rec.attrs['name']}.csv"
+        rec.to_csv(path, index=False)
+        paths.append(path)
+    with initialize_config_module("studies.conf", version_base="1.3"):
+        cfg = compose_settings("discover", overrides=[f"data.path=[{paths[0]},{paths[1]}]",
+                                                      f"validate.path=[{paths[2]}]", "vessel=mariner"])
+    d, _ = execute_discover(prepare_discover(cfg, tmp_path), tmp_path / "out")
+    return d
+
+
+def test_nothing_injected_names_nothing(tmp_path, still_water):
+    d = _discover(tmp_path, still_water)
+    assert d["cause"] == "none", (d["cause"], d["parameters"], d["ranking"][:3])
+
+
+@pytest.mark.parametrize("injection", [
+    Injection(current_speed=0.3, current_direction=np.deg2rad(90.0)),
+    Injection(current_speed=0.5, current_direction=np.deg2rad(225.0)),
+    Injection(current_speed=0.8, current_direction=np.deg2rad(0.0)),
+    Injection(rudder_offset=np.deg2rad(1.0)),
+    Injection(rudder_offset=np.deg2rad(-2.0)),
+], ids=lambda i: i.label)
+def test_an_injected_effect_is_named_with_its_parameters(tmp_path, still_water, injection):
+    d = _discover(tmp_path, [inject(r, injection) for r in still_water])
+    (cause, truth), = injection.truth().items()
+    assert d["cause"] == cause, (d["cause"], d["parameters"], d["ranking"][:3])
+    assert parameters_match(cause, d["parameters"], truth), (d["parameters"], truth)
+
+
+@pytest.mark.parametrize("injection", [
+    Injection(current_speed=0.3, current_direction=np.deg2rad(90.0)),
+    Injection(current_speed=0.5, current_direction=np.deg2rad(225.0)),
+    Injection(rudder_offset=np.deg2rad(-2.0)),
+], ids=lambda i: i.label)
+def test_at_3_percent_noise_an_injected_effect_is_named(tmp_path, still_water_3pct, injection):
+    d = _discover(tmp_path, [inject(r, injection) for r in still_water_3pct])
+    (cause, truth), = injection.truth().items()
+    assert d["cause"] == cause, (d["cause"], d["parameters"], d["ranking"][:3])
+    assert parameters_match(cause, d["parameters"], truth), (d["parameters"], truth)
+
+
+def test_at_3_percent_noise_nothing_injected_names_nothing(tmp_path, still_water_3pct):
+    assert _discover(tmp_path, still_water_3pct)["cause"] == "none"
