@@ -623,12 +623,20 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
             fit1 = fits[named]
             design2 = _design(every, _with_dynamics(every, fit1.cause.setup(every, fit1.theta)), design.sigma)
             if len(design2.y) == len(design.y):
+                # the same blocks as the first cause's (shorter ones, from the residual the first
+                # cause leaves, take the MMG model's slow errors on real records for a second cause)
                 res2 = _Residualised(design2, columns)
                 grams2 = BlockGrams(res2.x, res2.y, blocks)
-                held2 = BlockGains.of(grams2, {cid: [spans[i] for i in idx] for cid, idx in others.items()})
-                second_beats = dict(zip(held2.ids, np.mean(weights[1:] @ held2.held.T > 0.0, axis=0).tolist()))
+                weights2 = weights
+                # the first cause's columns are fitted again beside each second cause's, so that what
+                # the first took of the second's effect when fitted alone is given back
+                own = spans[i_first]
+                held2 = BlockGains.of(grams2, {cid: [np.concatenate([own, spans[i]]) for i in idx]
+                                               for cid, idx in others.items()})
+                held2.held = held2.held - grams2.folds(own[None]).held[:, 0][None, :]
+                second_beats = dict(zip(held2.ids, np.mean(weights2[1:] @ held2.held.T > 0.0, axis=0).tolist()))
                 extended = np.array([first] + [_pair_id(first, cid) for cid in held2.ids], dtype=object)
-                pick2 = extended[name_per_draw(held2.held, weights, _threshold(len(held2.ids)),
+                pick2 = extended[name_per_draw(held2.held, weights2, _threshold(len(held2.ids)),
                                                np.log([len(others[cid]) for cid in held2.ids])) + 1]
                 draw_verdict = np.where(draw_verdict == first, pick2, draw_verdict)
                 if pick2[0] != first:
