@@ -83,6 +83,8 @@ def _discover(tmp_path: Path, records: list) -> dict:
 def test_nothing_injected_names_nothing(tmp_path, still_water):
     d = _discover(tmp_path, still_water)
     assert d["cause"] == "none", (d["cause"], d["parameters"], d["ranking"][:3])
+    # every cause's held-out evidence is below what naming needs, and discovery.json says so
+    assert max(d["evidence"]["t"].values()) < d["evidence"]["threshold"], d["evidence"]
 
 
 @pytest.mark.parametrize("injection", [
@@ -97,6 +99,7 @@ def test_an_injected_effect_is_named_with_its_parameters(tmp_path, still_water, 
     (cause, truth), = injection.truth().items()
     assert d["cause"] == cause, (d["cause"], d["parameters"], d["ranking"][:3])
     assert parameters_match(cause, d["parameters"], truth), (d["parameters"], truth)
+    assert d["evidence"]["t"][cause] > d["evidence"]["threshold"], d["evidence"]
 
 
 @pytest.mark.parametrize("injection", [

@@ -81,7 +81,7 @@ from .causes import Combined, Current, MissingTerm, WindUnmodelled, extended_lib
 from .causes.base import Cause, Setup
 from .fitting import (CauseFit, Context, _score, integrated_time, kinematic_smoothing, regression_fit,
                       scored_fit, setup_problems)
-from .selection import BlockGains, BlockGrams, bayesian_bootstrap, name_per_draw, row_blocks
+from .selection import BlockGains, BlockGrams, bayesian_bootstrap, name_per_draw, row_blocks, t_values
 
 __all__ = ["Variant", "Inference", "infer", "smooth_with_baseline", "WIND_DIRECTIONS", "WIND_REFERENCE"]
 
@@ -153,6 +153,11 @@ class Inference:
         ``{cause: probability that it adds to the first cause's prediction}``.
     threshold : float
         Standard errors of its held-out gain a cause needs to be named (:func:`_threshold`).
+    evidence : dict
+        ``{cause or pair: held-out gain over its standard error}`` on the records as
+        measured (a pair's: its second cause's gain beside the first).
+    second_threshold : float
+        The same threshold for a second cause (NaN when none was judged).
     n_blocks : int
     block_seconds : float
         Duration of a block [s].
@@ -170,6 +175,8 @@ class Inference:
     beats_none: dict = field(default_factory=dict)
     beats_first: dict = field(default_factory=dict)
     threshold: float = float("nan")
+    evidence: dict = field(default_factory=dict)
+    second_threshold: float = float("nan")
     n_blocks: int = 0
     block_seconds: float = float("nan")
 
@@ -183,15 +190,13 @@ class Inference:
         return float(self.verdicts.get(self.verdict_of(self.named), 0.0))
 
     def ranking(self) -> list:
-        """``[{"cause": verdict, "probability", "gain", "score"}]``, most probable first
-        (gain: summed held-out log-likelihood gain over none; score: ``-2 ln`` of the
-        probability relative to the most probable verdict)."""
+        """``[{"cause": verdict, "probability", "gain"}]``, most probable first
+        (probability: share of the bootstrap reweightings of the blocks that
+        name it; gain: summed held-out log-likelihood gain over none)."""
         items = sorted(set(self.verdicts) | set(self.gains), key=lambda k: (-self.verdicts.get(k, 0.0),
                                                                             -self.gains.get(k, 0.0)))
-        top = max(self.verdicts.values(), default=1.0)
         return [{"cause": k, "probability": float(self.verdicts.get(k, 0.0)),
-                 "gain": float(self.gains.get(k, float("nan"))),
-                 "score": float(-2.0 * np.log(max(self.verdicts.get(k, 0.0), 1e-300) / top))} for k in items]
+                 "gain": float(self.gains.get(k, float("nan")))} for k in items]
 
 
 # --------------------------------------------------------------- smoothing
@@ -611,9 +616,10 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
                                      np.log([len(singles[cid]) for cid in gains.ids])) + 1]
     first = None if draw_verdict[0] == "none" else str(draw_verdict[0])
     beats_none = dict(zip(gains.ids, np.mean(weights[1:] @ gains.held.T > 0.0, axis=0).tolist()))
+    evidence = dict(zip(gains.ids, t_values(gains.held).tolist()))
 
     # 2. a second cause beside the first, judged the same way on the first's refined model
-    named, second_beats, held2 = (), {}, None
+    named, second_beats, held2, threshold2 = (), {}, None, float("nan")
     if first is not None:
         i_first = chosen[first]
         named = (i_first,)
@@ -635,6 +641,8 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
                                                for cid, idx in others.items()})
                 held2.held = held2.held - grams2.folds(own[None]).held[:, 0][None, :]
                 second_beats = dict(zip(held2.ids, np.mean(weights2[1:] @ held2.held.T > 0.0, axis=0).tolist()))
+                evidence.update({_pair_id(first, cid): t for cid, t in zip(held2.ids, t_values(held2.held))})
+                threshold2 = _threshold(len(held2.ids))
                 extended = np.array([first] + [_pair_id(first, cid) for cid in held2.ids], dtype=object)
                 pick2 = extended[name_per_draw(held2.held, weights2, _threshold(len(held2.ids)),
                                                np.log([len(others[cid]) for cid in held2.ids])) + 1]
@@ -668,6 +676,7 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
             mean_gain[_pair_id(first, cid)] = mean_gain[first] + float(np.sum(held2.held[j]))
     out = Inference(variants, named, inclusion, verdicts, coefficients, covariance, int(res.n), seconds,
                     gains=mean_gain, beats_none=beats_none, beats_first=second_beats, threshold=threshold,
+                    evidence=evidence, second_threshold=threshold2,
                     n_blocks=grams.n_blocks, block_seconds=_block_seconds(records, design, block_rows))
     out.fits = fits
     out.fit = fits.get(named)

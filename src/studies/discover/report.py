@@ -13,7 +13,7 @@ import pandas as pd
 from ..plotting import pyplot
 from ..markdown import markdown_table
 
-__all__ = ["write_discovery", "write_report", "plot_predictions", "plot_ranking", "plot_residuals"]
+__all__ = ["write_discovery", "write_report", "plot_predictions", "plot_ranking", "plot_evidence", "plot_residuals"]
 
 
 def _clean(x):
@@ -86,6 +86,27 @@ def plot_ranking(ranking: list, path: Path) -> None:
                                               for i in range(len(names))][::-1])
     ax.set_xlabel("score above the best (BIC, lower is better)")
     ax.set_xscale("symlog", linthresh=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def plot_evidence(evidence: dict, threshold: float, second_threshold: float, named: str, path: Path) -> None:
+    """Each cause's (and each second cause's) held-out gain over its standard
+    error, against the threshold that names it; the named verdict in green."""
+    plt = pyplot()
+    items = sorted(evidence.items(), key=lambda kv: ("+" in kv[0], -kv[1]))
+    fig, ax = plt.subplots(figsize=(7, 0.9 + 0.3 * len(items)))
+    names = [k for k, _ in items]
+    values = [v for _, v in items]
+    ax.barh(names[::-1], values[::-1], color=["tab:green" if k == named else "tab:grey" for k in names][::-1])
+    ax.axvline(threshold, color="tab:red", lw=1.0, label=f"threshold {threshold:.2f}")
+    if np.isfinite(second_threshold):
+        ax.axvline(second_threshold, color="tab:red", lw=1.0, ls="--",
+                   label=f"second cause {second_threshold:.2f}")
+    ax.axvline(0.0, color="k", lw=0.6)
+    ax.set_xlabel("held-out gain over its standard error (blocks left out in turn)")
+    ax.legend(loc="lower right", fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=90)
     plt.close(fig)

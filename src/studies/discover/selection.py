@@ -42,7 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["row_blocks", "BlockGrams", "BlockGains", "bayesian_bootstrap", "name_per_draw", "DRAWS"]
+__all__ = ["row_blocks", "BlockGrams", "BlockGains", "bayesian_bootstrap", "name_per_draw", "t_values", "DRAWS"]
 
 #: Bayesian-bootstrap draws of the verdicts' total gains
 DRAWS = 4000
@@ -184,6 +184,21 @@ def bayesian_bootstrap(n_blocks: int, draws: int = DRAWS, seed: int = 0) -> np.n
     return rng.dirichlet(np.ones(max(n_blocks, 1)), size=int(draws)) * max(n_blocks, 1)
 
 
+def t_values(held: np.ndarray) -> np.ndarray:
+    """Each candidate's summed held-out gain over its standard error (rows of
+    ``held`` (c, K): gains per block), the statistic :func:`name_per_draw`
+    compares with its threshold on the records as measured."""
+    return name_statistics(held, np.ones((1, held.shape[1])))[1][0]
+
+
+def name_statistics(held: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(mean, t)`` (draws, c) of every candidate's block gains under each weighting."""
+    k = held.shape[1]
+    mean = weights @ held.T / k
+    var = np.maximum(weights @ (held ** 2).T / k - mean ** 2, 1e-300)
+    return mean, mean / np.sqrt(var / k)
+
+
 def name_per_draw(held: np.ndarray, weights: np.ndarray, threshold: float,
                   log_variants: np.ndarray | None = None) -> np.ndarray:
     """The verdict each weighting of the blocks names: among the candidates
@@ -201,9 +216,7 @@ def name_per_draw(held: np.ndarray, weights: np.ndarray, threshold: float,
     k = held.shape[1]
     if held.shape[0] == 0 or k < 2:
         return np.full(len(weights), -1)
-    mean = weights @ held.T / k                                       # (draws, c)
-    var = np.maximum(weights @ (held ** 2).T / k - mean ** 2, 1e-300)
-    t = mean / np.sqrt(var / k)
+    mean, t = name_statistics(held, weights)                          # (draws, c)
     penalty = np.zeros(held.shape[0]) if log_variants is None else np.asarray(log_variants, float)
     score = np.where(t > threshold, mean * k - penalty, -np.inf)
     pick = np.argmax(score, axis=1)

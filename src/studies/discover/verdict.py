@@ -37,10 +37,11 @@ class Discovery:
     confidence_basis : str
         How ``confidence`` was computed, in words.
     inclusion : dict
-        ``{cause id: posterior probability that it acts}`` (alone or in a pair).
+        ``{cause id: share of the bootstrap reweightings that name it}`` (alone or in a pair).
     ranking : list of dict
-        Every verdict compared: ``cause``, ``probability``, ``score`` (``-2 ln``
-        of its probability relative to the best).
+        Every verdict compared: ``cause``, ``probability`` (share of the
+        bootstrap reweightings that name it), ``gain`` (held-out
+        log-likelihood gain over ``none``, summed over the blocks).
     undecided : list of str or None
         When the verdict's probability is below 0.9: the named verdict, then the
         rivals the records cannot tell from it.
@@ -72,6 +73,10 @@ class Discovery:
         ``{cause id: parameters}`` of every single cause refined on these
         records, named or not: what each would be if it acted (e.g. the
         basin's own small rudder asymmetry on a verdict of ``none``).
+    evidence : dict
+        ``{cause or pair: held-out gain over its standard error}`` (the
+        inference; a pair's: its second cause's beside the first), and
+        ``threshold``/``second_threshold``: what naming needs.
     """
 
     cause: str
@@ -98,6 +103,7 @@ class Discovery:
     seconds: dict = field(default_factory=dict)
     departures: list = field(default_factory=list)
     candidates: dict = field(default_factory=dict)
+    evidence: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """The value written to ``discovery.json``."""

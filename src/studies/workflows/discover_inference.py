@@ -26,7 +26,7 @@ from ..discover.causes.propulsion import MMGDynamics
 from ..discover.confidence import separating_manoeuvre
 from ..discover.fitting import Context, calibrate, training_error, validate
 from ..discover.inference import baseline_fit, infer, intervals, refine, smooth_with_baseline
-from ..discover.report import plot_predictions, plot_ranking, write_discovery, write_report
+from ..discover.report import plot_evidence, plot_predictions, write_discovery, write_report
 from ..discover.verdict import Discovery
 from ..vessels import has_mmg_particulars, mmg_vessel_at_speed
 from .study import DiscoverStudy, gain_pct
@@ -135,8 +135,9 @@ def execute_inference(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
         parameters=(result.fit.cause.parameters(result.fit.theta, result.fit.params) if result.named else {}),
         parameter_units=dict(cause.units), fixed_parameters=cause.fixed_parameters(),
         uncertainty=intervals(result, seed=study.cfg.seed), confidence=confidence,
-        confidence_basis=("probability that the verdict predicts unseen stretches of the records best "
-                          "(leave-one-block-out cross-validation, Bayesian bootstrap over the blocks)"),
+        confidence_basis=("share of the Bayesian-bootstrap reweightings of the records' blocks for which "
+                          "the criterion names this verdict (held-out gain beyond the Bonferroni quantile of "
+                          "its standard error, leave-one-block-out cross-validation)"),
         inclusion={k: float(v) for k, v in sorted(result.inclusion.items(), key=lambda kv: -kv[1])},
         ranking=ranking[:12],
         baseline={"validation_rmse": b_rmse, "validation_rmse_whole_records": whole_base["position_rmse"],
@@ -149,6 +150,9 @@ def execute_inference(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
         undecided=undecided, next_manoeuvre=next_manoeuvre, notes=notes,
         candidates={f.cause.id: f.cause.parameters(f.theta, f.params) for m, f in result.fits.items()
                     if len(m) == 1},
+        evidence={"t": {k: float(v) for k, v in result.evidence.items()}, "threshold": float(result.threshold),
+                  "second_threshold": (float(result.second_threshold) if np.isfinite(result.second_threshold)
+                                       else None)},
         seconds={"smoothing": t_smooth, "inference": t_infer, **{k: float(v) for k, v in result.seconds.items()},
                  "total": time.perf_counter() - t0})
     out = discovery.to_dict()
@@ -162,6 +166,9 @@ def execute_inference(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
                "discover/n_variants": float(len(result.variants)), "runtime/total_s": time.perf_counter() - t0}
     for cid, p in result.inclusion.items():
         metrics[f"discover/inclusion/{cid}"] = float(p)
+    for cid, t in result.evidence.items():
+        if "+" not in cid:
+            metrics[f"discover/evidence/{cid}"] = float(t)
     return out, metrics
 
 
@@ -176,9 +183,9 @@ def _sections(ctx, result, whole_base: dict, whole_best: dict, named: str, out_d
     ranking = pd.DataFrame(result.ranking()[:12]).set_index("cause")
     inclusion = pd.DataFrame({"probability": result.inclusion}).sort_values("probability", ascending=False)
     inclusion.index.name = "cause"
-    sections = [("Verdicts compared (probability of predicting unseen blocks best; gain: held-out "
-                 "log-likelihood gain over none summed over the blocks)", ranking),
-                ("Probability that each cause acts (alone or in a pair)", inclusion)]
+    sections = [("Verdicts compared (probability: share of the bootstrap reweightings of the blocks that "
+                 "name it; gain: held-out log-likelihood gain over none, summed over the blocks)", ranking),
+                ("Share of the bootstrap reweightings naming each cause (alone or in a pair)", inclusion)]
     figures, phase_tables = [], []
     for rec, pb, pe in zip(ctx.validation, whole_base["predictions"], whole_best["predictions"]):
         name = str(rec.attrs.get("name", "record"))
@@ -194,7 +201,6 @@ def _sections(ctx, result, whole_base: dict, whole_best: dict, named: str, out_d
     if phase_tables:
         sections.append(("Prediction error per manoeuvre phase (u, v in m/s, r in deg/s)",
                          pd.concat(phase_tables, ignore_index=True)))
-    plot_ranking([{"cause": r["cause"], "score": r["score"]} for r in result.ranking()[:12]],
-                 out_dir / "ranking.png")
+    plot_evidence(result.evidence, result.threshold, result.second_threshold, named, out_dir / "ranking.png")
     figures.append("ranking.png")
     return sections, figures
