@@ -59,12 +59,8 @@ def _measured(runs: list, level: float) -> list:
 
 @pytest.fixture(scope="module")
 def still_water(clean_runs):
-    return _measured(clean_runs, 0.01)
-
-
-@pytest.fixture(scope="module")
-def still_water_3pct(clean_runs):
-    return _measured(clean_runs, 0.03)
+    """The runs as measured: ``{noise level: records}``."""
+    return {level: _measured(clean_runs, level) for level in (0.01, 0.03)}
 
 
 def _discover(tmp_path: Path, records: list) -> dict:
@@ -80,39 +76,27 @@ def _discover(tmp_path: Path, records: list) -> dict:
     return d
 
 
-def test_nothing_injected_names_nothing(tmp_path, still_water):
-    d = _discover(tmp_path, still_water)
+@pytest.mark.parametrize("level", [0.01, 0.03])
+def test_nothing_injected_names_nothing(tmp_path, still_water, level):
+    d = _discover(tmp_path, still_water[level])
     assert d["cause"] == "none", (d["cause"], d["parameters"], d["ranking"][:3])
     # every cause's held-out evidence is below what naming needs, and discovery.json says so
     assert max(d["evidence"]["t"].values()) < d["evidence"]["threshold"], d["evidence"]
 
 
-@pytest.mark.parametrize("injection", [
-    Injection(current_speed=0.3, current_direction=np.deg2rad(90.0)),
-    Injection(current_speed=0.5, current_direction=np.deg2rad(225.0)),
-    Injection(current_speed=0.8, current_direction=np.deg2rad(0.0)),
-    Injection(rudder_offset=np.deg2rad(1.0)),
-    Injection(rudder_offset=np.deg2rad(-2.0)),
-], ids=lambda i: i.label)
-def test_an_injected_effect_is_named_with_its_parameters(tmp_path, still_water, injection):
-    d = _discover(tmp_path, [inject(r, injection) for r in still_water])
+@pytest.mark.parametrize("level,injection", [
+    (0.01, Injection(current_speed=0.3, current_direction=np.deg2rad(90.0))),
+    (0.01, Injection(current_speed=0.5, current_direction=np.deg2rad(225.0))),
+    (0.01, Injection(current_speed=0.8, current_direction=np.deg2rad(0.0))),
+    (0.01, Injection(rudder_offset=np.deg2rad(1.0))),
+    (0.01, Injection(rudder_offset=np.deg2rad(-2.0))),
+    (0.03, Injection(current_speed=0.3, current_direction=np.deg2rad(90.0))),
+    (0.03, Injection(current_speed=0.5, current_direction=np.deg2rad(225.0))),
+    (0.03, Injection(rudder_offset=np.deg2rad(-2.0))),
+], ids=lambda x: x.label if isinstance(x, Injection) else f"{100 * x:.0f}pct")
+def test_an_injected_effect_is_named_with_its_parameters(tmp_path, still_water, level, injection):
+    d = _discover(tmp_path, [inject(r, injection) for r in still_water[level]])
     (cause, truth), = injection.truth().items()
     assert d["cause"] == cause, (d["cause"], d["parameters"], d["ranking"][:3])
     assert parameters_match(cause, d["parameters"], truth), (d["parameters"], truth)
     assert d["evidence"]["t"][cause] > d["evidence"]["threshold"], d["evidence"]
-
-
-@pytest.mark.parametrize("injection", [
-    Injection(current_speed=0.3, current_direction=np.deg2rad(90.0)),
-    Injection(current_speed=0.5, current_direction=np.deg2rad(225.0)),
-    Injection(rudder_offset=np.deg2rad(-2.0)),
-], ids=lambda i: i.label)
-def test_at_3_percent_noise_an_injected_effect_is_named(tmp_path, still_water_3pct, injection):
-    d = _discover(tmp_path, [inject(r, injection) for r in still_water_3pct])
-    (cause, truth), = injection.truth().items()
-    assert d["cause"] == cause, (d["cause"], d["parameters"], d["ranking"][:3])
-    assert parameters_match(cause, d["parameters"], truth), (d["parameters"], truth)
-
-
-def test_at_3_percent_noise_nothing_injected_names_nothing(tmp_path, still_water_3pct):
-    assert _discover(tmp_path, still_water_3pct)["cause"] == "none"
