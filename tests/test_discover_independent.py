@@ -82,6 +82,9 @@ def test_nothing_injected_names_nothing(tmp_path, still_water, level):
     assert d["cause"] == "none", (d["cause"], d["parameters"], d["ranking"][:3])
     # every cause's held-out evidence is below what naming needs, and discovery.json says so
     assert max(d["evidence"]["t"].values()) < d["evidence"]["threshold"], d["evidence"]
+    # DESIGN.md's ranking: every verdict with its score, the named one first at 0
+    assert d["ranking"][0]["cause"] == "none" and d["ranking"][0]["score"] == 0.0, d["ranking"][:2]
+    assert all(np.isfinite(r["score"]) and r["score"] >= 0.0 for r in d["ranking"]), d["ranking"]
 
 
 @pytest.mark.parametrize("level,injection", [

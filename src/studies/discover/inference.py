@@ -81,7 +81,7 @@ from .causes import Combined, Current, MissingTerm, WindUnmodelled, extended_lib
 from .causes.base import Cause, Setup
 from .fitting import (CauseFit, Context, _score, integrated_time, kinematic_smoothing, regression_fit,
                       scored_fit, setup_problems)
-from .selection import BlockGains, BlockGrams, bayesian_bootstrap, name_per_draw, row_blocks, t_values
+from .selection import DRAWS, BlockGains, BlockGrams, bayesian_bootstrap, name_per_draw, row_blocks, t_values
 
 __all__ = ["Variant", "Inference", "infer", "smooth_with_baseline", "WIND_DIRECTIONS", "WIND_REFERENCE"]
 
@@ -190,13 +190,19 @@ class Inference:
         return float(self.verdicts.get(self.verdict_of(self.named), 0.0))
 
     def ranking(self) -> list:
-        """``[{"cause": verdict, "probability", "gain"}]``, most probable first
+        """``[{"cause": verdict, "probability", "gain", "score"}]``, most probable first
         (probability: share of the bootstrap reweightings of the blocks that
-        name it; gain: summed held-out log-likelihood gain over none)."""
+        name it; gain: summed held-out log-likelihood gain over none; score:
+        ``-2 ln`` of its probability relative to the most probable verdict,
+        lower is better, a verdict no reweighting names taken as named by
+        one more than there were)."""
         items = sorted(set(self.verdicts) | set(self.gains), key=lambda k: (-self.verdicts.get(k, 0.0),
                                                                             -self.gains.get(k, 0.0)))
+        top = max(self.verdicts.values(), default=1.0)
+        floor = 1.0 / (DRAWS + 1)
         return [{"cause": k, "probability": float(self.verdicts.get(k, 0.0)),
-                 "gain": float(self.gains.get(k, float("nan")))} for k in items]
+                 "gain": float(self.gains.get(k, float("nan"))),
+                 "score": float(-2.0 * np.log(max(self.verdicts.get(k, 0.0), floor) / top))} for k in items]
 
 
 # --------------------------------------------------------------- smoothing

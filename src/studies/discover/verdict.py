@@ -41,7 +41,9 @@ class Discovery:
     ranking : list of dict
         Every verdict compared: ``cause``, ``probability`` (share of the
         bootstrap reweightings that name it), ``gain`` (held-out
-        log-likelihood gain over ``none``, summed over the blocks).
+        log-likelihood gain over ``none``, summed over the blocks), ``score``
+        (``-2 ln`` of its probability relative to the most probable verdict:
+        0 for it, lower is better).
     undecided : list of str or None
         When the verdict's probability is below 0.9: the named verdict, then the
         rivals the records cannot tell from it.

@@ -184,7 +184,8 @@ def _sections(ctx, result, whole_base: dict, whole_best: dict, named: str, out_d
     inclusion = pd.DataFrame({"probability": result.inclusion}).sort_values("probability", ascending=False)
     inclusion.index.name = "cause"
     sections = [("Verdicts compared (probability: share of the bootstrap reweightings of the blocks that "
-                 "name it; gain: held-out log-likelihood gain over none, summed over the blocks)", ranking),
+                 "name it; gain: held-out log-likelihood gain over none, summed over the blocks; score: -2 ln of the "
+                 "probability relative to the most probable)", ranking),
                 ("Share of the bootstrap reweightings naming each cause (alone or in a pair)", inclusion)]
     figures, phase_tables = [], []
     for rec, pb, pe in zip(ctx.validation, whole_base["predictions"], whole_best["predictions"]):
