@@ -37,3 +37,25 @@ def test_rate_confusion_and_reliability_count_what_they_are_given():
     assert top["n"] == 3 and abs(top["share_right"] - 2 / 3) < 1e-12
     assert table[(0.5, 0.7)]["n"] == 1 and table[(0.5, 0.7)]["share_right"] == 0.0
     assert table[(0.0, 0.5)]["n"] == 0
+
+
+def test_an_injected_current_beside_the_records_own_cause_is_judged_against_its_fit_beside_it():
+    """The nothing-injected records name a missing term; a current injected
+    into them comes out beside that term, and must equal what those records
+    give for a current beside the term plus the injection (not the current
+    fitted alone)."""
+    from studies.bench_discovery import judge_real
+
+    reference = {"named": "missing_term", "candidates": {"current": {"speed": 0.3, "direction": 0.0}},
+                 "candidates_beside": {"current": {"speed": 0.05, "direction": 0.0}}}
+    injected = {"current": {"speed": 0.5, "direction": 0.0}}
+
+    def case(speed, named="current+missing_term"):
+        return {"injected": injected, "named": named,
+                "parameters": {"current": {"speed": speed, "direction": 0.0},
+                               "missing_term": {"terms": {"Nrrr": 0.01}}}}
+
+    assert judge_real(case(0.55), reference)["right"]            # 0.05 beside the term + 0.5
+    assert not judge_real(case(0.80), reference)["right"]        # 0.3 alone + 0.5: the wrong reference
+    alone = judge_real({**case(0.8, "current"), "parameters": {"speed": 0.8, "direction": 0.0}}, reference)
+    assert not alone["right"] and alone["exactly_injected"]      # the records' own term is lost

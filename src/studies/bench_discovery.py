@@ -31,7 +31,9 @@ real records
     that fit plus the current (vectors). Right: the injected causes named,
     beside them only what the nothing-injected discovery named that is
     neither an offset nor a current (the baseline's own error on these
-    records, e.g. a missing term), the injected parameters within 20 %;
+    records, e.g. a missing term; the injected effect is then judged against
+    what the nothing-injected records give for it beside that cause,
+    ``candidates_beside``), the injected parameters within 20 %;
     ``exactly_injected`` says whether the injected causes alone were named.
 
 Seeds: development read seeds 100-101, 1000-1001, 2000, 2100-2101, 2200,
@@ -240,7 +242,8 @@ def real_case(folder: str, injection: Injection, real_set: str = "marin", overri
                                tmp)
     return _clean({"kind": "real", "set": real_set, "injection": injection.label, "injected": injection.truth(),
                    "named": d["cause"], "confidence": d.get("confidence"), "parameters": d.get("parameters") or {},
-                   "candidates": d.get("candidates") or {}, "gain_pct": d.get("gain_pct"), "elapsed": elapsed})
+                   "candidates": d.get("candidates") or {},
+                   "candidates_beside": d.get("candidates_beside") or {}, "gain_pct": d.get("gain_pct"), "elapsed": elapsed})
 
 
 def judge_real(case: dict, reference: dict) -> dict:
@@ -248,22 +251,26 @@ def judge_real(case: dict, reference: dict) -> dict:
     (module docstring): ``hidden``, ``right``, ``cause_right``, ``truth``."""
     injected = case["injected"]
     hidden = "+".join(c for c in ("rudder_offset", "current") if c in injected) or "none"
-    base = reference.get("candidates") or {}
+    named = case["named"]
+    injectable = {"rudder_offset", "current"}
+    # what the records show with nothing injected and is neither an offset nor a current (the
+    # baseline's own error on these records) stays in the verdict
+    own = set(reference.get("named", "none").split("+")) - injectable - {"none"}
+    base = dict(reference.get("candidates") or {})
+    if own and own <= set(named.split("+")):
+        # the injected effect is fitted beside the records' own cause: its reference is what the
+        # nothing-injected records give for it beside that cause
+        base.update(reference.get("candidates_beside") or {})
     truth = {}
     if "rudder_offset" in injected:
         truth["rudder_offset"] = {"delta0": injected["rudder_offset"]["delta0"]
                                   + float((base.get("rudder_offset") or {}).get("delta0", 0.0))}
     if "current" in injected:
         c = injected["current"]
-        own = base.get("current") or {"speed": 0.0, "direction": 0.0}
-        x = c["speed"] * np.cos(c["direction"]) + own["speed"] * np.cos(own["direction"])
-        y = c["speed"] * np.sin(c["direction"]) + own["speed"] * np.sin(own["direction"])
+        basin = base.get("current") or {"speed": 0.0, "direction": 0.0}
+        x = c["speed"] * np.cos(c["direction"]) + basin["speed"] * np.cos(basin["direction"])
+        y = c["speed"] * np.sin(c["direction"]) + basin["speed"] * np.sin(basin["direction"])
         truth["current"] = {"speed": float(np.hypot(x, y)), "direction": float(np.arctan2(y, x) % (2 * np.pi))}
-    named = case["named"]
-    injectable = {"rudder_offset", "current"}
-    # what the records show with nothing injected and is neither an offset nor a current (the
-    # baseline's own error on these records) stays in the verdict
-    own = set(reference.get("named", "none").split("+")) - injectable - {"none"}
     if hidden == "none":
         right = not (set(named.split("+")) & injectable)
         same = right

@@ -158,6 +158,11 @@ class Inference:
         measured (a pair's: its second cause's gain beside the first).
     second_threshold : float
         The same threshold for a second cause (NaN when none was judged).
+
+    Set by :func:`infer` besides: ``fits`` (``{model: CauseFit}``: the baseline,
+    every single cause refined, the named model), ``fit`` (the named model's)
+    and ``beside`` (``{cause id: CauseFit}``: each other cause refined beside
+    a named single cause).
     n_blocks : int
     block_seconds : float
         Duration of a block [s].
@@ -686,6 +691,18 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
                     n_blocks=grams.n_blocks, block_seconds=_block_seconds(records, design, block_rows))
     out.fits = fits
     out.fit = fits.get(named)
+    out.beside = {}
+    if len(named) == 1:
+        # what every other cause would be beside the named one (refined together)
+        t4 = time.perf_counter()
+        for cid, i in chosen.items():
+            if i == named[0]:
+                continue
+            pair = (named[0], i)
+            parts = {named[0]: fits[named].theta, i: fits[(i,)].theta}
+            start = np.concatenate([parts[pair[j]] for j in _ordered(variants, pair)])
+            out.beside[cid] = refine(every, _model_cause(variants, pair), start)
+        seconds["beside"] = time.perf_counter() - t4
     return out
 
 

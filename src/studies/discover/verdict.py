@@ -75,6 +75,9 @@ class Discovery:
         ``{cause id: parameters}`` of every single cause refined on these
         records, named or not: what each would be if it acted (e.g. the
         basin's own small rudder asymmetry on a verdict of ``none``).
+    candidates_beside : dict
+        ``{cause id: parameters}`` of every other single cause refined beside
+        a named single cause: what each would be if it acted as well.
     evidence : dict
         ``{cause or pair: held-out gain over its standard error}`` (the
         inference; a pair's: its second cause's beside the first), and
@@ -106,6 +109,7 @@ class Discovery:
     departures: list = field(default_factory=list)
     candidates: dict = field(default_factory=dict)
     evidence: dict = field(default_factory=dict)
+    candidates_beside: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """The value written to ``discovery.json``."""

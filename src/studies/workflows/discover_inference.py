@@ -150,6 +150,8 @@ def execute_inference(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
         undecided=undecided, next_manoeuvre=next_manoeuvre, notes=notes,
         candidates={f.cause.id: f.cause.parameters(f.theta, f.params) for m, f in result.fits.items()
                     if len(m) == 1},
+        candidates_beside={cid: (f.cause.parameters(f.theta, f.params) or {}).get(cid, {})
+                           for cid, f in result.beside.items()},
         evidence={"t": {k: float(v) for k, v in result.evidence.items()}, "threshold": float(result.threshold),
                   "second_threshold": (float(result.second_threshold) if np.isfinite(result.second_threshold)
                                        else None)},
