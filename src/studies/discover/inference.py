@@ -133,10 +133,10 @@ class Inference:
     named : tuple
         The named model: indices of its variants (``()`` is ``none``).
     inclusion : dict
-        ``{cause id: probability that it is in the verdict that predicts unseen blocks best}``.
+        ``{cause id: share of the bootstrap reweightings of the blocks whose verdict holds it}``.
     verdicts : dict
-        ``{verdict id ("none", "current", "current+rudder_offset"): probability}`` that it
-        predicts unseen blocks best (Bayesian bootstrap over the blocks), most probable first.
+        ``{verdict id ("none", "current", "current+rudder_offset"): share of the bootstrap
+        reweightings of the blocks that name it}``, most probable first.
     coefficients : ndarray
         The named model's linear coefficients of its variants' columns (every block).
     covariance : ndarray
@@ -149,8 +149,6 @@ class Inference:
         weighted residual sum of squares, a log-likelihood ratio over ``none``).
     beats_none : dict
         ``{cause: probability that it predicts unseen blocks better than none}``.
-    beats_first : dict
-        ``{cause: probability that it adds to the first cause's prediction}``.
     threshold : float
         Standard errors of its held-out gain a cause needs to be named (:func:`_threshold`).
     evidence : dict
@@ -158,14 +156,14 @@ class Inference:
         measured (a pair's: its second cause's gain beside the first).
     second_threshold : float
         The same threshold for a second cause (NaN when none was judged).
+    n_blocks : int
+    block_seconds : float
+        Duration of a block [s].
 
     Set by :func:`infer` besides: ``fits`` (``{model: CauseFit}``: the baseline,
     every single cause refined, the named model), ``fit`` (the named model's)
     and ``beside`` (``{cause id: CauseFit}``: each other cause refined beside
     a named single cause).
-    n_blocks : int
-    block_seconds : float
-        Duration of a block [s].
     """
 
     variants: list
@@ -178,7 +176,6 @@ class Inference:
     seconds: dict = field(default_factory=dict)
     gains: dict = field(default_factory=dict)
     beats_none: dict = field(default_factory=dict)
-    beats_first: dict = field(default_factory=dict)
     threshold: float = float("nan")
     evidence: dict = field(default_factory=dict)
     second_threshold: float = float("nan")
@@ -191,7 +188,7 @@ class Inference:
 
     @property
     def confidence(self) -> float:
-        """Probability that the named verdict predicts unseen blocks best."""
+        """Share of the bootstrap reweightings of the blocks that name the named verdict."""
         return float(self.verdicts.get(self.verdict_of(self.named), 0.0))
 
     def ranking(self) -> list:
@@ -630,7 +627,7 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
     evidence = dict(zip(gains.ids, t_values(gains.held).tolist()))
 
     # 2. a second cause beside the first, judged the same way on the first's refined model
-    named, second_beats, held2, threshold2 = (), {}, None, float("nan")
+    named, held2, threshold2 = (), None, float("nan")
     if first is not None:
         i_first = chosen[first]
         named = (i_first,)
@@ -644,27 +641,24 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
                 # cause leaves, take the MMG model's slow errors on real records for a second cause)
                 res2 = _Residualised(design2, columns)
                 grams2 = BlockGrams(res2.x, res2.y, blocks)
-                weights2 = weights
                 # the first cause's columns are fitted again beside each second cause's, so that what
                 # the first took of the second's effect when fitted alone is given back
                 own = spans[i_first]
                 held2 = BlockGains.of(grams2, {cid: [np.concatenate([own, spans[i]]) for i in idx]
                                                for cid, idx in others.items()})
                 held2.held = held2.held - grams2.folds(own[None]).held[:, 0][None, :]
-                second_beats = dict(zip(held2.ids, np.mean(weights2[1:] @ held2.held.T > 0.0, axis=0).tolist()))
                 evidence.update({_pair_id(first, cid): t for cid, t in zip(held2.ids, t_values(held2.held))})
                 threshold2 = _threshold(len(held2.ids))
                 extended = np.array([first] + [_pair_id(first, cid) for cid in held2.ids], dtype=object)
-                pick2 = extended[name_per_draw(held2.held, weights2, _threshold(len(held2.ids)),
+                pick2 = extended[name_per_draw(held2.held, weights, threshold2,
                                                np.log([len(others[cid]) for cid in held2.ids])) + 1]
                 draw_verdict = np.where(draw_verdict == first, pick2, draw_verdict)
                 if pick2[0] != first:
                     second = next(cid for cid in held2.ids if _pair_id(first, cid) == pick2[0])
                     i_second = _best_variant(res2, spans, others[second])
                     named = (i_first, i_second)
-                    parts = {i_first: fit1.theta,
-                             i_second: np.atleast_1d(variants[i_second].to_theta(res2.fit(spans[i_second])))}
-                    start = np.concatenate([parts[named[j]] for j in _ordered(variants, named)])
+                    start = _joined_theta(variants, named, {
+                        i_first: fit1.theta, i_second: variants[i_second].to_theta(res2.fit(spans[i_second]))})
                     fits[named] = refine(every, _model_cause(variants, named), start)
             seconds["second_cause"] = time.perf_counter() - t3
 
@@ -686,7 +680,7 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
         for j, cid in enumerate(held2.ids):
             mean_gain[_pair_id(first, cid)] = mean_gain[first] + float(np.sum(held2.held[j]))
     out = Inference(variants, named, inclusion, verdicts, coefficients, covariance, int(res.n), seconds,
-                    gains=mean_gain, beats_none=beats_none, beats_first=second_beats, threshold=threshold,
+                    gains=mean_gain, beats_none=beats_none, threshold=threshold,
                     evidence=evidence, second_threshold=threshold2,
                     n_blocks=grams.n_blocks, block_seconds=_block_seconds(records, design, block_rows))
     out.fits = fits
@@ -699,8 +693,7 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
             if i == named[0]:
                 continue
             pair = (named[0], i)
-            parts = {named[0]: fits[named].theta, i: fits[(i,)].theta}
-            start = np.concatenate([parts[pair[j]] for j in _ordered(variants, pair)])
+            start = _joined_theta(variants, pair, {named[0]: fits[named].theta, i: fits[(i,)].theta})
             out.beside[cid] = refine(every, _model_cause(variants, pair), start)
         seconds["beside"] = time.perf_counter() - t4
     return out
@@ -727,7 +720,7 @@ def _pair_id(first: str, second: str) -> str:
 
 def _block_seconds(records: list, design: _Design, block_rows: int) -> float:
     """Duration of a block [s] (rows of the first DOF over the records' time span)."""
-    rows = sum(design.n_data[:1])
+    rows = design.n_data[0]
     span = sum(float(r["t"].iloc[-1] - r["t"].iloc[0]) for r in records if "t" in r and len(r) > 1)
     return float(block_rows * span / rows) if rows else float("nan")
 
@@ -763,12 +756,13 @@ def _model_cause(variants: list, model: tuple) -> Cause | None:
 def _model_theta(variants: list, model: tuple, coefficients: np.ndarray) -> np.ndarray:
     """A model's ``theta`` (its cause's :attr:`Cause.nl_params`, catalogue order)
     from its linear coefficients."""
-    spans, col = [], 0
-    for i in model:
-        w = variants[i].columns.shape[1]
-        spans.append(coefficients[col:col + w])
-        col += w
-    parts = [np.atleast_1d(variants[model[j]].to_theta(spans[j])) for j in _ordered(variants, model)]
+    cols = _spans([variants[i] for i in model])
+    return _joined_theta(variants, model, {i: variants[i].to_theta(coefficients[c]) for i, c in zip(model, cols)})
+
+
+def _joined_theta(variants: list, model: tuple, thetas: dict) -> np.ndarray:
+    """A model's ``theta`` from each of its variants' own (``{variant index: theta}``), in catalogue order."""
+    parts = [np.atleast_1d(thetas[model[j]]) for j in _ordered(variants, model)]
     return np.concatenate(parts) if parts else np.zeros(0)
 
 

@@ -78,13 +78,13 @@ def row_blocks(record: np.ndarray, dof: np.ndarray, block_rows: int) -> np.ndarr
 class BlockGrams:
     """Per-block Gram matrices of residualised columns ``x`` (N, c) and target ``y`` (N,).
 
-    ``g``, ``b``, ``yy``: the totals over every row (prior rows included:
+    ``g``, ``b``: the totals over every row (prior rows included:
     they are always fitted, never held out); ``gk`` (K, c, c), ``bk``
     (K, c), ``yyk`` (K,): each block's own rows.
     """
 
     def __init__(self, x: np.ndarray, y: np.ndarray, blocks: np.ndarray):
-        self.g, self.b, self.yy = x.T @ x, x.T @ y, float(y @ y)
+        self.g, self.b = x.T @ x, x.T @ y
         ids = np.unique(blocks[blocks >= 0])
         self.n_blocks = len(ids)
         c = x.shape[1]
@@ -146,18 +146,16 @@ class FoldFits:
 class BlockGains:
     """Every verdict's held-out gain per block, its variant chosen on the other blocks.
 
-    ``ids``: verdict ids; ``held`` (v, K): gain per block; ``chosen`` (v, K):
-    index (into the verdict's own models) of the variant chosen without block k.
+    ``ids``: verdict ids; ``held`` (v, K): gain per block.
     """
 
     ids: list
     held: np.ndarray
-    chosen: np.ndarray
 
     @classmethod
     def of(cls, grams: BlockGrams, verdict_models: dict) -> "BlockGains":
         """``verdict_models``: ``{verdict id: list of column-index arrays}`` (its variants)."""
-        ids, held, chosen = [], [], []
+        ids, held = [], []
         for vid, models in verdict_models.items():
             by_size = {}
             for j, idx in enumerate(models):
@@ -170,10 +168,8 @@ class BlockGains:
                 gain[:, js] = fits.held
             pick = np.argmax(train, axis=1)
             ids.append(vid)
-            chosen.append(pick)
             held.append(gain[np.arange(grams.n_blocks), pick])
-        return cls(ids, np.array(held).reshape(len(ids), grams.n_blocks),
-                   np.array(chosen, int).reshape(len(ids), grams.n_blocks))
+        return cls(ids, np.array(held).reshape(len(ids), grams.n_blocks))
 
 
 def bayesian_bootstrap(n_blocks: int, draws: int = DRAWS, seed: int = 0) -> np.ndarray:
