@@ -18,14 +18,14 @@ from conftest import SHARED_DATA
 from studies.config import compose_settings
 from studies.scenarios.hidden import (hidden_roll_decays_at_speed, hidden_roll_speed_series,
                                      parameters_match)
-from studies.discover.roll import ROLL_CAUSES, cause_terms, model_params
+from studies.discover.causes.roll_decay import ROLL_CATALOGUE, RollCause
 from studies.roll.decay import find_extrema
 from studies.roll.model import damping_ratio
 from studies.roll.records import load_roll_decay, record_speed, split_cycles
 from studies.roll.simulate import simulate_decay_record
 from studies.roll.speed import fit_speed_dependence
 from studies.workflows.kinds import execute_discover, prepare_discover
-from studies.workflows.roll_discover import damping_table
+from studies.roll.workflow.discover import damping_table
 
 ROLL = SHARED_DATA / "kvlcc2_roll_decay"
 PAIR = "roll_linear_damping+roll_quadratic_damping"
@@ -55,13 +55,21 @@ def _check(cause, d, truth, min_gain):
 
 # ------------------------------------------------------------------ catalogue
 def test_linear_damping_adds_to_the_baseline_b1_and_pairs_carry_both_parameters():
-    assert ROLL_CAUSES["roll_linear_damping"][0] == ("b1_added",)
-    assert ROLL_CAUSES[PAIR][0] == ("b1_added", "b2")
-    assert cause_terms(PAIR) == ["b1", "b2"] and cause_terms("none") == ["b1"]
+    assert ROLL_CATALOGUE["roll_linear_damping"].params == ("b1_added",)
+    assert ROLL_CATALOGUE[PAIR].params == ("b1_added", "b2")
+    assert ROLL_CATALOGUE[PAIR].members == ["roll_linear_damping", "roll_quadratic_damping"]
+    assert ROLL_CATALOGUE[PAIR].terms() == ["b1", "b2"] and ROLL_CATALOGUE["none"].terms() == ["b1"]
     base = {"omega0": 2.5, "b1": 0.01}
-    assert model_params(base, {"b1_added": 0.03, "b2": 0.1}) == pytest.approx(
+    assert RollCause.model_params(base, {"b1_added": 0.03, "b2": 0.1}) == pytest.approx(
         {"omega0": 2.5, "b1": 0.04, "b2": 0.1})
-    assert model_params(base, {}) == base
+    assert RollCause.model_params(base, {}) == base
+
+
+def test_every_roll_cause_declares_its_id_units_and_explanation():
+    for cause_id, cause in ROLL_CATALOGUE.items():
+        assert cause.id == cause_id and cause.explanation
+        assert set(cause.units()) == set(cause.params)
+        assert all(m in ROLL_CATALOGUE for m in cause.members)
 
 
 def test_split_cycles_cuts_at_an_extremum_and_restarts_time(tmp_path):

@@ -50,7 +50,7 @@ from studies.roll.lssvm import LSSVM, WindowedLSSVM, cv_select, lssvm_eval, lssv
 from studies.roll.model import RollModel
 from studies.roll.records import load_roll_decay, prepare_decay
 from studies.roll.simulate import simulate_decay_record
-from studies.workflows.roll import compare_methods, run_roll_study
+from studies.roll.workflow.pipeline import compare_methods, run_roll_study
 
 TRUE = {"omega0": 2.5, "b1": 0.06, "b2": 0.40}
 PHI0 = math.radians(10.0)

@@ -27,7 +27,7 @@ from studies.roll.estimators import make_estimator
 from studies.roll.model import RollModel
 from studies.roll.records import find_particulars, load_roll_decay
 from studies.roll.simulate import predict_record, simulate_decay_record
-from studies.workflows.roll import run_roll_study
+from studies.roll.workflow.pipeline import run_roll_study
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared/data/kvlcc2_roll_decay"
 RUN_FIT, RUN_VALID = "model_test_21338.csv", "model_test_21337.csv"

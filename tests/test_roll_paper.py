@@ -30,7 +30,7 @@ from studies.roll.estimators import make_estimator
 from studies.roll.model import RollModel
 from studies.roll.records import initial_state, prepare_decay
 from studies.roll.simulate import simulate_decay_record
-from studies.workflows.roll import compare_methods, run_roll_study
+from studies.roll.workflow.pipeline import compare_methods, run_roll_study
 
 TRUE = {"omega0": 2.5, "b1": 0.06, "b2": 0.40}
 ROLL_DATA = SHARED_DATA / "kvlcc2_roll_decay"

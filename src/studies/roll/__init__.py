@@ -1,4 +1,4 @@
-"""The roll-decay domain: one-degree-of-freedom free roll decay (Chen et al., 2019).
+"""Roll decay, the whole feature: one-degree-of-freedom free roll decay (Chen et al., 2019).
 
 The model, divided by the total roll inertia ``I = I_xx + A_44``::
 
@@ -60,6 +60,16 @@ comparison
 figures
     PNG figures: predictions and errors, decay curves, simulation vs tests,
     peak envelopes.
+workflow
+    The roll-decay kind of study behind the command line: ``studies run``
+    (:mod:`~studies.roll.workflow.run` prepares, :mod:`~studies.roll.workflow.pipeline`
+    identifies, compares, draws and logs) and ``studies discover``
+    (:mod:`~studies.roll.workflow.discover`, the causes fitted and named by
+    :mod:`~studies.roll.workflow.search`). It sits in the workflows' layer: it
+    may use discovery and the run bookkeeping, the modules above may not use it.
+
+The roll-decay causes are classes of the one cause catalogue,
+:mod:`studies.discover.causes.roll_decay`.
 
 References
 ----------

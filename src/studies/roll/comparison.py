@@ -90,7 +90,7 @@ def replay_errors(params, terms: Sequence[str], record: pd.DataFrame, start) -> 
     """Replay a decay with identified coefficients from ``start`` and score it.
 
     The single definition of a method's prediction error: every method's
-    MAE and RMSE (run metrics, :func:`studies.workflows.roll.compare_methods`)
+    MAE and RMSE (run metrics, :func:`studies.roll.workflow.pipeline.compare_methods`)
     come from here, so they differ only by the coefficients and the start.
 
     Parameters

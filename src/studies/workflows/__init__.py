@@ -5,8 +5,8 @@
 - :mod:`~studies.workflows.manoeuvring` (+ :mod:`~studies.workflows.measured`
   for measured records): ``studies run`` on manoeuvring records;
 - :mod:`~studies.workflows.discover`: ``studies discover`` on manoeuvring records;
-- :mod:`~studies.workflows.roll_run`, :mod:`~studies.workflows.roll` and
-  :mod:`~studies.workflows.roll_discover`: the same for roll decays;
+- roll decays have one home, :mod:`studies.roll` (its pipelines in
+  :mod:`studies.roll.workflow`);
 - :mod:`~studies.workflows.simplify`: ``studies simplify`` (Li et al. 2023);
 - :mod:`~studies.workflows.settings`: what a study derives from its settings.
 """

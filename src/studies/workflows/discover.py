@@ -6,7 +6,7 @@ The causes come from the catalogue of :mod:`studies.discover.causes`.
 :func:`prepare_discovery` checks the options and loads every record before
 any tracked run exists; :func:`execute_discovery` writes ``discovery.json``,
 ``report.md``/``report.html`` and figures. Roll decays have their own
-discovery (:mod:`studies.workflows.roll_discover`); the command line reaches
+discovery (:mod:`studies.roll.workflow.discover`); the command line reaches
 both through :mod:`studies.workflows.kinds`.
 """
 

@@ -6,8 +6,8 @@
 manoeuvring    abkowitz, symmetric, simplified,   :mod:`studies.workflows.manoeuvring`,
                simplified_li2023, mmg             :mod:`studies.workflows.mmg` (``model=mmg``),
                                                   :mod:`studies.workflows.discover`
-roll_decay     roll                               :mod:`studies.workflows.roll_run`,
-                                                  :mod:`studies.workflows.roll_discover`
+roll_decay     roll                               :mod:`studies.roll.workflow.run`,   
+                                                  :mod:`studies.roll.workflow.discover`
 =============  =================================  ==========================================
 
 A new kind is a class with the methods of
@@ -26,9 +26,9 @@ from . import discover as _discover
 from . import discover_inference as _inference
 from . import manoeuvring as _manoeuvring
 from . import mmg as _mmg
-from . import roll_discover as _roll_discover
-from . import roll_run as _roll_run
 from ..roll.records import load_roll_decay
+from ..roll.workflow import discover as _roll_discover
+from ..roll.workflow import run as _roll_run
 from .settings import as_path_list
 from .study import DiscoverStudy, PreparedRun, Recorder, Study
 from .vessel_choice import simulated_vessel

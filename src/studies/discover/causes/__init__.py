@@ -1,5 +1,4 @@
-"""The cause catalogue of ``studies discover`` for manoeuvring records (ids
-are the DESIGN.md contract).
+"""The cause catalogue of ``studies discover`` (ids are the DESIGN.md contract).
 
 A cause is a parameterised extension of the baseline that may explain what
 the identified model misses; the protocol every cause follows (its id, what
@@ -10,7 +9,9 @@ Modules: :mod:`.base` (the protocol, :class:`Setup`), one module per cause
 (:mod:`.none`, :mod:`.rudder_offset`, :mod:`.current`, :mod:`.wind`,
 :mod:`.environmental_bias`, :mod:`.missing_term`, :mod:`.propulsion`,
 :mod:`.propeller_asymmetry`) and :mod:`.combined` (two
-causes at once).
+causes at once). The roll-decay causes (a linear roll model's missing
+damping or restoring) are :mod:`.roll_decay`'s classes, in
+``ROLL_CATALOGUE``.
 
 Adding a cause
 --------------
@@ -33,12 +34,13 @@ from .missing_term import MissingTerm, extended_library
 from .none import NoCause
 from .propeller_asymmetry import PropellerAsymmetry
 from .propulsion import Propulsion
+from .roll_decay import ROLL_CATALOGUE, RollCause
 from .rudder_offset import RudderOffset
 from .wind import WindSpeedBias, WindUnmodelled
 
 __all__ = ["Setup", "Cause", "CATALOGUE", "manoeuvring_causes", "compact_parameters", "NoCause",
            "RudderOffset", "Current", "WindUnmodelled", "WindSpeedBias", "EnvironmentalBias",
-           "MissingTerm", "Combined", "extended_library", "Propulsion", "PropellerAsymmetry"]
+           "MissingTerm", "Combined", "extended_library", "Propulsion", "PropellerAsymmetry", "RollCause", "ROLL_CATALOGUE"]
 
 #: every manoeuvring cause by its contract id, ``none`` first
 CATALOGUE = {c.id: c for c in (NoCause, RudderOffset, Current, WindUnmodelled, WindSpeedBias,

@@ -1,7 +1,7 @@
 """``studies run model=roll``: the roll-decay study behind the common command.
 
 Inputs are checked (:func:`prepare_roll`) before the tracked run exists; the
-study itself is :func:`studies.workflows.roll.run_roll_study`.
+study itself is :func:`studies.roll.workflow.pipeline.run_roll_study`.
 """
 
 from __future__ import annotations
@@ -13,14 +13,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..config import BayesMethod, RunConfig, settled_discrepancy
-from ..roll.records import find_particulars, load_roll_decay, record_vessel
-from ..errors import ConfigError
-from ..roll.methods import ROLL_METHODS
-from ..roll.simulate import simulate_decay_record
-from .roll import run_roll_study
-from .settings import as_path_list
-from ..config import ROLL_TERMS
+from ...config import BayesMethod, RunConfig, settled_discrepancy
+from ..records import find_particulars, load_roll_decay, record_vessel
+from ...errors import ConfigError
+from ..methods import ROLL_METHODS
+from ..simulate import simulate_decay_record
+from .pipeline import run_roll_study
+from ...workflows.settings import as_path_list
+from ...config import ROLL_TERMS
 
 logger = logging.getLogger(__name__)
 

@@ -2,7 +2,7 @@
 
 The baseline is the linear decay model fitted to the other simulator's run
 (``simulation.path``, with ``omega0`` and ``b1`` then held) or to the
-training decays; every roll cause of :mod:`studies.discover.roll` extends it
+training decays; every roll cause of :mod:`studies.discover.causes.roll_decay` extends it
 and is judged on the held-out decays: the last of two or more records, or,
 with one record, its later cycles (time-blocked, the last
 ``discover.holdout`` share of the half-cycles, predicted from their own
@@ -22,20 +22,21 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..config import DiscoverConfig
-from ..discover.diagnostics import explains
-from ..discover.confidence import certainty
-from ..discover.report import indistinguishable, write_discovery, write_report
-from ..discover.roll import PARAMETER_UNITS, peak_decay, roll_interval, roll_search
-from ..errors import ConfigError
-from ..roll.decay import decay_curve, fit_decay_curve
-from ..roll.figures import plot_decay_curves, plot_peak_envelope
-from ..roll.model import damping_ratio, equivalent_linear_damping, froude_scale_params
-from ..roll.records import load_roll_decay, record_vessel, split_cycles
-from ..roll.simulate import predict_record
-from ..roll.speed import fit_speed_dependence, speeds_of
-from .settings import as_path_list
-from .study import DiscoverStudy, Recorder, Study, gain_pct
+from ...config import DiscoverConfig
+from ...discover.diagnostics import explains
+from ...discover.confidence import certainty
+from ...discover.report import indistinguishable, write_discovery, write_report
+from ...discover.causes.roll_decay import PARAMETER_UNITS
+from .search import peak_decay, roll_interval, roll_search
+from ...errors import ConfigError
+from ..decay import decay_curve, fit_decay_curve
+from ..figures import plot_decay_curves, plot_peak_envelope
+from ..model import damping_ratio, equivalent_linear_damping, froude_scale_params
+from ..records import load_roll_decay, record_vessel, split_cycles
+from ..simulate import predict_record
+from ..speed import fit_speed_dependence, speeds_of
+from ...workflows.settings import as_path_list
+from ...workflows.study import DiscoverStudy, Recorder, Study, gain_pct
 
 __all__ = ["prepare_roll_discovery", "execute_roll_discovery", "damping_table"]
 

@@ -1,23 +1,18 @@
-"""Roll-decay causes: what damping or restoring the baseline lacks.
+"""Fitting and naming the roll-decay causes (:mod:`studies.discover.causes.roll_decay`).
 
 Baseline: the linear model ``phi'' + b1 phi' + omega0^2 phi = 0``, either
 identified from the training decay or, when a record of another simulator is
 given (``simulation.path``, e.g. a potential-flow decay), identified from
 that simulation: the simulation is then what is judged against the
-measurements. Each cause adds one or two terms to the baseline: linear
-damping ``b1_added phi'`` (added to the baseline's ``b1``; at forward speed
-the lift and skin-friction damping potential flow misses), ``b2 |phi'| phi'``,
-``b3 phi'^3`` or ``c3 phi^3``, or linear and quadratic damping together
-(``roll_linear_damping+roll_quadratic_damping``, fitted jointly: the usual
-form of the damping that viscous effects and the hull's lift add).
-The terms are fitted to the measured training decays by simulation least
-squares (with the baseline's own parameters refitted too when the baseline
-came from the data, held when it came from the simulation; the linear causes
-exist only in the latter case, since a baseline fitted to the data already
-has its own ``b1``). Scored like the manoeuvring causes (BIC with the
-effective number of independent samples), and validated by predicting the
-held-out decays from their initial state. A pair is named only with strong
-evidence (score lower by 10) over each of its members.
+measurements. Each cause's terms are fitted to the measured training decays
+by simulation least squares (with the baseline's own parameters refitted too
+when the baseline came from the data, held when it came from the
+simulation; the linear causes exist only in the latter case, since a
+baseline fitted to the data already has its own ``b1``). Scored like the
+manoeuvring causes (BIC with the effective number of independent samples),
+and validated by predicting the held-out decays from their initial state. A
+pair is named only with strong evidence (score lower by 10) over each of its
+members.
 """
 
 from __future__ import annotations
@@ -26,58 +21,12 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import least_squares
 
-from ..roll.decay import find_extrema
-from ..roll.simulate import predict_record
-from .fitting import sample_intervals
+from ..decay import find_extrema
+from ..simulate import predict_record
+from ...discover.causes.roll_decay import ROLL_CATALOGUE, RollCause
+from ...discover.fitting import sample_intervals
 
-__all__ = ["ROLL_CAUSES", "PARAMETER_UNITS", "roll_search", "roll_interval", "peak_decay", "PEAK_CYCLES",
-           "cause_terms", "model_params"]
-
-_LINEAR = ("Damping linear in the roll rate that the baseline lacks: at forward speed mostly the lift "
-           "of the hull (Ikeda's lift component, growing with the speed) and skin friction; the "
-           "baseline's radiation damping alone decays too slowly at every amplitude.")
-_QUADRATIC = ("Viscous roll damping grows with the square of the roll rate (eddy making, bilge keels, "
-              "hull skin friction): an inviscid or linear model decays too slowly at large angles.")
-_CUBIC = ("Damping that grows with the cube of the roll rate (strongly non-linear viscous damping at "
-          "large amplitudes).")
-
-#: cause id -> (its parameters, explanation); a pair ``a+b`` adds both members' parameters
-ROLL_CAUSES = {
-    "none": ((), "The linear roll model already explains the decay."),
-    "roll_linear_damping": (("b1_added",), _LINEAR),
-    "roll_quadratic_damping": (("b2",), _QUADRATIC),
-    "roll_cubic_damping": (("b3",), _CUBIC),
-    "roll_nonlinear_restoring": (("c3",), "The righting arm is not linear in the heel angle (GZ curve "
-                                          "curvature): the roll period changes with the amplitude."),
-    "roll_linear_damping+roll_quadratic_damping": (
-        ("b1_added", "b2"), "Both a linear and a quadratic part of the damping are missing: damping "
-        "linear in the roll rate (at forward speed mostly the lift of the hull, Ikeda's lift component, "
-        "and skin friction) and viscous damping growing with the square of the roll rate (eddy making, "
-        "bilge keels)."),
-}
-
-#: units of the causes' parameters (roll angle in radians)
-PARAMETER_UNITS = {"omega0": "rad/s", "b1": "1/s", "b1_added": "1/s", "b2": "-", "b3": "s",
-                   "c3": "1/s^2"}
-
-
-def cause_terms(cause: str) -> list[str]:
-    """Model terms (:class:`studies.roll.model.RollModel`) of the baseline extended by ``cause``."""
-    extra = [p if p != "b1_added" else "b1" for p in ROLL_CAUSES[cause][0]]
-    return ["b1"] + [t for t in extra if t != "b1"]
-
-
-def model_params(base: dict, added: dict) -> dict:
-    """Parameters of the extended model: ``base`` (``omega0``, ``b1``) with the
-    cause's ``added`` parameters (``b1_added`` adds to ``b1``)."""
-    out = dict(base)
-    for name, value in added.items():
-        if name == "b1_added":
-            out["b1"] = float(base["b1"]) + float(value)
-        else:
-            out[name] = float(value)
-    return out
-
+__all__ = ["roll_search", "roll_interval", "peak_decay", "PEAK_CYCLES"]
 
 #: full cycles after the release at which the peak amplitude is reported
 PEAK_CYCLES = (0, 5, 10, 20, 40)
@@ -121,7 +70,7 @@ def _fit(free, fixed, records, start):
     terms = ["b1"] + [t for t in ("b2", "b3", "c3") if t in free or t in fixed]
 
     def resid(x):
-        params = model_params(fixed, dict(zip(free, x)))
+        params = RollCause.model_params(fixed, dict(zip(free, x)))
         out = []
         for rec in records:
             phi = predict_record(params, terms, rec)
@@ -129,7 +78,7 @@ def _fit(free, fixed, records, start):
         return np.concatenate(out)
 
     res = least_squares(resid, start, x_scale="jac", max_nfev=200)
-    params = model_params(fixed, dict(zip(free, res.x)))
+    params = RollCause.model_params(fixed, dict(zip(free, res.x)))
     return params, resid(res.x)
 
 
@@ -145,10 +94,6 @@ def _rmse_deg(params, terms, records) -> float:
     val = [float(np.sqrt(np.nanmean((predict_record(params, terms, rec) - rec["phi"].to_numpy(float)) ** 2)))
            for rec in records]
     return float(np.rad2deg(np.mean(val))) if val else np.nan
-
-
-def _members(cause: str) -> list[str]:
-    return cause.split("+") if "+" in cause else []
 
 
 def roll_search(train, validation, simulation=None) -> dict:
@@ -167,10 +112,10 @@ def roll_search(train, validation, simulation=None) -> dict:
     else:
         base_fixed = None
     fits = []
-    for cause, (names, explanation) in ROLL_CAUSES.items():
-        if base_fixed is None and "b1_added" in names:
+    for cause_id, cause in ROLL_CATALOGUE.items():
+        if base_fixed is None and cause.needs_simulation:
             continue                     # the data baseline's own b1 already holds it
-        terms = cause_terms(cause)
+        names, terms = cause.params, cause.terms()
         if base_fixed is not None:
             if names:
                 params, resid = _fit(list(names), dict(base_fixed), train, [0.0] * len(names))
@@ -184,8 +129,8 @@ def roll_search(train, validation, simulation=None) -> dict:
             free = ["omega0", "b1"] + list(names)
             params, resid = _fit(free, {}, train, [2 * np.pi / period, 0.02] + [0.0] * len(names))
             added = {n: params[n] for n in names}
-        fits.append({"cause": cause, "terms": terms, "params": params, "added": added, "resid": resid,
-                     "k": len(names), "explanation": explanation,
+        fits.append({"cause": cause_id, "terms": terms, "params": params, "added": added, "resid": resid,
+                     "k": len(names), "explanation": cause.explanation,
                      "validation_rmse_deg": _rmse_deg(params, terms, validation)})
     n = len(fits[0]["resid"])
     tau = _tau(fits[0]["resid"])
@@ -200,7 +145,7 @@ def roll_search(train, validation, simulation=None) -> dict:
         if f is baseline:
             return True
         strong = f["score"] < baseline["score"] - 10.0 and all(
-            f["score"] < scores[m] - 10.0 for m in _members(f["cause"]) if m in scores)
+            f["score"] < scores[m] - 10.0 for m in ROLL_CATALOGUE[f["cause"]].members if m in scores)
         return strong and (np.isnan(f["validation_rmse_deg"])
                            or f["validation_rmse_deg"] < baseline["validation_rmse_deg"])
 
@@ -223,7 +168,7 @@ def roll_interval(best, train, simulation_fixed=None, steps: int = 80, seed: int
         base["b1"] = best["params"]["b1"] - best["added"]["b1_added"]
 
     def log_prob(x):
-        params = model_params(base, dict(zip(names, x)))
+        params = RollCause.model_params(base, dict(zip(names, x)))
         r = np.concatenate([predict_record(params, terms, rec) - rec["phi"].to_numpy(float) for rec in train])
         if not np.all(np.isfinite(r)):
             return -np.inf
