@@ -24,7 +24,7 @@ import pytest
 from conftest import SHARED_DATA, hsva_file, marin_file
 
 from studies.config import compose_settings
-from studies.workflows.kinds import study_for
+from studies.workflows.kinds import kind_for
 
 HSVA_TESTS = ("05_01", "10_01", "10_05", "10_10_P", "10_10_S", "15_01", "15_05", "20_05", "20_10_P",
               "20_10_S", "25_05", "30_05", "35_05")
@@ -34,7 +34,7 @@ def _run(tmp_path, train, validate, *overrides):
     cfg = compose_settings("config", overrides=[
         "vessel=kvlcc2", "model=mmg", "data.scale=full", f"data.path=[{','.join(map(str, train))}]",
         f"validate.path=[{','.join(map(str, validate))}]", "model.compare_abkowitz=false", *overrides])
-    study = study_for(cfg).prepare(cfg, tmp_path)
+    study = kind_for(cfg).prepare(cfg, tmp_path)
     return study.execute(tmp_path / "out")
 
 
@@ -72,7 +72,7 @@ def test_the_hsva_cross_validation_prefers_the_asymmetric_hull(tmp_path):
             "vessel=kvlcc2", "model=mmg", f"data.path=[{','.join(map(str, train))}]",
             "model.compare_abkowitz=false", "model.captive=false", "model.cross_validate=true",
             f"model.asymmetry={str(asymmetric).lower()}"])
-        study = study_for(cfg).prepare(cfg, tmp_path)
+        study = kind_for(cfg).prepare(cfg, tmp_path)
         m = study.execute(tmp_path / f"out_{asymmetric}")
         assert m["cv/folds"] == 5
         medians[asymmetric] = (m["cv/median_abs/rmse_position"], m["cv/median_abs/overshoot2_error_deg"])
@@ -102,7 +102,7 @@ def test_each_record_is_held_out_in_turn_and_predicted(tmp_path):
     cfg = compose_settings("config", overrides=[
         "model=mmg", f"data.path=[{','.join(paths)}]", "data.derivative=central", "model.captive=false",
         "model.compare_abkowitz=false", "model.cross_validate=true", "model.prior_scale=1e6"])
-    study = study_for(cfg).prepare(cfg, tmp_path)
+    study = kind_for(cfg).prepare(cfg, tmp_path)
     assert study.cfg.vessel.name == "kvlcc2"                      # from the sidecars
     m = study.execute(tmp_path / "out")
     table = pd.read_csv(tmp_path / "out" / "cross_validation.csv")

@@ -202,7 +202,7 @@ def test_mmg_bands_of_a_known_mmg_model(tmp_path, ship, rps):
     from hydra import initialize_config_module
 
     from studies.config import compose_settings
-    from studies.workflows.kinds import study_for
+    from studies.workflows.kinds import kind_for
 
     paths = []
     held = [(f"val{amplitude}_{seed}", amplitude, seed) for amplitude in (10, 15, 20) for seed in (21, 22)]
@@ -218,7 +218,7 @@ def test_mmg_bands_of_a_known_mmg_model(tmp_path, ship, rps):
                 f"data.path=[{paths[0]},{paths[1]}]", f"validate.path=[{validation}]",
                 "model.compare_abkowitz=false", "model.captive=false", "validate.compare_derivatives=false",
                 "method.n_samples=4000"])
-        run = study_for(cfg).prepare(cfg, tmp_path)
+        run = kind_for(cfg).prepare(cfg, tmp_path)
         assert run.vessel.scale > 1                     # the full-scale particulars
         metrics = run.execute(tmp_path / disc)
         cover[disc] = [metrics[f"{p.stem}/band/coverage_joint"] for p in paths[2:]]

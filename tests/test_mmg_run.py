@@ -64,7 +64,7 @@ def test_captive_tests_as_regression_rows_pull_the_drift_terms_to_them(tmp_path)
     from hydra import initialize_config_module
 
     from studies.config import compose_settings
-    from studies.workflows.kinds import study_for
+    from studies.workflows.kinds import kind_for
 
     zz10, zz20 = marin_file("zz_10"), marin_file("zz_20")
     errors = {}
@@ -73,7 +73,7 @@ def test_captive_tests_as_regression_rows_pull_the_drift_terms_to_them(tmp_path)
             cfg = compose_settings("config", overrides=[
                 "vessel=kvlcc2", "model=mmg", f"data.path=[{zz10},{zz20}]", "model.compare_abkowitz=false",
                 f"model.captive_weight={weight}"])
-        run = study_for(cfg).prepare(cfg, tmp_path)
+        run = kind_for(cfg).prepare(cfg, tmp_path)
         run.execute(tmp_path / f"w{weight}")
         summary = pd.read_csv(tmp_path / f"w{weight}" / "captive_summary.csv")
         row = summary[(summary["model"] == "identified") & (summary["test"] == "drift angle")
@@ -156,12 +156,12 @@ def test_a_vessel_without_mmg_particulars_is_refused(tmp_path):
     from hydra import initialize_config_module
 
     from studies.config import compose_settings
-    from studies.workflows.kinds import study_for
+    from studies.workflows.kinds import kind_for
 
     with initialize_config_module("studies.conf", version_base="1.3"):
         cfg = compose_settings("config", overrides=["vessel=mariner", "model=mmg"])
     with pytest.raises(ConfigError, match="no MMG particulars"):
-        study_for(cfg).prepare(cfg, tmp_path)
+        kind_for(cfg).prepare(cfg, tmp_path)
 
 
 def test_a_captive_table_with_a_bad_cell_is_refused_with_its_column_and_row(tmp_path):

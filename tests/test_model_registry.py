@@ -205,14 +205,14 @@ def test_an_mmg_run_logs_its_model_with_its_interaction_factors(tmp_path):
 
     from studies.config import compose_settings
     from studies.runtime import tracking
-    from studies.workflows.kinds import study_for
+    from studies.workflows.kinds import kind_for
 
     with initialize_config_module("studies.conf", version_base="1.3"):
         cfg = compose_settings("config", overrides=[
             "vessel=kvlcc2", "model=mmg", "manoeuvre.duration=300", "validate.manoeuvres=[turning_35]",
             "validate.duration=300", "model.captive=false"])
     uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
-    run = study_for(cfg).prepare(cfg, tmp_path)
+    run = kind_for(cfg).prepare(cfg, tmp_path)
     with tracking.start_run("mmg", "mmg", uri, tmp_path, {}) as logger:
         metrics = run.execute(tmp_path / "run")
         logged = logger.log_model(tmp_path / "run" / "identified_model.json", register="kvlcc2_mmg",

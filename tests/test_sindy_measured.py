@@ -19,7 +19,7 @@ from conftest import marin_file, mlflow_runs, run_studies
 
 from studies.config import compose_settings
 from studies.errors import StudiesError
-from studies.workflows.kinds import study_for
+from studies.workflows.kinds import kind_for
 
 #: every method of the ``method`` group, with settings that keep a test short
 METHODS = {
@@ -43,7 +43,7 @@ def test_every_method_runs_on_a_measured_record_or_refuses_in_one_line(tmp_path,
                                                 *METHODS[method]])
     assert cfg.vessel.name == "auto" and cfg.data.derivative == "auto"
     try:
-        study = study_for(cfg).prepare(cfg, tmp_path)
+        study = kind_for(cfg).prepare(cfg, tmp_path)
         metrics = study.execute(tmp_path / "out")
     except StudiesError as error:                  # a refusal a user can act on: one line
         assert "\n" not in str(error).strip(), str(error)

@@ -198,7 +198,7 @@ def _study(cfg, root: Path, out_dir: Path, on_create) -> dict:
     """One `studies run` job: check, (skip,) prepare, open the run, execute, log."""
     from .runtime import tracking
     from .workflows.identified_model import IDENTIFIED_MODEL_FILE
-    from .workflows.kinds import logged_params, study_for
+    from .workflows.kinds import logged_params, kind_for
     from .workflows.settings import check_output_paths
 
     settings = _settings(cfg)
@@ -208,7 +208,7 @@ def _study(cfg, root: Path, out_dir: Path, on_create) -> dict:
     digest, done = _resumable(settings, params, root)
     if done:
         return {"status": "skipped", "run_id": done, "config_hash": digest}
-    prepared = study_for(settings).prepare(settings, root, _recorder(settings, root))
+    prepared = kind_for(settings).prepare(settings, root, _recorder(settings, root))
     name, tags = prepared.name, dict(prepared.tags)
     tags["config_hash"] = digest
     tags.update(tracking.source_tags(root, "studies run"))

@@ -20,7 +20,7 @@ from studies.identify.objective import TrajectoryObjective
 from studies.identify.sindy import SparseRegression
 from studies.models import abkowitz
 from studies.vessels import get_vessel
-from studies.workflows.kinds import study_for
+from studies.workflows.kinds import kind_for
 from studies.workflows.measured import estimate_all, load_measured, problems_from_estimates
 from studies.benchmarks import shared_data
 
@@ -55,7 +55,7 @@ def run() -> dict:
         cfg = compose_settings("config", overrides=["method=sindy", f"data.path=[{','.join(map(str, files))}]",
                                                      "validate.manoeuvres=[]"])
         with tempfile.TemporaryDirectory() as tmp:
-            study = study_for(cfg).prepare(cfg, Path(tmp))
+            study = kind_for(cfg).prepare(cfg, Path(tmp))
             study.execute(Path(tmp) / "out")
 
     return {"sindy_ensemble_3_records_s": plain, "sindy_extended_3_records_s": extended,

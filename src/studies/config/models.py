@@ -8,7 +8,7 @@ from typing import List, Optional
 from omegaconf import II, MISSING
 
 from ..errors import ConfigError
-from .values import (DERIVATIVES, STUDIES, ROLL_TERMS, ROLL_DAMPING_TERMS, MMG_REFINABLE, MMG_SCALES, _number,
+from .values import (DERIVATIVES, STUDY_KINDS, ROLL_TERMS, ROLL_DAMPING_TERMS, MMG_REFINABLE, MMG_SCALES, _number,
                      _optional_number, _integer, _choice)
 from .manoeuvres import _check_manoeuvre_names
 
@@ -120,15 +120,15 @@ class ModelConfig:
     name : str
         Registered model.
     study : str
-        The study that runs the model: one of :data:`STUDIES`.
+        The study that runs the model: one of :data:`STUDY_KINDS`.
     """
 
     name: str = MISSING
     study: str = "manoeuvring"
 
     def __post_init__(self):
-        if self.study not in STUDIES:
-            raise ConfigError(f"model.study must be one of {', '.join(STUDIES)}, got '{self.study}'")
+        if self.study not in STUDY_KINDS:
+            raise ConfigError(f"model.study must be one of {', '.join(STUDY_KINDS)}, got '{self.study}'")
 
 
 @dataclass

@@ -9,7 +9,7 @@ from typing import Optional
 
 from ..errors import ConfigError
 
-__all__ = ["CONF_DIR", "DERIVATIVES", "DISCOVERY_METHODS", "DATA_SCHEMES", "WEIGHTINGS", "STUDIES", "ROLL_TERMS",
+__all__ = ["CONF_DIR", "DERIVATIVES", "DISCOVERY_METHODS", "DATA_SCHEMES", "WEIGHTINGS", "STUDY_KINDS", "ROLL_TERMS",
            "ROLL_DAMPING_TERMS", "MANOEUVRE_KINDS", "SVM_LOSSES", "SINDY_LIBRARIES", "BAYES_MOVES", "GA_BASES",
            "GA_PARENT_SELECTIONS",
            "BAYES_DISCREPANCIES", "WIND_CONVENTIONS", "OBJECTIVE_SIMULATIONS", "DISTURBANCE_SCALINGS",
@@ -38,7 +38,7 @@ WEIGHTINGS = ("none", "speed", "record", "speed_record")
 
 
 #: ``model.study``: the study that runs a model
-STUDIES = ("manoeuvring", "roll_decay")
+STUDY_KINDS = ("manoeuvring", "roll_decay")
 
 
 #: ``model.terms`` of the roll model (omega0 is always identified)

@@ -1,6 +1,6 @@
 """The pipelines behind the command line, one per kind of study.
 
-- :mod:`~studies.workflows.study`: the Study protocol the command line uses;
+- :mod:`~studies.workflows.protocol`: the StudyKind protocol the command line uses;
 - :mod:`~studies.workflows.kinds`: the kinds of study by ``model.study``;
 - :mod:`~studies.workflows.manoeuvring` (+ :mod:`~studies.workflows.measured`
   for measured records): ``studies run`` on manoeuvring records;

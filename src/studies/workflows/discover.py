@@ -36,7 +36,7 @@ from ..vessels import get_vessel
 from .manoeuvring import get_study_model
 from .measured import load_measured, load_study_records
 from .settings import as_path_list
-from .study import DiscoverStudy, Recorder, Study, gain_pct
+from .protocol import PreparedDiscovery, Recorder, StudyKind, gain_pct
 from .vessel_choice import settle_vessel
 
 __all__ = ["prepare_discovery", "execute_discovery", "holdout", "split_discoveries", "gain_pct",
@@ -70,8 +70,8 @@ def holdout(records: list, share: float) -> tuple[list, list, str]:
     return [train], [val], f"held out the last {100 * share:.0f} % of {rec.attrs.get('name')}"
 
 
-def prepare_discovery(cfg: DiscoverConfig, root: Path, kind: Study,
-                      record: Recorder | None = None) -> DiscoverStudy:
+def prepare_discovery(cfg: DiscoverConfig, root: Path, kind: StudyKind,
+                      record: Recorder | None = None) -> PreparedDiscovery:
     """Check the options and load every manoeuvring record (raises ConfigError/DataError)."""
     data = as_path_list(cfg.data.path)
     if not data:
@@ -84,14 +84,14 @@ def prepare_discovery(cfg: DiscoverConfig, root: Path, kind: Study,
     sim = load_measured([str(simulation)])[0] if simulation else None
     if cfg.data.derivative in ("ekf", "ekf_kinematic"):
         records = [smooth_measured(r) for r in records]
-    study = DiscoverStudy(cfg, kind, vessel, model, records, val, sim, records=records + val)
-    if cfg.discover.splits and len(study.records) < 2:
+    prepared = PreparedDiscovery(cfg, kind, vessel, model, records, val, sim, records=records + val)
+    if cfg.discover.splits and len(prepared.records) < 2:
         raise ConfigError("discover.splits=true needs two or more records (data.path + validate.path) "
                           "to hold out in turn")
     if not val:
-        study.train, study.validation, note = holdout(records, cfg.discover.holdout)
-        study.notes.append(note)
-    return study
+        prepared.train, prepared.validation, note = holdout(records, cfg.discover.holdout)
+        prepared.notes.append(note)
+    return prepared
 
 
 def _interval_dict(names, post) -> dict:
@@ -104,7 +104,7 @@ def _same_records(a: list, b: list) -> bool:
     return len(a) == len(b) and all(x is y for x, y in zip(a, b))
 
 
-def split_discoveries(study: DiscoverStudy, ctx, opts, main: dict, main_training_rmse: float) -> list[dict]:
+def split_discoveries(prepared: PreparedDiscovery, ctx, opts, main: dict, main_training_rmse: float) -> list[dict]:
     """Every record held out in turn: the cause each split names, fitted on the
     other records and judged on the held-out one (no second cause, no
     intervals). Shows whether the named cause depends on which manoeuvre
@@ -113,15 +113,15 @@ def split_discoveries(study: DiscoverStudy, ctx, opts, main: dict, main_training
     its named model's training error ``main_training_rmse``."""
 
     rows = []
-    for k, held in enumerate(study.records):
-        train = [r for j, r in enumerate(study.records) if j != k]
-        if _same_records(train, study.train) and _same_records([held], study.validation):
+    for k, held in enumerate(prepared.records):
+        train = [r for j, r in enumerate(prepared.records) if j != k]
+        if _same_records(train, prepared.train) and _same_records([held], prepared.validation):
             result, own = main, main_training_rmse
         else:
             split = Context(ctx.vessel, ctx.model, train, [held], ctx.derivative)
             split.horizon = ctx.horizon
             result = search(split, opts.terms_threshold, opts.max_terms, second=False,
-                            seed=study.cfg.seed, output_error=opts.output_error,
+                            seed=prepared.cfg.seed, output_error=opts.output_error,
                             intervals=False, score=opts.score)
             own = training_error(split, result["best"])
         best, base = result["best"], result["baseline"]
@@ -130,7 +130,7 @@ def split_discoveries(study: DiscoverStudy, ctx, opts, main: dict, main_training
                      "parameters": best.cause.parameters(best.theta, best.params),
                      "baseline_validation_rmse": b, "extended_validation_rmse": e,
                      "gain_pct": gain_pct(b, e), "training_rmse": own,
-                     "explains_validation": explains(e, own, study.vessel.length),
+                     "explains_validation": explains(e, own, prepared.vessel.length),
                      "fit": "output error" if result["output_error"] else "equation error",
                      "notes": [n for n in (not_named(f, base) for f in result["fits"] if f is not best) if n]})
         log.info("split holding out %s: %s, gain %.1f %%", rows[-1]["held_out"], best.cause.id,
@@ -185,20 +185,20 @@ def on_record_time(simulation: pd.DataFrame, record: pd.DataFrame) -> pd.DataFra
     return out
 
 
-def execute_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
+def execute_discovery(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
     """Run the discovery on manoeuvring records; ``(discovery, metrics)``."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
 
-    opts = study.cfg.discover
+    opts = prepared.cfg.discover
     t0 = time.perf_counter()
-    derivative = study.cfg.data.derivative
-    if any(r.attrs.get("smoothed") == "ekf" for r in study.train):
+    derivative = prepared.cfg.data.derivative
+    if any(r.attrs.get("smoothed") == "ekf" for r in prepared.train):
         derivative = "central"      # states already smoothed once by the EKF/RTS pass
-    ctx = Context(study.vessel, study.model, study.train, study.validation, derivative)
+    ctx = Context(prepared.vessel, prepared.model, prepared.train, prepared.validation, derivative)
     ctx.horizon = opts.horizon or None
     result = search(ctx, opts.terms_threshold, opts.max_terms, opts.second_cause,
-                    opts.posterior_steps, study.cfg.seed, opts.output_error, score=opts.score)
+                    opts.posterior_steps, prepared.cfg.seed, opts.output_error, score=opts.score)
     best, baseline = result["best"], result["baseline"]
     # whole-record predictions for the figures and the characteristics
     full_base, full_best = baseline.whole, best.whole
@@ -220,7 +220,7 @@ def execute_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
     b_rmse, e_rmse = baseline.validation_rmse, best.validation_rmse
     b_train = training_error(ctx, baseline)
     e_train = b_train if best is baseline else training_error(ctx, best)
-    explained = dg.explains(e_rmse, e_train, study.vessel.length)
+    explained = dg.explains(e_rmse, e_train, prepared.vessel.length)
     discovery = {
         "cause": cause.id, "parameters": params, "uncertainty": uncertainty,
         "explanation": cause.explanation if explained or cause.id != "none" else UNEXPLAINED,
@@ -248,7 +248,7 @@ def execute_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
         "score": result["score"],
         "candidate_terms": [t.name for t in result["candidates"]],
         "selected_terms": [t.name for t in result["terms"]],
-        "notes": study.notes + result.get("notes", []) + [note for note in [named_on_held_out(best, baseline),
+        "notes": prepared.notes + result.get("notes", []) + [note for note in [named_on_held_out(best, baseline),
                                                   named_on_training(best, baseline),
                                                   named_on_held_out_windows(best, baseline),
                                                   second_on_held_out_note(result.get("second"), best)]
@@ -260,21 +260,21 @@ def execute_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
                    if f.undecidable and f is not best and f.score < baseline.score - EVIDENCE]
     certainty(discovery, held_out_evidence(best, baseline)[2] if best.cause.replaces_dynamics else None,
               undecidable)
-    other = [on_record_time(study.simulation, rec) if study.simulation is not None else None
+    other = [on_record_time(prepared.simulation, rec) if prepared.simulation is not None else None
              for rec in ctx.validation]
-    if study.simulation is not None and all(o is None for o in other):
-        discovery["notes"].append(f"simulation.path ({study.simulation.attrs.get('name')}) not judged: its "
+    if prepared.simulation is not None and all(o is None for o in other):
+        discovery["notes"].append(f"simulation.path ({prepared.simulation.attrs.get('name')}) not judged: its "
                                   "time span or rudder matches no validation record")
     models = {"baseline": full_base["predictions"]}
     if best is not baseline:
         models[f"extended ({cause.id})"] = full_best["predictions"]
     if any(o is not None for o in other):
         models["other simulator"] = other
-    departed = _departures(ctx.validation, models, study.vessel)
+    departed = _departures(ctx.validation, models, prepared.vessel)
     discovery["departures"] = (departed.groupby("model", sort=False).head(DEPARTURES).to_dict("records")
                                if not departed.empty else [])
     if opts.splits:
-        discovery["splits"] = split_discoveries(study, ctx, opts, result, e_train)
+        discovery["splits"] = split_discoveries(prepared, ctx, opts, result, e_train)
     # what the baseline gets wrong
     base_params, residuals, problems = regression_fit(ctx, Setup(ctx.model, ctx.train))
     ranking = pd.DataFrame(discovery["ranking"]).set_index("cause")
@@ -312,7 +312,7 @@ def execute_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
         if not table.empty:
             sections.append((f"Manoeuvre characteristics: {table.index.name}", table))
     sections.append(("Structure of the baseline's regression residual",
-                     dg.residual_structure(problems, residuals, study.vessel)))
+                     dg.residual_structure(problems, residuals, prepared.vessel)))
     plot_residuals(problems, residuals, out_dir / "residuals.png")
     plot_ranking(discovery["ranking"], out_dir / "ranking.png")
     figures += ["residuals.png", "ranking.png"]

@@ -29,7 +29,7 @@ from ..discover.inference import baseline_fit, infer, intervals, refine, smooth_
 from ..discover.report import plot_evidence, plot_predictions, write_discovery, write_report
 from ..discover.verdict import Discovery
 from ..vessels import has_mmg_particulars, mmg_vessel_at_speed
-from .study import DiscoverStudy, gain_pct
+from .protocol import PreparedDiscovery, gain_pct
 
 __all__ = ["execute_inference", "baseline_dynamics", "UNDECIDED_BELOW"]
 
@@ -41,25 +41,25 @@ UNDECIDED_BELOW = 0.9
 RIVAL_FRACTION = 0.1
 
 
-def baseline_dynamics(study: DiscoverStudy) -> MMGDynamics | None:
+def baseline_dynamics(prepared: PreparedDiscovery) -> MMGDynamics | None:
     """The MMG model's dynamics when the baseline is ``model=mmg`` (particulars
     at the records' scale, from the first record's speed), else None."""
-    if str(study.cfg.model.name) != "mmg":
+    if str(prepared.cfg.model.name) != "mmg":
         return None
-    name = str(study.cfg.vessel.name)
+    name = str(prepared.cfg.vessel.name)
     if not has_mmg_particulars(name):
         from ..errors import ConfigError
         raise ConfigError(f"model=mmg: vessel {name} has no MMG particulars (propeller, rudder, K_T curve)")
-    first = study.train[0]
+    first = prepared.train[0]
     return MMGDynamics(mmg_vessel_at_speed(name, float(np.hypot(first["u"].iloc[0], first["v"].iloc[0]))),
-                       asymmetry=bool(getattr(study.cfg.model, "asymmetry", False)))
+                       asymmetry=bool(getattr(prepared.cfg.model, "asymmetry", False)))
 
 
-def _scale(study: DiscoverStudy, dynamics) -> str:
+def _scale(prepared: PreparedDiscovery, dynamics) -> str:
     if dynamics is not None:
         return "model" if getattr(dynamics.vessel, "model_scale", False) or \
-            dynamics.vessel.length < 0.5 * study.vessel.length else "full"
-    return "model" if any(r.attrs.get("model_scale") for r in study.records) else "full"
+            dynamics.vessel.length < 0.5 * prepared.vessel.length else "full"
+    return "model" if any(r.attrs.get("model_scale") for r in prepared.records) else "full"
 
 
 def _undecided(ranking: list, named: str, confidence: float, undecidable: list) -> tuple:
@@ -76,26 +76,26 @@ def _undecided(ranking: list, named: str, confidence: float, undecidable: list) 
     return [named] + rivals + [c for c, _ in undecidable if c not in rivals], text or None
 
 
-def execute_inference(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
+def execute_inference(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
     """Run the discovery on manoeuvring records by one inference; ``(discovery, metrics)``."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    opts = study.cfg.discover
+    opts = prepared.cfg.discover
     t0 = time.perf_counter()
-    dynamics = baseline_dynamics(study)
-    model = dynamics.model if dynamics is not None else study.model
-    raw = list(study.train) + list(study.validation)
-    first = Context(study.vessel, model, list(study.train), list(study.validation), "recorded",
+    dynamics = baseline_dynamics(prepared)
+    model = dynamics.model if dynamics is not None else prepared.model
+    raw = list(prepared.train) + list(prepared.validation)
+    first = Context(prepared.vessel, model, list(prepared.train), list(prepared.validation), "recorded",
                     dynamics=dynamics)
     smoothed = smooth_with_baseline(first, raw)
     t_smooth = time.perf_counter() - t0
-    ctx = Context(study.vessel, model, smoothed[:len(study.train)], list(study.validation), "recorded",
+    ctx = Context(prepared.vessel, model, smoothed[:len(prepared.train)], list(prepared.validation), "recorded",
                   dynamics=dynamics)
     ctx.horizon = opts.horizon or None
     calibrate(ctx)
     undecidable = [(c.id, c.undecidable(ctx)[1]) for c in manoeuvring_causes(ctx)
                    if c.undecidable(ctx) is not None]
-    result = infer(ctx, smoothed, pairs=opts.second_cause, seed=study.cfg.seed)
+    result = infer(ctx, smoothed, pairs=opts.second_cause, seed=prepared.cfg.seed)
     named = result.verdict_of(result.named)
     # the verdict and its parameters come from every record; the held-out gain from the named
     # model and the baseline refitted on the training records alone
@@ -110,12 +110,12 @@ def execute_inference(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
     b_rmse, e_rmse = baseline.validation_rmse, best.validation_rmse
     b_train = training_error(ctx, baseline)
     e_train = b_train if best is baseline else training_error(ctx, best)
-    explained = dg.explains(e_rmse, e_train, study.vessel.length)
+    explained = dg.explains(e_rmse, e_train, prepared.vessel.length)
     ranking = result.ranking()
     confidence = result.confidence
     undecided, next_manoeuvre = _undecided(ranking, named, confidence, undecidable)
     cause = best.cause if best is not baseline else NoCause()
-    notes = list(study.notes)
+    notes = list(prepared.notes)
     notes.append(f"{len(result.variants)} single-cause variants compared on {len(raw)} records cut into "
                  f"{result.n_blocks} blocks of {result.block_seconds:.0f} s, each block predicted by models "
                  f"fitted to the others; a cause is named when its held-out gain exceeds {result.threshold:.2f} "
@@ -134,7 +134,7 @@ def execute_inference(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
         cause=named,
         parameters=(result.fit.cause.parameters(result.fit.theta, result.fit.params) if result.named else {}),
         parameter_units=dict(cause.units), fixed_parameters=cause.fixed_parameters(),
-        uncertainty=intervals(result, seed=study.cfg.seed), confidence=confidence,
+        uncertainty=intervals(result, seed=prepared.cfg.seed), confidence=confidence,
         confidence_basis=("share of the Bayesian-bootstrap reweightings of the records' blocks for which "
                           "the criterion names this verdict (held-out gain beyond the Bonferroni quantile of "
                           "its standard error, leave-one-block-out cross-validation)"),
@@ -146,7 +146,7 @@ def execute_inference(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
                   "training_rmse": e_train},
         gain_pct=gain, explains_validation=bool(explained),
         explanation=cause.explanation if named != "none" else NoCause.explanation,
-        baseline_model=str(study.cfg.model.name), scale=_scale(study, dynamics), method="inference",
+        baseline_model=str(prepared.cfg.model.name), scale=_scale(prepared, dynamics), method="inference",
         undecided=undecided, next_manoeuvre=next_manoeuvre, notes=notes,
         candidates={f.cause.id: f.cause.parameters(f.theta, f.params) for m, f in result.fits.items()
                     if len(m) == 1},

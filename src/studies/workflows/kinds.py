@@ -11,7 +11,7 @@ roll_decay     roll                               :mod:`studies.roll.workflow.ru
 =============  =================================  ==========================================
 
 A new kind is a class with the methods of
-:class:`studies.workflows.study.Study` and one entry in :data:`STUDIES`,
+:class:`studies.workflows.protocol.StudyKind` and one entry in :data:`KINDS`,
 and names the settings its runs depend on in :data:`PARAM_GROUPS` (the
 run's MLflow params, :func:`logged_params`).
 """
@@ -30,14 +30,14 @@ from ..roll.records import load_roll_decay
 from ..roll.workflow import discover as _roll_discover
 from ..roll.workflow import run as _roll_run
 from .settings import as_path_list
-from .study import DiscoverStudy, PreparedRun, Recorder, Study
+from .protocol import PreparedDiscovery, PreparedRun, Recorder, StudyKind
 from .vessel_choice import simulated_vessel
 
-__all__ = ["ManoeuvringStudy", "RollDecayStudy", "STUDIES", "study_for", "prepare_discover",
+__all__ = ["ManoeuvringKind", "RollDecayKind", "KINDS", "kind_for", "prepare_discover",
            "execute_discover", "PARAM_GROUPS", "logged_params"]
 
 
-class ManoeuvringStudy:
+class ManoeuvringKind:
     """Manoeuvring records of a ship (3-DOF surge, sway, yaw models)."""
 
     kind = "manoeuvring"
@@ -48,28 +48,28 @@ class ManoeuvringStudy:
         return _manoeuvring.prepare(cfg, root, record)
 
     def prepare_discovery(self, cfg: DiscoverConfig, root: Path,
-                          record: Recorder | None = None) -> DiscoverStudy:
+                          record: Recorder | None = None) -> PreparedDiscovery:
         if _mmg.is_mmg(cfg) and cfg.discover.method == "search":
             raise ConfigError("model=mmg: discover.method=search judges a polynomial baseline (model=abkowitz "
                               "or symmetric); discover.method=inference takes the MMG model as baseline")
         if cfg.discover.method == "inference" and (cfg.discover.splits or cfg.simulation.path):
             raise ConfigError("discover.splits and simulation.path are options of discover.method=search; "
                               "the inference compares the causes on every record at once")
-        study = _discover.prepare_discovery(cfg, root, self, record)
+        prepared = _discover.prepare_discovery(cfg, root, self, record)
         paths = as_path_list(cfg.data.path) + as_path_list(cfg.validate.path)
         contexts = ["training"] * len(as_path_list(cfg.data.path)) + ["validation"] * len(paths)
-        study.inputs = [(p, r, c) for p, r, c in zip(paths, study.records, contexts)]
-        if study.simulation is not None:
-            study.inputs.append((cfg.simulation.path, study.simulation, "simulation"))
-        return study
+        prepared.inputs = [(p, r, c) for p, r, c in zip(paths, prepared.records, contexts)]
+        if prepared.simulation is not None:
+            prepared.inputs.append((cfg.simulation.path, prepared.simulation, "simulation"))
+        return prepared
 
-    def discover(self, study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
-        if study.cfg.discover.method == "inference":
-            return _inference.execute_inference(study, out_dir)
-        return _discover.execute_discovery(study, out_dir)
+    def discover(self, prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
+        if prepared.cfg.discover.method == "inference":
+            return _inference.execute_inference(prepared, out_dir)
+        return _discover.execute_discovery(prepared, out_dir)
 
 
-class RollDecayStudy:
+class RollDecayKind:
     """Free roll decays (1-DOF roll model, Chen et al. 2019)."""
 
     kind = "roll_decay"
@@ -78,29 +78,29 @@ class RollDecayStudy:
         return _roll_run.prepare_roll(cfg)
 
     def prepare_discovery(self, cfg: DiscoverConfig, root: Path,
-                          record: Recorder | None = None) -> DiscoverStudy:
-        study = _roll_discover.prepare_roll_discovery(cfg, root, self, record)
+                          record: Recorder | None = None) -> PreparedDiscovery:
+        prepared = _roll_discover.prepare_roll_discovery(cfg, root, self, record)
         given = ([(p, "training") for p in as_path_list(cfg.data.path)]
                  + [(p, "validation") for p in as_path_list(cfg.validate.path)]
                  + ([(cfg.simulation.path, "simulation")] if cfg.simulation.path else []))
-        study.inputs = [(p, load_roll_decay(p), c) for p, c in given]
-        return study
+        prepared.inputs = [(p, load_roll_decay(p), c) for p, c in given]
+        return prepared
 
-    def discover(self, study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
-        return _roll_discover.execute_roll_discovery(study, out_dir)
+    def discover(self, prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
+        return _roll_discover.execute_roll_discovery(prepared, out_dir)
 
 
 #: the kinds of study by the ``model.study`` setting
-STUDIES: dict[str, Study] = {s.kind: s for s in (ManoeuvringStudy(), RollDecayStudy())}
+KINDS: dict[str, StudyKind] = {s.kind: s for s in (ManoeuvringKind(), RollDecayKind())}
 
 
-def study_for(cfg: RunConfig) -> Study:
+def kind_for(cfg: RunConfig) -> StudyKind:
     """The kind of study the configuration's model belongs to."""
     try:
-        return STUDIES[cfg.model.study]
+        return KINDS[cfg.model.study]
     except KeyError:
         raise ConfigError(f"model.study: unknown kind of study '{cfg.model.study}'; "
-                          f"known: {', '.join(sorted(STUDIES))}") from None
+                          f"known: {', '.join(sorted(KINDS))}") from None
 
 
 #: the top-level settings that decide what a run of each kind computes (its MLflow params)
@@ -131,7 +131,7 @@ def logged_params(cfg: RunConfig, params: dict) -> dict:
     Returns
     -------
     dict
-        The groups of :data:`PARAM_GROUPS` for the kind of study, plus
+        The groups of :data:`PARAM_GROUPS` for the kind of prepared, plus
         :data:`MEASURED_GROUPS` when ``data.path`` is given, ``simplify``
         for ``model=simplified`` (its definition is derived with those
         settings), :data:`DISCOVER_GROUPS` for a discovery, and
@@ -158,11 +158,11 @@ def logged_params(cfg: RunConfig, params: dict) -> dict:
     return out
 
 
-def prepare_discover(cfg: DiscoverConfig, root: Path, record: Recorder | None = None) -> DiscoverStudy:
+def prepare_discover(cfg: DiscoverConfig, root: Path, record: Recorder | None = None) -> PreparedDiscovery:
     """Check the options and load every record of a discovery (before any tracked run)."""
-    return study_for(cfg).prepare_discovery(cfg, Path(root), record)
+    return kind_for(cfg).prepare_discovery(cfg, Path(root), record)
 
 
-def execute_discover(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
+def execute_discover(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
     """Run a prepared discovery into ``out_dir``; ``(discovery, metrics)``."""
-    return study.kind.discover(study, Path(out_dir))
+    return prepared.kind.discover(prepared, Path(out_dir))

@@ -67,20 +67,20 @@ from . import measured as _measured
 from .identified_model import IDENTIFIED_MODEL_FILE, IdentifiedModel
 from .settings import Settings, named_manoeuvre, read_settings
 from .simplify import ensure_definition
-from .study import Recorder
+from .protocol import Recorder
 from .vessel_choice import settle_vessel
 from ..config import DERIVATIVES
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["Study", "prepare", "execute", "simulate_training", "coefficient_table", "run_name",
+__all__ = ["ManoeuvringRun", "prepare", "execute", "simulate_training", "coefficient_table", "run_name",
            "identified_model", "compare_simulated", "validation_manoeuvre"]
 
 MIN_SAMPLES_PER_COEFFICIENT = 3
 
 
 @dataclass
-class Study:
+class ManoeuvringRun:
     """A checked configuration with its training records."""
 
     cfg: RunConfig
@@ -124,7 +124,7 @@ class Study:
         return simulate(self.model, params, self.vessel, manoeuvre, initial=initial)
 
 
-def identified_model(study: Study, params: dict, modules=None,
+def identified_model(study: ManoeuvringRun, params: dict, modules=None,
                      environment: Environment | None = None) -> IdentifiedModel:
     """What the run identified, with what its simulations need (the run's
     ``identified_model.json`` and MLflow model): the model, ``params``, the
@@ -200,7 +200,7 @@ def get_study_model(cfg: RunConfig, root: Path | None = None,
     return get_model(name)
 
 
-def prepare(cfg: RunConfig, root: Path | None = None, record: Recorder | None = None) -> Study:
+def prepare(cfg: RunConfig, root: Path | None = None, record: Recorder | None = None) -> ManoeuvringRun:
     """Check the configuration and get the training records.
 
     Raises ``ConfigError``/``DataError`` on bad input before anything is
@@ -245,7 +245,7 @@ def prepare(cfg: RunConfig, root: Path | None = None, record: Recorder | None = 
         logger.info("the bands of model=%s on %s records are not judged by the calibration page; it judges "
                     "model=mmg's (experiment=kvlcc2_calibration, each record held out in turn; "
                     "docs/calibration.md)", cfg.model.name, vessel.name)
-    return Study(cfg, settings, vessel, model, method, records, truth, validation, measured)
+    return ManoeuvringRun(cfg, settings, vessel, model, method, records, truth, validation, measured)
 
 
 
@@ -320,7 +320,7 @@ def run_tags(cfg: RunConfig, settings: Settings) -> dict:
     }
 
 
-def _validate_simulated(study: Study, params: dict, out_dir: Path) -> dict:
+def _validate_simulated(study: ManoeuvringRun, params: dict, out_dir: Path) -> dict:
     """Simulate the validation manoeuvres with the identified and the reference model."""
     metrics = {}
     if not study.vessel.coefficients:
@@ -396,7 +396,7 @@ def _characteristic_errors(pred, ref, name: str, kind, heading, measured: bool =
     return out
 
 
-def _validate_records(study: Study, params: dict, out_dir: Path, result=None) -> dict:
+def _validate_records(study: ManoeuvringRun, params: dict, out_dir: Path, result=None) -> dict:
     """Replay each validation record's measured rudder from its initial state.
 
     Characteristics (``<record>/advance_m`` ...) of the prediction, the
@@ -545,7 +545,7 @@ def _characteristic_rows(name: str, simulation: str, chars: dict, prefix: str = 
     return rows
 
 
-def _markdown_table(table: pd.DataFrame, study: Study) -> str:
+def _markdown_table(table: pd.DataFrame, study: ManoeuvringRun) -> str:
     lines = [f"# Validation of {study.method} on measured records", "",
              "Training records: " + ", ".join(str(r.attrs.get("name")) for r in study.records), "",
              "| record | simulation | quantity | predicted | measured | error |",
@@ -559,7 +559,7 @@ def _markdown_table(table: pd.DataFrame, study: Study) -> str:
     return "\n".join(lines)
 
 
-def _closed_loop_zigzag(study: Study, params: dict, rec: pd.DataFrame) -> dict:
+def _closed_loop_zigzag(study: ManoeuvringRun, params: dict, rec: pd.DataFrame) -> dict:
     """Overshoots of the model's own zig-zag started from the record's initial state.
 
     The nominal zig-zag N/N: N is half the measured rudder's peak-to-peak
@@ -606,7 +606,7 @@ def measured_derivative(records, derivative: str) -> str:
     return "ekf" if noisy else "central"
 
 
-def _replay_training(study: Study, params: dict, out_dir: Path) -> dict:
+def _replay_training(study: ManoeuvringRun, params: dict, out_dir: Path) -> dict:
     """How the identified model replays its own training records (``training/<record>/...``)."""
     metrics = {}
     for rec in study.records:
@@ -631,7 +631,7 @@ _COMPARED_KEYS = ("advance_error_pct", "transfer_error_pct", "tactical_diameter_
                   "overshoot1_error_deg", "overshoot2_error_deg", "rmse_position", "fitness")
 
 
-def _compare_derivatives(study: Study, derivative: str, estimates, params: dict, out_dir: Path) -> dict:
+def _compare_derivatives(study: ManoeuvringRun, derivative: str, estimates, params: dict, out_dir: Path) -> dict:
     """Least squares with each estimator of :data:`COMPARED_DERIVATIVES`, validated alike.
 
     The run's own estimates are reused when the estimator is the run's
@@ -707,7 +707,7 @@ def training_manoeuvres(cfg: RunConfig) -> list:
     return [named_manoeuvre(str(cfg.manoeuvre.name), _manoeuvre_overrides(cfg))]
 
 
-def _training_names(study: Study) -> set:
+def _training_names(study: ManoeuvringRun) -> set:
     if study.settings.data_paths:
         return {str(r.attrs.get("name")) for r in study.records}
     return {str(r.attrs.get("name")) for r in study.records}
@@ -748,7 +748,7 @@ def write_metric_history(history: dict, path: Path) -> None:
                                     for k, v in sorted(history.items())}, indent=1))
 
 
-def _with_selected_terms(study: Study, result) -> Study:
+def _with_selected_terms(study: ManoeuvringRun, result) -> ManoeuvringRun:
     """The study with the model extended by the terms an identifier selected beyond it
     (SINDy's extended library), so that the identified model simulates what was fitted."""
     extra = [name for name in result.params if name not in study.model.names]
@@ -762,7 +762,7 @@ def _with_selected_terms(study: Study, result) -> Study:
     return dataclasses.replace(study, model=study.model.extended(terms, name=f"{study.model.name}+sindy"))
 
 
-def execute(study: Study, out_dir: Path) -> dict:
+def execute(study: ManoeuvringRun, out_dir: Path) -> dict:
     """Identify, validate and write the run's files into ``out_dir``.
 
     Returns the metrics (also written to ``metrics.json``).

@@ -89,10 +89,10 @@ def is_mmg(cfg: RunConfig) -> bool:
 
 
 @dataclass
-class MMGRun(_manoeuvring.Study):
+class MMGRun(_manoeuvring.ManoeuvringRun):
     """A checked ``model=mmg`` configuration with its records (a PreparedRun).
 
-    The fields, name and inputs of :class:`studies.workflows.manoeuvring.Study`
+    The fields, name and inputs of :class:`studies.workflows.manoeuvring.ManoeuvringRun`
     (``vessel`` the MMG particulars at the records' scale), plus the
     propeller and rudder parameters ``modules``; replays, simulations and the
     posterior predictive bands (``method=bayes``) use the MMG simulator.
@@ -305,7 +305,7 @@ def _abkowitz_beside(run: MMGRun, out_dir: Path) -> dict:
     cfg = dataclasses.replace(run.cfg, method=MethodConfig(name="ls"),
                               validate=dataclasses.replace(run.cfg.validate, compare_derivatives=False,
                                                            band_draws=0))
-    study = _manoeuvring.Study(cfg, run.settings, abk_vessel, get_model("symmetric"), "ls",
+    study = _manoeuvring.ManoeuvringRun(cfg, run.settings, abk_vessel, get_model("symmetric"), "ls",
                                run.records, None, run.validation_records, True)
     metrics = _manoeuvring.execute(study, out_dir / "abkowitz")
     return {f"abkowitz/{k}": v for k, v in metrics.items()}

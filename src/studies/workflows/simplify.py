@@ -57,7 +57,7 @@ from ..models.simplified import (PAPER_SIMPLIFIED, SPEED_LOSS, save_definition, 
 from ..simulate import simulate
 from ..vessels import get_vessel
 from .settings import named_manoeuvre
-from .study import Recorder
+from .protocol import Recorder
 from .vessel_choice import simulated_vessel
 
 __all__ = ["derive", "ensure_definition"]

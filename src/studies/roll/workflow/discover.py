@@ -36,7 +36,7 @@ from ..records import load_roll_decay, record_vessel, split_cycles
 from ..simulate import predict_record
 from ..speed import fit_speed_dependence, speeds_of
 from ...workflows.settings import as_path_list
-from ...workflows.study import DiscoverStudy, Recorder, Study, gain_pct
+from ...workflows.protocol import PreparedDiscovery, Recorder, StudyKind, gain_pct
 
 __all__ = ["prepare_roll_discovery", "execute_roll_discovery", "damping_table"]
 
@@ -44,8 +44,8 @@ __all__ = ["prepare_roll_discovery", "execute_roll_discovery", "damping_table"]
 DAMPING_AMPLITUDES_DEG = (5.0, 10.0)
 
 
-def prepare_roll_discovery(cfg: DiscoverConfig, root: Path, kind: Study,
-                           record: Recorder | None = None) -> DiscoverStudy:
+def prepare_roll_discovery(cfg: DiscoverConfig, root: Path, kind: StudyKind,
+                           record: Recorder | None = None) -> PreparedDiscovery:
     """Load every decay (raises ConfigError/DataError). Without ``validate.path``
     the last of two or more decays is held out; of a single decay its later
     cycles (the last ``discover.holdout`` share of its half-cycles)."""
@@ -57,11 +57,11 @@ def prepare_roll_discovery(cfg: DiscoverConfig, root: Path, kind: Study,
     train = [load_roll_decay(p) for p in data]
     val = [load_roll_decay(p) for p in validate]
     sim = load_roll_decay(str(simulation)) if simulation else None
-    study = DiscoverStudy(cfg, kind, None, None, train, val, sim, records=train + val)
+    prepared = PreparedDiscovery(cfg, kind, None, None, train, val, sim, records=train + val)
     if not val:
         if len(train) >= 2:
-            study.train, study.validation = train[:-1], train[-1:]
-            study.notes.append(f"held out the decay {train[-1].attrs.get('name')}")
+            prepared.train, prepared.validation = train[:-1], train[-1:]
+            prepared.notes.append(f"held out the decay {train[-1].attrs.get('name')}")
         else:
             share = cfg.discover.holdout
             try:
@@ -69,15 +69,15 @@ def prepare_roll_discovery(cfg: DiscoverConfig, root: Path, kind: Study,
             except ValueError as error:
                 raise ConfigError(f"roll discover on one decay holds out its later cycles: {error}; "
                                   "give a second decay (validate.path)") from None
-            study.train, study.validation = [first], [last]
+            prepared.train, prepared.validation = [first], [last]
             n = int(train[0].attrs.get("n_extrema", 0))
-            study.notes.append(
+            prepared.notes.append(
                 f"one decay: held out its later cycles (time-blocked), the last {last.attrs['n_extrema']} of "
                 f"{first.attrs['n_extrema'] + last.attrs['n_extrema']} half-cycles of {train[0].attrs.get('name')} "
                 f"(discover.holdout={share:g}) from {last.attrs['t_from_release']:.1f} s after the release, "
                 f"predicted from their own initial state; the causes are fitted to the first "
                 f"{first.attrs['n_extrema']} ({n} extrema in the record)")
-    return study
+    return prepared
 
 
 def _scale(records) -> tuple[float | None, dict | None]:
@@ -147,12 +147,12 @@ def _measured_damping(records) -> dict | None:
     return fit_decay_curve(curve, ("b1", "b2"))
 
 
-def _baseline_text(study: DiscoverStudy, base: dict) -> str:
+def _baseline_text(prepared: PreparedDiscovery, base: dict) -> str:
     p = base["params"]
     values = f"omega0 = {p['omega0']:.4g} rad/s, b1 = {p['b1']:.4g} 1/s"
-    if study.simulation is not None:
+    if prepared.simulation is not None:
         return (f"The baseline is the linear model phi'' + b1 phi' + omega0^2 phi = 0 fitted (simulation least "
-                f"squares) to the other simulator's run {study.simulation.attrs.get('name')} "
+                f"squares) to the other simulator's run {prepared.simulation.attrs.get('name')} "
                 f"(simulation.path): {values}. omega0 and b1 are held there; each cause adds its terms, fitted "
                 "to the measured training decays, so the causes say what that simulation misses "
                 "(roll_linear_damping's b1_added is added to its b1).")
@@ -174,84 +174,84 @@ def _units_table(discovery: dict, best: dict) -> pd.DataFrame:
     return pd.DataFrame(rows).set_index("parameter")
 
 
-def _predictions(study: DiscoverStudy, base: dict, best: dict, extended: str) -> tuple[list, list]:
+def _predictions(prepared: PreparedDiscovery, base: dict, best: dict, extended: str) -> tuple[list, list]:
     """Every record (validation first) and its predictions ``{label: (t, phi)}``, simulated once."""
-    records = study.validation + study.train
+    records = prepared.validation + prepared.train
     predicted = []
     for rec in records:
         t = rec["t"].to_numpy(float)
         preds = {"baseline": (t, predict_record(base["params"], base["terms"], rec))}
         if best is not base:
             preds[extended] = (t, predict_record(best["params"], best["terms"], rec))
-        if study.simulation is not None:
+        if prepared.simulation is not None:
             # the other simulator's run on the record's own time since the release
             shift = float(rec.attrs.get("t_from_release", 0.0))
-            ts = study.simulation["t"].to_numpy(float) - shift
+            ts = prepared.simulation["t"].to_numpy(float) - shift
             keep = ts >= -1e-9
-            preds["other simulator"] = (ts[keep], study.simulation["phi"].to_numpy(float)[keep])
+            preds["other simulator"] = (ts[keep], prepared.simulation["phi"].to_numpy(float)[keep])
         predicted.append(preds)
     return records, predicted
 
 
-def execute_roll_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
+def execute_roll_discovery(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
     """Run the discovery on roll decays; ``(discovery, metrics)``."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    res = roll_search(study.train, study.validation, study.simulation)
+    res = roll_search(prepared.train, prepared.validation, prepared.simulation)
     best, base = res["best"], res["baseline"]
     params = {k: float(v) for k, v in best["added"].items()}
-    interval = roll_interval(best, study.train, res["simulation_params"],
-                             seed=study.cfg.seed) if params else {}
+    interval = roll_interval(best, prepared.train, res["simulation_params"],
+                             seed=prepared.cfg.seed) if params else {}
     b, e = base["validation_rmse_deg"], best["validation_rmse_deg"]
     b_train, e_train = (float(np.degrees(np.sqrt(np.mean(f["resid"] ** 2)))) for f in (base, best))
-    release = float(np.degrees(np.mean([abs(r["phi"].iloc[0]) for r in study.validation])))
+    release = float(np.degrees(np.mean([abs(r["phi"].iloc[0]) for r in prepared.validation])))
     explained = explains(e, e_train, release)
     ranked = sorted(res["fits"], key=lambda f: f["score"])
     extended = f"extended ({best['cause']})"
-    records, predicted = _predictions(study, base, best, extended)
+    records, predicted = _predictions(prepared, base, best, extended)
     peaks = [peak_decay(rec, preds) for rec, preds in zip(records, predicted)]
     explanation = best["explanation"] if explained or params else (
         "No roll term in the catalogue gains on the held-out decay, yet the model does not explain it: its "
         "error there is many times that on the decay it was fitted to.")
-    scale, full = _scale(study.records + ([study.simulation] if study.simulation is not None else []))
-    vessel, vessel_source = record_vessel(next((r.attrs.get("particulars") for r in study.records
+    scale, full = _scale(prepared.records + ([prepared.simulation] if prepared.simulation is not None else []))
+    vessel, vessel_source = record_vessel(next((r.attrs.get("particulars") for r in prepared.records
                                                 if r.attrs.get("particulars")), None))
     models = {"baseline": base["params"]}
     if best is not base:
         models[extended] = best["params"]
-    measured = _measured_damping(study.train)
+    measured = _measured_damping(prepared.train)
     damping = damping_table({**models, **({"measured (decay curve of the training decays)": measured}
                                           if measured else {})}, scale, full)
-    speed = fit_speed_dependence(study.records)
-    baseline_text = _baseline_text(study, base)
+    speed = fit_speed_dependence(prepared.records)
+    baseline_text = _baseline_text(prepared, base)
     discovery = {
         "cause": best["cause"], "parameters": params, "uncertainty": interval,
         "parameter_units": {k: PARAMETER_UNITS.get(k, "") for k in params},
         "explanation": explanation,
         "baseline": {"validation_rmse": b, "training_rmse": b_train, "params": base["params"],
-                     "source": "simulation.path" if study.simulation is not None else "data",
+                     "source": "simulation.path" if prepared.simulation is not None else "data",
                      "definition": baseline_text},
         "extended": {"validation_rmse": e, "training_rmse": e_train, "params": best["params"]},
         "params_units": {k: PARAMETER_UNITS.get(k, "") for k in best["params"]},
         "explains_validation": explained,
         "gain_pct": gain_pct(b, e), "units": "deg (roll angle RMSE)",
         "holdout": ("later cycles of the one decay (time-blocked)" if any("t_from_release" in r.attrs
-                                                                           for r in study.validation)
+                                                                           for r in prepared.validation)
                     else "whole decays"),
         "ranking": [{"cause": f["cause"], "score": float(f["score"] - ranked[0]["score"]),
                      "validation_rmse": f["validation_rmse_deg"]} for f in ranked],
-        "second_cause": None, "notes": list(study.notes),
+        "second_cause": None, "notes": list(prepared.notes),
         "peak_decay": {table.index.name: table.to_dict("index") for table in peaks},
         "damping": {"scale": scale, "amplitudes_deg": list(DAMPING_AMPLITUDES_DEG),
                     "units": {"T0": "s", "zeta": "-", "B44": "N m s/rad"},
                     "models": damping.to_dict("index")},
         "vessel": {"name": vessel, "source": vessel_source},
-        "speeds": dict(zip([str(r.attrs.get("name")) for r in study.records], speeds_of(study.records))),
+        "speeds": dict(zip([str(r.attrs.get("name")) for r in prepared.records], speeds_of(prepared.records))),
     }
     if speed is not None:
         discovery["speed_dependence"] = speed.as_dict()
-    trained_at = {u for u in speeds_of(study.train) if u is not None}
+    trained_at = {u for u in speeds_of(prepared.train) if u is not None}
     if len(trained_at) > 1:
         discovery["notes"].append(
             f"the training decays are at {len(trained_at)} speeds ({', '.join(f'{u:g}' for u in sorted(trained_at))} "
@@ -260,7 +260,7 @@ def execute_roll_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, d
     certainty(discovery)
     discovery["notes"].append(f"vessel {vessel}, from the {vessel_source}" if vessel else
                               f"vessel not known from the data: {vessel_source}")
-    figures = _figures(out_dir, records, predicted, study, models)
+    figures = _figures(out_dir, records, predicted, prepared, models)
     sections = [("Baseline", baseline_text),
                 ("Parameters (90 % interval; angles in rad)", _units_table(discovery, best)),
                 ("Equivalent linear damping and natural period (zeta = b_eq / (2 omega0); B44 = b_eq C44 / "
@@ -284,16 +284,16 @@ def execute_roll_discovery(study: DiscoverStudy, out_dir: Path) -> tuple[dict, d
     return discovery, metrics
 
 
-def _figures(out_dir: Path, records, predicted, study: DiscoverStudy, models: dict) -> list[str]:
+def _figures(out_dir: Path, records, predicted, prepared: PreparedDiscovery, models: dict) -> list[str]:
     """The peak envelopes and the decay curves; their file names."""
-    panels = [(str(rec.attrs.get("name", "decay")) + (" (held out)" if i < len(study.validation) else ""),
+    panels = [(str(rec.attrs.get("name", "decay")) + (" (held out)" if i < len(prepared.validation) else ""),
                rec, preds) for i, (rec, preds) in enumerate(zip(records, predicted))]
     plot_peak_envelope(panels, str(out_dir / "peak_envelope.png"),
                        "Peak roll per half-cycle: measured (points), predictions from each decay's initial "
                        "state (lines)")
     curves = {f"measured {rec.attrs.get('name', 'decay')}": decay_curve(rec) for rec in records}
-    if study.simulation is not None:
-        curves["other simulator"] = decay_curve(study.simulation)
+    if prepared.simulation is not None:
+        curves["other simulator"] = decay_curve(prepared.simulation)
     plot_decay_curves(curves, str(out_dir / "decay_curves.png"), models,
                       "Decrement per half-cycle: measured (points), models (lines)")
     return ["peak_envelope.png", "decay_curves.png"]

@@ -1,9 +1,9 @@
-"""The Study protocol: what every kind of study offers the command line.
+"""The StudyKind protocol: what every kind of study offers the command line.
 
 A kind of study (manoeuvring records of a ship, roll decays) is chosen by the
 ``study`` setting of the model group (``model=abkowitz`` gives
 ``manoeuvring``, ``model=roll`` gives ``roll_decay``), never by the model's
-name. Each kind implements :class:`Study`:
+name. Each kind implements :class:`StudyKind`:
 
 ``prepare(cfg, root, record)``
     check the settings that depend on files, load or simulate the training
@@ -14,7 +14,7 @@ name. Each kind implements :class:`Study`:
     identify, simulate the validation records, compute the manoeuvre or
     decay characteristics, write the tables and figures into ``out_dir``
     and return the flat metrics;
-``prepare_discovery(cfg, root, record)`` and ``discover(study, out_dir)``
+``prepare_discovery(cfg, root, record)`` and ``discover(prepared, out_dir)``
     the same two steps for ``studies discover``: what the model gets wrong,
     the cause, the extension and its gain (``discovery.json``, report).
 
@@ -32,7 +32,7 @@ from typing import Callable, Protocol
 
 from ..config import DiscoverConfig, RunConfig
 
-__all__ = ["Study", "PreparedRun", "RecordedRun", "Recorder", "DiscoverStudy", "gain_pct"]
+__all__ = ["StudyKind", "PreparedRun", "RecordedRun", "Recorder", "PreparedDiscovery", "gain_pct"]
 
 
 class RecordedRun(Protocol):
@@ -62,14 +62,14 @@ class PreparedRun(Protocol):
 
 
 @dataclass
-class DiscoverStudy:
+class PreparedDiscovery:
     """The inputs of one discovery, checked and loaded.
 
     Attributes
     ----------
     cfg : DiscoverConfig
         The settings.
-    kind : Study
+    kind : StudyKind
         The kind of study that runs the discovery.
     vessel, model
         The vessel and the baseline model (manoeuvring); None for roll decays.
@@ -88,7 +88,7 @@ class DiscoverStudy:
     """
 
     cfg: DiscoverConfig
-    kind: "Study"
+    kind: "StudyKind"
     vessel: object
     model: object
     train: list
@@ -99,7 +99,7 @@ class DiscoverStudy:
     inputs: list = field(default_factory=list)
 
 
-class Study(Protocol):
+class StudyKind(Protocol):
     """One kind of study (see the module's docstring)."""
 
     #: the ``model.study`` value that selects it
@@ -108,10 +108,10 @@ class Study(Protocol):
     def prepare(self, cfg: RunConfig, root: Path, record: Recorder) -> PreparedRun:
         """Check the inputs and get the records of ``studies run``."""
 
-    def prepare_discovery(self, cfg: DiscoverConfig, root: Path, record: Recorder) -> DiscoverStudy:
+    def prepare_discovery(self, cfg: DiscoverConfig, root: Path, record: Recorder) -> PreparedDiscovery:
         """Check the inputs and load the records of ``studies discover``."""
 
-    def discover(self, study: DiscoverStudy, out_dir: Path) -> tuple[dict, dict]:
+    def discover(self, study: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
         """Run the discovery into ``out_dir``; ``(discovery, metrics)``."""
 
 
