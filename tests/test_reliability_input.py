@@ -104,6 +104,8 @@ CONFIG_ERRORS = [
     (["wind.spead=3"], "did you mean wind.speed"),
     (["method=nope"], "method: unknown option 'nope'; known: "),
     (["vessel=titanic"], "vessel: unknown option 'titanic'"),
+    (["method=nls"], "'nls' identifies roll decay studies: model=roll"),
+    (["model=roll", "method=ls"], "method 'ls' is not available for roll decay studies; known: bayes, fls"),
     (["experiment=nope"], "experiment: unknown option"),
     (["wind.speed=[1"], "cannot parse 'wind.speed=[1'"),
     (["wind.speed=4,8"], "-m"),

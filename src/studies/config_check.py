@@ -318,10 +318,12 @@ def _paths_exist(settings, root: Path) -> None:
 
 
 def _check_run(cfg, root: Path) -> None:
+    from .workflows.methods import check_method
     from .workflows.settings import check_output_paths
     from .workflows.vessel_choice import settle_vessel
 
     settings = _typed(cfg)
+    check_method(settings.model.study, settings.method.name)
     check_output_paths(settings, root)
     _paths_exist(settings, root)
     settle_vessel(settings, root)

@@ -21,7 +21,7 @@ from .regression import RegressionProblem, build_problems
 
 __all__ = ["Identification", "RegressionProblem", "build_problems", "LeastSquares",
            "GeneticRefinement", "BayesianRegression", "SupportVectorRegression",
-           "SparseRegression", "MANOEUVRING_METHODS", "make_identifier", "check_method"]
+           "SparseRegression", "MANOEUVRING_METHODS", "make_identifier"]
 
 #: manoeuvring identifiers by config name
 MANOEUVRING_METHODS = {"ls": LeastSquares, "svm": SupportVectorRegression,
@@ -29,17 +29,11 @@ MANOEUVRING_METHODS = {"ls": LeastSquares, "svm": SupportVectorRegression,
                        "bayes": BayesianRegression, "sindy": SparseRegression}
 
 
-def check_method(name: str) -> None:
-    """Refuse a method that is not registered for manoeuvring models (ConfigError naming
-    the known ones); its settings are checked by the typed settings of :mod:`studies.config`."""
-    if name not in MANOEUVRING_METHODS:
-        raise ConfigError(f"method '{name}' is not available for manoeuvring models; "
-                          f"known: {', '.join(sorted(MANOEUVRING_METHODS))}")
-
-
 def make_identifier(name: str, options: dict | None = None):
-    """Instantiate the identifier registered as ``name`` with ``options``."""
-    check_method(name)
+    """Instantiate the identifier registered as ``name`` with ``options`` (the name is checked
+    by :func:`studies.workflows.methods.check_method` when the run is prepared)."""
+    if name not in MANOEUVRING_METHODS:
+        raise ConfigError(f"method '{name}' is not a manoeuvring identifier; known: {', '.join(MANOEUVRING_METHODS)}")
     cls = MANOEUVRING_METHODS[name]
     try:
         return cls(**(options or {}))

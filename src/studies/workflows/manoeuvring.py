@@ -49,7 +49,7 @@ from ..data.derivatives import STATE_COLUMNS, noise_ratio
 from ..errors import ConfigError
 from ..environment.conditions import Environment
 from ..environment.noise import add_measurement_noise, disturbance_forces, record_wind
-from ..identify import build_problems, check_method, make_identifier
+from ..identify import build_problems, make_identifier
 from ..identify.discrepancy import Discrepancy
 from ..identify.ls import LeastSquares
 from ..identify.objective import trajectory_objective
@@ -67,6 +67,7 @@ from . import measured as _measured
 from .identified_model import IDENTIFIED_MODEL_FILE, IdentifiedModel
 from .settings import Settings, named_manoeuvre, read_settings
 from .simplify import ensure_definition
+from .methods import check_method
 from .protocol import Recorder
 from .vessel_choice import settle_vessel
 from ..config import DERIVATIVES
@@ -211,7 +212,7 @@ def prepare(cfg: RunConfig, root: Path | None = None, record: Recorder | None = 
     vessel = with_wind_convention(get_vessel(settle_vessel(cfg, root)), cfg.wind.convention)
     model = get_study_model(cfg, root, record)
     method = str(cfg.method.name)
-    check_method(method)
+    check_method("manoeuvring", method)
     n_params = max(len(model.terms_of(d)) for d in ("X", "Y", "N"))
     resample_dt = cfg.data.resample
     derivative = cfg.data.derivative

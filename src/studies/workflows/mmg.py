@@ -57,7 +57,8 @@ from ..data.captive import read_captive
 from ..environment.conditions import Environment
 from ..environment.noise import add_measurement_noise
 from ..errors import ConfigError, DataError
-from ..identify import check_method, make_identifier
+from ..identify import make_identifier
+from .methods import check_method
 from ..identify.ls import LeastSquares
 from ..identify.mmg_output_error import MMGObjective, refine_modules
 from ..identify.mmg_propeller import fit_wake
@@ -175,7 +176,7 @@ def prepare_mmg(cfg: RunConfig, root: Path | None = None, record=None) -> MMGRun
     settings = read_settings(cfg)
     model = mmg(str(cfg.model.name), asymmetry=cfg.model.asymmetry)
     method = str(cfg.method.name)
-    check_method(method)
+    check_method("manoeuvring", method)
     vessel_name = settle_vessel(cfg, root)
     get_mmg_vessel(vessel_name)                       # refuse a vessel without MMG particulars
     truth = None

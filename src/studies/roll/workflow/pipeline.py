@@ -73,7 +73,8 @@ from studies.roll.bands import (BAND_KEYS, band_statistics, band_table, outside_
 from studies.roll.comparison import STARTS, compare_simulation_with_tests, mae, replay_errors, rmse
 from studies.roll.decay import decay_curve, noise_std
 from studies.roll.figures import plot_decay_curves, plot_prediction
-from studies.roll.methods import ROLL_METHODS, make_method
+from studies.roll.methods import make_method
+from studies.workflows.methods import check_method
 from studies.roll.model import (
     OPTIONAL_TERMS,
     damping_ratio,
@@ -112,8 +113,7 @@ def _stem(rec: pd.DataFrame, i: int) -> str:
 
 
 def _check_method_terms(method: str, terms: Sequence[str]) -> tuple[str, ...]:
-    if method not in ROLL_METHODS:
-        raise ConfigError(f"method={method}: unknown roll identification method; choose from {list(ROLL_METHODS)}")
+    check_method("roll_decay", method)
     terms = tuple(terms)
     bad = [t for t in terms if t not in OPTIONAL_TERMS]
     if bad:

@@ -16,15 +16,15 @@ import pandas as pd
 from ...config import BayesMethod, RunConfig, settled_discrepancy
 from ..records import find_particulars, load_roll_decay, record_vessel
 from ...errors import ConfigError
-from ..methods import ROLL_METHODS
 from ..simulate import simulate_decay_record
 from .pipeline import run_roll_study
+from ...workflows.methods import check_method
 from ...workflows.settings import as_path_list
 from ...config import ROLL_TERMS
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["RollStudy", "prepare_roll", "execute_roll", "ROLL_TERMS", "BAYES_SETTINGS"]
+__all__ = ["RollRun", "prepare_roll", "execute_roll", "ROLL_TERMS", "BAYES_SETTINGS"]
 
 #: the ``method=bayes`` settings the roll posterior reads (the others, ``trajectory_*`` and
 #: ``discrepancy_step``, belong to the manoeuvring posterior)
@@ -33,7 +33,7 @@ BAYES_SETTINGS = ("n_walkers", "n_samples", "burn_in", "thin", "seed", "init_sca
 
 
 @dataclass
-class RollStudy:
+class RollRun:
     """A checked roll-decay configuration with its record paths.
 
     ``synthetic`` holds the decay to simulate when no record is given
@@ -92,12 +92,10 @@ class RollStudy:
         return execute_roll(self, out_dir)
 
 
-def prepare_roll(cfg: RunConfig) -> RollStudy:
+def prepare_roll(cfg: RunConfig) -> RollRun:
     """Check the roll configuration and every input file (raises on bad input)."""
     method = str(cfg.method.name)
-    if method not in ROLL_METHODS:
-        raise ConfigError(f"method '{method}' is not a roll-decay method; use one of "
-                          f"{', '.join(sorted(ROLL_METHODS))}")
+    check_method("roll_decay", method)
     terms = [str(t) for t in cfg.model.terms]
     data = as_path_list(cfg.data.path)
     validate = as_path_list(cfg.validate.path)
@@ -111,11 +109,11 @@ def prepare_roll(cfg: RunConfig) -> RollStudy:
         logger.info(said)
     settings = ({key: getattr(cfg.method, key) for key in BAYES_SETTINGS}
                 if isinstance(cfg.method, BayesMethod) else None)
-    return RollStudy(cfg, data, validate, str(simulation) if simulation else None, terms, method,
+    return RollRun(cfg, data, validate, str(simulation) if simulation else None, terms, method,
                      synthetic, cfg.seed, settings, records)
 
 
-def execute_roll(study: RollStudy, out_dir: Path) -> dict:
+def execute_roll(study: RollRun, out_dir: Path) -> dict:
     """Run the roll study into ``out_dir``; returns its metrics."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
