@@ -196,6 +196,15 @@ def test_nothing_but_the_command_line_imports_report(graph):
     assert not found, "imports of studies.report outside the command line:\n" + "\n".join(sorted(found))
 
 
+def test_report_pages_neither_simulate_nor_identify(graph):
+    """A page formats what runs logged; what a reproduction must compute beside them lives in the
+    layer that computes (workflows/reproduction/), where it can be run and tested on its own."""
+    _, edges = graph
+    found = [f"{name}:{line} imports {target}" for name, targets in edges.items() for target, line in targets
+             if _package(name) == "report" and _package(target) in ("simulate", "identify")]
+    assert not found, "report modules that compute:\n" + "\n".join(sorted(found))
+
+
 def _string_tuples(path: Path) -> dict:
     """Module-level ``NAME = ("a", "b", ...)`` assignments of strings: {name: values}."""
     out = {}

@@ -17,12 +17,14 @@ import pandas as pd
 import pytest
 
 from conftest import mlflow_runs, run_studies
-from studies.analysis.characteristics import TURNING_KEYS
+from studies.analysis.characteristics import TURNING_KEYS, turning_geometry
 from studies.models.abkowitz import abkowitz
 from studies.papers import PAPERS, published
 from studies.report.reproduction import REPRODUCTIONS, build_reproduction
 from studies.report.reproduction import svm_paper
+from studies.simulate import simulate
 from studies.vessels import get_vessel
+from studies.workflows.reproduction import wang2021
 
 VESSEL = get_vessel("mariner")
 TRUTH = {n: VESSEL.coefficients[n] for n in abkowitz().names}
@@ -176,14 +178,14 @@ def test_the_reference_run_and_read_as_mss_turncircle_gives_the_papers_transfer_
     execute at 100 s the transfer is 10 % off."""
     paper = published("svm_paper", "table4")
     paper = paper[paper["level"] == 0].set_index("characteristic")["value_m"]
-    port = svm_paper.mss_reference(VESSEL)
+    port = wang2021.mss_reference(VESSEL)
     assert port["transfer_m"] == pytest.approx(paper["transfer_m"], rel=0.002)
     assert REFERENCE["transfer_m"] > 1.008 * paper["transfer_m"]
     for key in ("steady_radius_m", "max_transfer_m", "tactical_diameter_m"):
         assert port[key] == pytest.approx(paper[key], rel=0.001), key
-    starboard = svm_paper.mss_reference(VESSEL, side=-1)
+    starboard = wang2021.mss_reference(VESSEL, side=-1)
     assert abs(starboard["steady_radius_m"] / paper["steady_radius_m"] - 1) > 0.03
-    assert svm_paper.mss_reference(VESSEL, execute=100.0)["transfer_m"] < 0.92 * paper["transfer_m"]
+    assert wang2021.mss_reference(VESSEL, execute=100.0)["transfer_m"] < 0.92 * paper["transfer_m"]
 
 
 def test_the_scatter_of_the_averaged_model_shrinks_to_its_one_model_when_the_trials_agree():
@@ -200,21 +202,21 @@ def test_the_scatter_of_the_averaged_model_shrinks_to_its_one_model_when_the_tri
     high = np.array([TRUTH[n] * (1.05 if n == "Nr" else 1.0) for n in names])
     low = np.array([TRUTH[n] * (0.95 if n == "Nr" else 1.0) for n in names])
     manoeuvre = svm_paper._manoeuvre(FakeRun("a", 1, "svm", 0))
-    reference = svm_paper.turning_geometry(svm_paper._reference("mariner", manoeuvre))
-    same = svm_paper.averaged_scatter(np.vstack([high] * 6), model, VESSEL, manoeuvre, reference, draws=8)
-    one = svm_paper.turning_geometry(svm_paper.simulate(model, dict(zip(names, high)), VESSEL, manoeuvre))
+    reference = turning_geometry(wang2021.reference_turn("mariner", manoeuvre))
+    same = wang2021.averaged_scatter(np.vstack([high] * 6), model, VESSEL, manoeuvre, reference, draws=8)
+    one = turning_geometry(simulate(model, dict(zip(names, high)), VESSEL, manoeuvre))
     single = 100 * (one["steady_radius_m"] / reference["steady_radius_m"] - 1)
     assert abs(single) > 1.0
     assert same["steady_radius_m/scatter_lo"] == pytest.approx(single, abs=1e-9)
     assert same["steady_radius_m/scatter_hi"] == pytest.approx(single, abs=1e-9)
-    mixed = svm_paper.averaged_scatter(np.vstack([high] * 3 + [low] * 3), model, VESSEL, manoeuvre, reference,
+    mixed = wang2021.averaged_scatter(np.vstack([high] * 3 + [low] * 3), model, VESSEL, manoeuvre, reference,
                                        draws=20)
     lo, hi = mixed["steady_radius_m/scatter_lo"], mixed["steady_radius_m/scatter_hi"]
-    assert mixed["scatter_draws"] == 20 and mixed["scatter_trials"] == svm_paper.PAPER_TRIALS
+    assert mixed["scatter_draws"] == 20 and mixed["scatter_trials"] == wang2021.PAPER_TRIALS
     assert lo < 0.0 < hi and -abs(single) - 0.5 < lo and hi < abs(single) + 0.5
     assert hi - lo > 0.8 * abs(single)
     # four trials average less of the scatter away than the paper's hundred
-    few = svm_paper.averaged_scatter(np.vstack([high] * 3 + [low] * 3), model, VESSEL, manoeuvre, reference,
+    few = wang2021.averaged_scatter(np.vstack([high] * 3 + [low] * 3), model, VESSEL, manoeuvre, reference,
                                      trials=4, draws=20)
     assert few["steady_radius_m/scatter_hi"] - few["steady_radius_m/scatter_lo"] > 1.2 * (hi - lo)
 
@@ -262,8 +264,8 @@ def test_the_sign_of_the_radius_error_is_traced_to_the_training_excitation(tmp_p
 def test_the_record_bias_is_small_beside_the_ships_forces_and_the_per_second_one_is_not():
     """Measured on the preset's training zig-zags: the NL1 bias's peak over the
     largest clean sway force or yaw moment (the report's table)."""
-    record = svm_paper.bias_peaks(("record", "1", TRAIN, "savgol"), 1)
-    per_second = svm_paper.bias_peaks(("per_second", "1", TRAIN, "savgol"), 1)
+    record = wang2021.bias_peaks(("record", "1", TRAIN, "savgol"), 1)
+    per_second = wang2021.bias_peaks(("per_second", "1", TRAIN, "savgol"), 1)
     assert set(record) == {"zigzag_10_10", "zigzag_20_20_600", "zigzag_30_30"}
     assert max(record.values()) < 0.15
     assert min(per_second.values()) > 1.0
@@ -331,7 +333,7 @@ def test_the_systematic_turning_error_at_nl1_is_the_bias_s():
     in every pair (by over 1 % on average), with the NL1 process noise alone
     it stays within 0.2 %; the report names the bias as the systematic part."""
     setup = ("record", "1", "['zigzag_10_10', 'zigzag_20_20_600', 'zigzag_30_30']", "savgol")
-    bias, noise = svm_paper.source_errors(setup, 1, seeds=4)
+    bias, noise = wang2021.source_errors(setup, 1, seeds=4)
     assert len(bias) == 4 and (bias > 0).all() and bias.mean() > 1.0
     assert np.abs(noise).max() < 0.2
     assert "the systematic part is the bias's" in svm_paper.systematic_source(setup, 1, seeds=4)

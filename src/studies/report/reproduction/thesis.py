@@ -33,7 +33,6 @@ differ by the GA's random search (one run per cell).
 
 from __future__ import annotations
 
-import dataclasses
 import shutil
 import tempfile
 from collections import defaultdict
@@ -42,14 +41,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ...environment.conditions import Environment
-from ...identify import build_problems
-from ...identify.ls import LeastSquares
-from ...models.abkowitz import abkowitz
 from ...papers import published
-from ...simulate import simulate
-from ...simulate.manoeuvres import zigzag
-from ...vessels import get_vessel
+from ...workflows.reproduction.zhu2021 import spread_by_condition
 from ..tables import markdown_table, method_label
 from .runs import latest_coefficients
 
@@ -666,45 +659,11 @@ def _side_by_side(ours: pd.DataFrame, thesis: pd.DataFrame) -> list:
 
 
 def _spread_by_condition(experiment: str, value: float, setup: str) -> dict:
-    """How well the condition's training record pins each coefficient down:
-    the standard deviation [percentage points] of its least-squares deviation
-    over the four 1000 s quarters of the thesis' 20/20 zig-zag (4000 s at
-    0.1 s, simulated here with the published coefficients in the
-    condition's wind, the anemometer off by the condition's error, by the
-    set-up's scheme and differenced as the set-up does). A
-    coefficient the record determines moves little between its quarters; an
-    ill-determined one takes up the wind-error force in proportions that the
-    details of the data decide."""
-    key = GROUPS[experiment][0]
-    speed, direction, error = 12.0, 45.0, -0.05
-    if key == "wind.speed":
-        speed = value
-    elif key == "wind.direction":
-        direction = value
-    else:
-        error = value
-    vessel = get_vessel("mariner")
-    convention, _, scheme, derivative, first, execute = setup.split(", ")
-    if vessel.wind is not None and vessel.wind.convention != convention:
-        vessel = dataclasses.replace(vessel, wind=dataclasses.replace(vessel.wind, convention=convention))
-    derivative = "central" if derivative == "auto" else derivative
-    model = abkowitz()
-    truth = {n: vessel.coefficients[n] for n in model.names}
-    manoeuvre = dataclasses.replace(zigzag(20.0, 20.0, duration=4000.0), first_sign=int(first),
-                                    execute=float(execute))
-    record = simulate(model, truth, vessel, manoeuvre, Environment(speed, np.deg2rad(direction)), scheme=scheme)
-    record["wind_speed"] = speed * (1.0 + error)
-    n = len(record)
-    deviations = []
-    for part in range(QUARTERS):
-        piece = record.iloc[part * n // QUARTERS:(part + 1) * n // QUARTERS].reset_index(drop=True)
-        params = LeastSquares().fit(build_problems(model, vessel, [piece], derivative)).params
-        deviations.append([100 * (params[c] - truth[c]) / truth[c] for c in model.names])
-    return dict(zip(model.names, np.std(np.array(deviations), axis=0)))
+    """How well the condition's training record pins each coefficient down
+    (:func:`studies.workflows.reproduction.zhu2021.spread_by_condition`)."""
+    return spread_by_condition(GROUPS[experiment][0], value, setup)
 
 
-#: the thesis' record is cut into this many parts to see how well it pins each coefficient down
-QUARTERS = 4
 #: a disagreement within this many times the coefficient's spread over the quarters is ill-determined
 SPREAD_FACTOR = 2.0
 
