@@ -41,7 +41,8 @@ def phase_errors(record: pd.DataFrame, prediction: pd.DataFrame, name: str) -> p
         row = {"record": name, "phase": label, "share_%": 100.0 * mask.mean()}
         for c, k in (("u", 1.0), ("v", 1.0), ("r", 180 / np.pi)):
             e = (prediction[c].to_numpy(float) - record[c].to_numpy(float))[mask]
-            row[f"rmse_{c}"] = float(np.sqrt(np.nanmean(e ** 2)) * k)
+            e = e[np.isfinite(e)]      # a replay that stopped short leaves NaN rows: no error there
+            row[f"rmse_{c}"] = float(np.sqrt(np.mean(e ** 2)) * k) if len(e) else np.nan
         rows.append(row)
     return pd.DataFrame(rows)
 
