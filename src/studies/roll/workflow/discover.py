@@ -27,13 +27,12 @@ from ...discover.diagnostics import explains
 from ...discover.confidence import certainty
 from ...discover.report import indistinguishable, write_discovery, write_report
 from ...discover.causes.roll_decay import PARAMETER_UNITS
-from .search import peak_decay, roll_interval, roll_search
+from .search import peak_decay, predict_from_fitted_start, roll_interval, roll_search
 from ...errors import ConfigError
 from ..decay import decay_curve, fit_decay_curve
 from ..figures import plot_decay_curves, plot_peak_envelope
 from ..model import damping_ratio, equivalent_linear_damping, froude_scale_params
 from ..records import load_roll_decay, record_vessel, split_cycles
-from ..simulate import predict_record
 from ..speed import fit_speed_dependence, speeds_of
 from ...workflows.settings import as_path_list
 from ...workflows.protocol import PreparedDiscovery, Recorder, StudyKind, gain_pct
@@ -175,14 +174,15 @@ def _units_table(discovery: dict, best: dict) -> pd.DataFrame:
 
 
 def _predictions(prepared: PreparedDiscovery, base: dict, best: dict, extended: str) -> tuple[list, list]:
-    """Every record (validation first) and its predictions ``{label: (t, phi)}``, simulated once."""
+    """Every record (validation first) and its predictions ``{label: (t, phi)}``, simulated once,
+    each from the record's fitted start (as the search judges them)."""
     records = prepared.validation + prepared.train
     predicted = []
     for rec in records:
         t = rec["t"].to_numpy(float)
-        preds = {"baseline": (t, predict_record(base["params"], base["terms"], rec))}
+        preds = {"baseline": (t, predict_from_fitted_start(base["params"], base["terms"], rec))}
         if best is not base:
-            preds[extended] = (t, predict_record(best["params"], best["terms"], rec))
+            preds[extended] = (t, predict_from_fitted_start(best["params"], best["terms"], rec))
         if prepared.simulation is not None:
             # the other simulator's run on the record's own time since the release
             shift = float(rec.attrs.get("t_from_release", 0.0))

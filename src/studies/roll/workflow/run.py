@@ -15,7 +15,6 @@ import pandas as pd
 
 from ...config import BayesMethod, RunConfig, settled_discrepancy
 from ..records import find_particulars, load_roll_decay, record_vessel
-from ...errors import ConfigError
 from ..simulate import simulate_decay_record
 from .pipeline import run_roll_study
 from ...workflows.methods import check_method

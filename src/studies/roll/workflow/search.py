@@ -27,7 +27,7 @@ from ..simulate import predict_record
 from ...discover.causes.roll_decay import ROLL_CATALOGUE, RollCause
 from ...discover.fitting import sample_intervals
 
-__all__ = ["roll_search", "roll_interval", "peak_decay", "PEAK_CYCLES"]
+__all__ = ["roll_search", "roll_interval", "peak_decay", "PEAK_CYCLES", "predict_from_fitted_start"]
 
 #: full cycles after the release at which the peak amplitude is reported
 PEAK_CYCLES = (0, 5, 10, 20, 40)
@@ -101,6 +101,13 @@ def _tau(x):
     import emcee  # about 0.2 s to load: only when roll causes are scored
 
     return float(max(1.0, emcee.autocorr.integrated_time(np.asarray(x), c=5, tol=0, quiet=True)[0]))
+
+
+def predict_from_fitted_start(params: dict, terms, record) -> np.ndarray:
+    """``record``'s roll angle [rad] predicted by the model (``params``, ``terms`` held) from the
+    initial state that fits the record best: how discovery judges and draws a decay."""
+    _, _, initial = _fit([], {k: v for k, v in params.items()}, [record], [])
+    return predict_record(params, terms, record, initial=initial[0])
 
 
 def _rmse_deg(params, terms, records) -> float:
