@@ -7,7 +7,10 @@ the velocities over ground, or a rudder sensor that reads ``b`` more than
 the rudder the water sees). The discovery must name the effect with its
 parameter within 20 % (directions within 0.2 rad), and nothing when nothing
 is injected. At 3 % noise a 1 deg rudder offset is missed (named ``none``;
-docs/discovery.md gives the rates); the 2 deg one and the currents are not.
+docs/discovery.md gives the rates); the 2 and 2.5 deg ones and the currents are not.
+A current and a rudder offset injected together are not in these tests: at 1 %
+noise the current is named with its speed and direction, the offset beside it
+as a missing surge term (``Xd``) instead.
 """
 
 from pathlib import Path
@@ -96,6 +99,11 @@ def test_nothing_injected_names_nothing(tmp_path, still_water, level):
     (0.03, Injection(current_speed=0.3, current_direction=np.deg2rad(90.0))),
     (0.03, Injection(current_speed=0.5, current_direction=np.deg2rad(225.0))),
     (0.03, Injection(rudder_offset=np.deg2rad(-2.0))),
+    (0.01, Injection(current_speed=0.4, current_direction=np.deg2rad(135.0))),
+    (0.01, Injection(current_speed=0.6, current_direction=np.deg2rad(315.0))),
+    (0.01, Injection(rudder_offset=np.deg2rad(2.5))),
+    (0.03, Injection(current_speed=0.8, current_direction=np.deg2rad(0.0))),
+    (0.03, Injection(rudder_offset=np.deg2rad(2.5))),
 ], ids=lambda x: x.label if isinstance(x, Injection) else f"{100 * x:.0f}pct")
 def test_an_injected_effect_is_named_with_its_parameters(tmp_path, still_water, level, injection):
     d = _discover(tmp_path, [inject(r, injection) for r in still_water[level]])
