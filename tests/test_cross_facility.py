@@ -81,6 +81,7 @@ def test_the_hsva_cross_validation_prefers_the_asymmetric_hull(tmp_path):
     assert medians[True][1] < 0.5 * medians[False][1], medians
 
 
+@pytest.mark.slow
 def test_each_record_is_held_out_in_turn_and_predicted(tmp_path):
     """Records of the published MMG (its own simulator, no noise): every held-out record is
     predicted from the others, nearly exactly, and the table names each once."""

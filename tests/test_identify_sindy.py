@@ -35,6 +35,7 @@ def test_term_library_reads_as_the_model(model):
         assert np.allclose(np.asarray(lib.transform(x)), model.features(x, dof))
 
 
+@pytest.mark.slow
 def test_model_library_recovers_all_40_like_ls(problems_4000, vessel):
     result = SparseRegression(library="model").fit(problems_4000)
     dev = np.abs(list(deviations(result.params, vessel.coefficients).values()))

@@ -58,6 +58,7 @@ def test_mmg_from_the_marin_zigzags_predicts_the_speed_in_the_turn(tmp_path):
     assert len(runs) == 1 and runs[0][1] == "FINISHED"
 
 
+@pytest.mark.slow
 def test_captive_tests_as_regression_rows_pull_the_drift_terms_to_them(tmp_path):
     """Zig-zags alone leave Y'_vvv far from the captive drift tests (2.8 times their
     side force at 30 deg drift); with the tests as rows the model holds them."""

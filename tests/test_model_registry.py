@@ -60,6 +60,7 @@ def _characteristics(states: pd.DataFrame, name: str) -> dict:
             if k not in ("execute_heading_deg", "turn_direction")}
 
 
+@pytest.mark.slow
 def test_the_runs_model_simulates_its_validation_manoeuvres_as_the_run_did(registered, mlflow_store):
     model = mlflow_store.pyfunc.load_model(f"runs:/{registered['run_id']}/model")
     for name in ("zigzag_10_10", "turning_35"):
@@ -115,6 +116,7 @@ def test_a_rudder_time_series_is_simulated(registered, mlflow_store):
         model.predict(pd.DataFrame({"t": [0.0, 1.0], "rudder": [35.0, 35.0]}))
 
 
+@pytest.mark.slow
 def test_studies_simulate_writes_the_runs_characteristics_and_figures(registered, tmp_path):
     out = tmp_path / "sim"
     proc = run_studies(["simulate", f"model_uri=models:/{NAME}/1", "manoeuvre=turning_35",

@@ -219,6 +219,7 @@ class _quiet:
         logging.disable(logging.NOTSET)
 
 
+@pytest.mark.slow
 def test_discrepancy_makes_the_band_of_a_wrong_model_honest(vessel):
     """A wrong (simplified) model of process-noise records: without the
     discrepancy the 90 % band loses the held-out record most of the time;

@@ -60,6 +60,7 @@ def test_the_environment_variable_chooses_the_store_and_no_empty_log_is_logged(t
     assert not [name for name in logged if name.endswith(".log")], logged
 
 
+@pytest.mark.slow
 def test_report_writes_no_log_file_in_the_working_directory(tmp_path):
     proc = run_studies(["report"], tmp_path, timeout=120)
     assert proc.returncode == 2          # no runs yet: one line, nothing written

@@ -31,6 +31,7 @@ def test_the_facilities_files_name_their_ship():
     assert _settled("vessel=mariner", f"data.path=[{marin_file('zz_20')}]") == "mariner"
 
 
+@pytest.mark.slow
 def test_a_record_without_a_ship_is_refused_on_the_command_line(tmp_path, good_frame):
     path = tmp_path / "trial_7.csv"
     good_frame.to_csv(path, index=False)
