@@ -115,6 +115,8 @@ def test_noisy_search_refines_every_cause_and_claims_no_second_cause_when_one_is
     assert res["output_error"] and all(f.refined is not None for f in res["fits"] + res["pairs"])
     assert res["best"].cause.id == "wind_unmodelled", [(f.cause.id, f.score) for f in res["fits"]]
     assert abs(res["best"].theta[0] - truth["speed"]) < 0.2 * truth["speed"]
+    miss = np.angle(np.exp(1j * (res["best"].theta[1] - truth["direction"])))   # wrapped to +-pi
+    assert abs(miss) < 0.2, (res["best"].theta, truth)
     assert res["pairs"] and res["second"] is None, [(f.cause.id, f.score) for f in res["pairs"]]
 
 
