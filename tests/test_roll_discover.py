@@ -117,7 +117,7 @@ def test_one_decay_at_speed_names_what_potential_flow_misses(tmp_path, cause, se
     t0 = time.perf_counter()
     d = _discover(tmp_path, paths, simulation=sim)
     assert time.perf_counter() - t0 < 20.0
-    _check(cause, d, truth, 30.0)
+    _check(cause, d, truth, 40.0)
     assert d["holdout"].startswith("later cycles")
     assert any("time-blocked" in note for note in d["notes"])
     assert d["baseline"]["source"] == "simulation.path"
@@ -178,21 +178,21 @@ def test_one_speed_gives_no_speed_dependence(tmp_path):
 @pytest.mark.slow
 @pytest.mark.parametrize("cause,seed,noise,records,min_gain", [
     # min_gain [%]: the held-out decay predicted by the extension against the baseline, each from
-    # its own fitted start (measured 39-54 % at 1 % noise, 16-27 % at 2 %)
-    ("roll_linear_damping", 5, 0.01, 1, 30.0),
+    # its start fitted over its first two periods (measured 57-69 % at 1 % noise, 31-44 % at 2 %)
+    ("roll_linear_damping", 5, 0.01, 1, 40.0),
     ("roll_linear_damping", 6, 0.05, 1, 5.0),
-    (PAIR, 2, 0.01, 1, 30.0),
-    (PAIR, 3, 0.01, 1, 30.0),
+    (PAIR, 2, 0.01, 1, 40.0),
+    (PAIR, 3, 0.01, 1, 40.0),
     # at 5 % noise the quadratic part of the pair is not carried beyond the linear member's
     # evidence (its score is 7.8 lower, the pair needs 10) once the decays' starts are fitted
     # instead of read off their first period: the linear member alone is named
     pytest.param(PAIR, 5, 0.05, 2, 5.0, marks=pytest.mark.xfail(
         strict=True, reason="5 % noise: the pair's quadratic part is below the evidence a pair needs")),
     # seeds not looked at while the catalogue and the hold-out were designed
-    ("roll_linear_damping", 1234, 0.01, 1, 30.0),
-    (PAIR, 1234, 0.01, 1, 30.0),
-    ("roll_linear_damping", 987, 0.02, 1, 12.0),
-    (PAIR, 987, 0.02, 1, 12.0),
+    ("roll_linear_damping", 1234, 0.01, 1, 40.0),
+    (PAIR, 1234, 0.01, 1, 40.0),
+    ("roll_linear_damping", 987, 0.02, 1, 20.0),
+    (PAIR, 987, 0.02, 1, 20.0),
 ])
 def test_hidden_damping_at_speed_over_seeds_and_noise(tmp_path, cause, seed, noise, records, min_gain):
     paths, sim, truth = hidden_roll_decays_at_speed(cause, tmp_path, seed=seed, noise=noise, records=records)
@@ -228,5 +228,6 @@ def test_zero_speed_model_tests_keep_their_gain_with_the_linear_causes(tmp_path)
     d = _discover(tmp_path, [ROLL / "model_test_21338.csv"], [ROLL / "model_test_21337.csv"],
                   ROLL / "fnpf_kvlcc2_rolldecay_0kn.csv")
     assert "roll_quadratic_damping" in d["cause"].split("+"), d["ranking"]
-    assert d["gain_pct"] >= 70.0 and d["explains_validation"]     # 77 % measured
+    # 78 % measured (80.5 % when the held-out start was read off the first period's curve fit)
+    assert d["gain_pct"] >= 75.0 and d["explains_validation"]
     assert d["holdout"] == "whole decays"

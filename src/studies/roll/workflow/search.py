@@ -27,7 +27,7 @@ from ..simulate import predict_record
 from ...discover.causes.roll_decay import ROLL_CATALOGUE, RollCause
 from ...discover.fitting import sample_intervals
 
-__all__ = ["roll_search", "roll_interval", "peak_decay", "PEAK_CYCLES", "predict_from_fitted_start"]
+__all__ = ["roll_search", "roll_interval", "peak_decay", "PEAK_CYCLES", "predict_from_fitted_start", "fitted_start", "START_PERIODS"]
 
 #: full cycles after the release at which the peak amplitude is reported
 PEAK_CYCLES = (0, 5, 10, 20, 40)
@@ -103,22 +103,36 @@ def _tau(x):
     return float(max(1.0, emcee.autocorr.integrated_time(np.asarray(x), c=5, tol=0, quiet=True)[0]))
 
 
+#: periods at the start of a decay over which its start is fitted for a prediction
+START_PERIODS = 2.0
+
+
+def fitted_start(params: dict, record) -> tuple[float, float]:
+    """The start (roll angle [rad], rate [rad/s] at the first sample) from which the model
+    (``params`` held) follows the first :data:`START_PERIODS` periods of ``record`` best.
+
+    Fitted over the first periods only: over a whole decay a model with the wrong damping
+    would pick a start that trades its first peaks against its last ones (a run that
+    keeps too much roll would start lower), which is no prediction of the decay."""
+    t = record["t"].to_numpy(float)
+    period = float(record.attrs.get("period") or 2.0 * np.pi / float(params["omega0"]))
+    head = record[t - t[0] <= START_PERIODS * period].reset_index(drop=True)
+    head.attrs = dict(record.attrs)
+    _, _, initial = _fit([], dict(params), [head], [])
+    return initial[0]
+
+
 def predict_from_fitted_start(params: dict, terms, record) -> np.ndarray:
-    """``record``'s roll angle [rad] predicted by the model (``params``, ``terms`` held) from the
-    initial state that fits the record best: how discovery judges and draws a decay."""
-    _, _, initial = _fit([], {k: v for k, v in params.items()}, [record], [])
-    return predict_record(params, terms, record, initial=initial[0])
+    """``record``'s roll angle [rad] predicted by the model (``params``, ``terms`` held) from
+    its :func:`fitted_start`: how discovery judges and draws a held-out decay."""
+    return predict_record(params, terms, record, initial=fitted_start(params, record))
 
 
 def _rmse_deg(params, terms, records) -> float:
-    """Mean over ``records`` of the RMSE [deg] of their prediction, each from its own
-    initial state fitted with the model's coefficients held (:func:`_fit` with nothing
-    free): a held-out decay is judged on how it decays, not on how well its first
-    period gives its start."""
-    val = []
-    for rec in records:
-        _, resid, _ = _fit([], dict(params), [rec], [])
-        val.append(float(np.sqrt(np.nanmean(resid ** 2))))
+    """Mean over ``records`` of the RMSE [deg] of their prediction from their fitted start
+    (:func:`predict_from_fitted_start`)."""
+    val = [float(np.sqrt(np.nanmean((predict_from_fitted_start(params, terms, rec)
+                                      - rec["phi"].to_numpy(float)) ** 2))) for rec in records]
     return float(np.rad2deg(np.mean(val))) if val else np.nan
 
 
