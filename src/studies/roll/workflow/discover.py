@@ -5,8 +5,8 @@ The baseline is the linear decay model fitted to the other simulator's run
 training decays; every roll cause of :mod:`studies.discover.causes.roll_decay` extends it
 and is judged on the held-out decays: the last of two or more records, or,
 with one record, its later cycles (time-blocked, the last
-``discover.holdout`` share of the half-cycles, predicted from their own
-initial state). :func:`prepare_roll_discovery` loads every decay before any
+``discover.holdout`` share of the half-cycles, predicted from the start
+that fits their first periods). :func:`prepare_roll_discovery` loads every decay before any
 tracked run exists; :func:`execute_roll_discovery` writes ``discovery.json``,
 ``report.md``/``report.html``, the peak envelopes, the decay curves, the
 equivalent linear damping at 5 and 10 deg, the periods at model and full
@@ -74,7 +74,7 @@ def prepare_roll_discovery(cfg: DiscoverConfig, root: Path, kind: StudyKind,
                 f"one decay: held out its later cycles (time-blocked), the last {last.attrs['n_extrema']} of "
                 f"{first.attrs['n_extrema'] + last.attrs['n_extrema']} half-cycles of {train[0].attrs.get('name')} "
                 f"(discover.holdout={share:g}) from {last.attrs['t_from_release']:.1f} s after the release, "
-                f"predicted from their own initial state; the causes are fitted to the first "
+                f"predicted from the start that fits their first periods; the causes are fitted to the first "
                 f"{first.attrs['n_extrema']} ({n} extrema in the record)")
     return prepared
 

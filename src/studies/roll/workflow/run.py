@@ -13,13 +13,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ...config import BayesMethod, RunConfig, settled_discrepancy
+from ...config import ROLL_TERMS, BayesMethod, RunConfig, settled_discrepancy
 from ..records import find_particulars, load_roll_decay, record_vessel
 from ..simulate import simulate_decay_record
 from .pipeline import run_roll_study
 from ...workflows.methods import check_method
 from ...workflows.settings import as_path_list
-from ...config import ROLL_TERMS
 
 logger = logging.getLogger(__name__)
 

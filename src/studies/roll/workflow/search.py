@@ -10,9 +10,10 @@ when the baseline came from the data, held when it came from the
 simulation; the linear causes exist only in the latter case, since a
 baseline fitted to the data already has its own ``b1``). Scored like the
 manoeuvring causes (BIC with the effective number of independent samples),
-and validated by predicting the held-out decays from their initial state. A
-pair is named only with strong evidence (score lower by 10) over each of its
-members.
+every training decay's start fitted with the coefficients (:func:`_fit`),
+and validated by predicting the held-out decays from the start that fits
+their first periods (:func:`fitted_start`). A pair is named only with strong
+evidence (score lower by 10) over each of its members.
 """
 
 from __future__ import annotations
@@ -27,7 +28,8 @@ from ..simulate import predict_record
 from ...discover.causes.roll_decay import ROLL_CATALOGUE, RollCause
 from ...discover.fitting import sample_intervals
 
-__all__ = ["roll_search", "roll_interval", "peak_decay", "PEAK_CYCLES", "predict_from_fitted_start", "fitted_start", "START_PERIODS"]
+__all__ = ["roll_search", "roll_interval", "peak_decay", "PEAK_CYCLES", "predict_from_fitted_start", "fitted_start",
+           "START_PERIODS"]
 
 #: full cycles after the release at which the peak amplitude is reported
 PEAK_CYCLES = (0, 5, 10, 20, 40)
@@ -141,13 +143,13 @@ def roll_search(train, validation, simulation=None) -> dict:
 
     Returns a dict with ``fits`` (one per cause: ``cause``, ``terms``,
     ``params`` of the extended model, ``added`` (the cause's own parameters),
-    ``resid`` [rad], ``initial`` (each training record's fitted initial state), ``k``, ``explanation``, ``validation_rmse_deg``,
-    ``score``), ``best``, ``baseline``, ``n_eff``, ``tau`` and
+    ``resid`` [rad], ``initial`` (each training record's fitted initial state), ``k``,
+    ``explanation``, ``validation_rmse_deg``, ``score``), ``best``, ``baseline``, ``n_eff``, ``tau`` and
     ``simulation_params`` (the baseline fitted to ``simulation``, or None).
     """
     if simulation is not None:
         sim_params, _, _ = _fit(["omega0", "b1"], {}, [simulation],
-                             [2 * np.pi / simulation.attrs.get("period", 2 * np.pi), 0.01])
+                                [2 * np.pi / simulation.attrs.get("period", 2 * np.pi), 0.01])
         base_fixed = dict(sim_params)
     else:
         base_fixed = None
