@@ -26,6 +26,7 @@ from ..discover.causes.propulsion import MMGDynamics
 from ..discover.confidence import separating_manoeuvre
 from ..discover.fitting import Context, calibrate, training_error, validate
 from ..discover.inference import baseline_fit, infer, intervals, refine, smooth_with_baseline
+from ..discover.track_inference import infer_on_tracks
 from ..discover.report import plot_evidence, plot_predictions, write_discovery, write_report
 from ..discover.verdict import Discovery
 from ..vessels import has_mmg_particulars, mmg_vessel_at_speed
@@ -95,7 +96,11 @@ def execute_inference(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict,
     calibrate(ctx)
     undecidable = [(c.id, c.undecidable(ctx)[1]) for c in manoeuvring_causes(ctx)
                    if c.undecidable(ctx) is not None]
-    result = infer(ctx, smoothed, pairs=opts.second_cause, seed=prepared.cfg.seed)
+    on_tracks = dynamics is None
+    if on_tracks:
+        result = infer_on_tracks(ctx, smoothed, raw, pairs=opts.second_cause)
+    else:
+        result = infer(ctx, smoothed, pairs=opts.second_cause, seed=prepared.cfg.seed)
     named = result.verdict_of(result.named)
     # the verdict and its parameters come from every record; the held-out gain from the named
     # model and the baseline refitted on the training records alone
@@ -116,11 +121,21 @@ def execute_inference(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict,
     undecided, next_manoeuvre = _undecided(ranking, named, confidence, undecidable)
     cause = best.cause if best is not baseline else NoCause()
     notes = list(prepared.notes)
-    notes.append(f"{len(result.variants)} single-cause variants compared on {len(raw)} records cut into "
-                 f"{result.n_blocks} blocks of {result.block_seconds:.0f} s, each block predicted by models "
-                 f"fitted to the others; a cause is named when its held-out gain exceeds {result.threshold:.2f} "
-                 f"standard errors; probability of beating none: "
-                 + ", ".join(f"{k} {v:.3f}" for k, v in sorted(result.beats_none.items(), key=lambda kv: -kv[1])))
+    if on_tracks:
+        notes.append(f"{len(result.variants)} single-cause variants compared by their likelihood on the "
+                     f"tracks of {len(raw)} records (the baseline's Kalman filter's one-step-ahead "
+                     f"predictions, {result.n_rows} measured innovations, clustered in {result.n_blocks} "
+                     f"stretches of {result.block_seconds:.0f} s); the verdict of highest BIC weight is "
+                     f"named; probability of beating none: "
+                     + ", ".join(f"{k} {v:.3f}" for k, v in sorted(result.beats_none.items(),
+                                                                   key=lambda kv: -kv[1])))
+    else:
+        notes.append(f"{len(result.variants)} single-cause variants compared on {len(raw)} records cut into "
+                     f"{result.n_blocks} blocks of {result.block_seconds:.0f} s, each block predicted by models "
+                     f"fitted to the others; a cause is named when its held-out gain exceeds "
+                     f"{result.threshold:.2f} standard errors; probability of beating none: "
+                     + ", ".join(f"{k} {v:.3f}" for k, v in sorted(result.beats_none.items(),
+                                                                   key=lambda kv: -kv[1])))
     for cid, manoeuvre in undecidable:
         notes.append(f"{cid} is not compared: the training records cannot decide it ({manoeuvre} would)")
     if best is not baseline and best.validation.get("diverged"):
@@ -135,9 +150,14 @@ def execute_inference(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict,
         parameters=(result.fit.cause.parameters(result.fit.theta, result.fit.params) if result.named else {}),
         parameter_units=dict(cause.units), fixed_parameters=cause.fixed_parameters(),
         uncertainty=intervals(result, seed=prepared.cfg.seed), confidence=confidence,
-        confidence_basis=("share of the Bayesian-bootstrap reweightings of the records' blocks for which "
-                          "the criterion names this verdict (held-out gain beyond the Bonferroni quantile of "
-                          "its standard error, leave-one-block-out cross-validation)"),
+        confidence_basis=(("posterior probability of the verdict from the BIC of the tracks' likelihood "
+                           "(the baseline's Kalman-filter innovations; the likelihood ratio, or the Wald "
+                           "statistic robust to correlated innovations where smaller), uniform prior over "
+                           "none, the single causes and the second causes beside the first")
+                          if on_tracks else
+                          ("share of the Bayesian-bootstrap reweightings of the records' blocks for which "
+                           "the criterion names this verdict (held-out gain beyond the Bonferroni quantile "
+                           "of its standard error, leave-one-block-out cross-validation)")),
         inclusion={k: float(v) for k, v in sorted(result.inclusion.items(), key=lambda kv: -kv[1])},
         ranking=ranking[:12],
         baseline={"validation_rmse": b_rmse, "validation_rmse_whole_records": whole_base["position_rmse"],
@@ -146,7 +166,8 @@ def execute_inference(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict,
                   "training_rmse": e_train},
         gain_pct=gain, explains_validation=bool(explained),
         explanation=cause.explanation if named != "none" else NoCause.explanation,
-        baseline_model=str(prepared.cfg.model.name), scale=_scale(prepared, dynamics), method="inference",
+        baseline_model=str(prepared.cfg.model.name), scale=_scale(prepared, dynamics),
+        method="tracks" if on_tracks else "inference",
         undecided=undecided, next_manoeuvre=next_manoeuvre, notes=notes,
         candidates={f.cause.id: f.cause.parameters(f.theta, f.params) for m, f in result.fits.items()
                     if len(m) == 1},

@@ -1,0 +1,342 @@
+"""The baseline's one-step-ahead prediction errors along the measured tracks,
+and how every cause of the catalogue would change them.
+
+An extended Kalman filter whose process model is the baseline (the
+simulator's own right-hand side, :mod:`studies.identify.filter_error`)
+predicts every sample of every record from the samples before it; white
+process noise on ``du, v, r`` (its shape and scale by maximum likelihood)
+absorbs what no model holds. The standardised innovations ``w`` (innovation
+over its standard deviation, six channels ``x0, y0, psi, u, v, r`` per
+sample) are white and of unit variance when the model is right, and ``-2 ln
+L = |w|^2`` up to terms that hardly depend on the model. A cause with
+parameters ``theta`` changes them by ``J theta`` to first order; the
+baseline's coefficients ``beta`` by ``J_beta d_beta``. Every comparison of
+the discovery is then a linear regression of ``w`` on those columns, the
+coefficients' columns projected out (the coefficients re-identified beside
+each cause, to first order): the fall in ``|w|^2`` is the likelihood ratio of
+the cause over ``none`` on the tracks themselves, where a 0.1 m position
+carries what a noisy acceleration does not.
+
+Columns (:func:`cause_variants`), each from the cause's own hooks
+(:class:`~studies.discover.causes.base.Cause`: the records as the cause reads
+them, its wind, current and external forces), by central differences of the
+filter's innovations at no effect: exact to first order for a missing term
+(one library term's coefficient), an earth-fixed force, a propeller side
+force, a rudder offset and a current (its north and east components); a wind
+the records do not carry acts as the square of its speed, so it enters as the
+secant of a :data:`~studies.discover.inference.WIND_REFERENCE` wind from each
+of :data:`~studies.discover.inference.WIND_DIRECTIONS`.
+
+Noise the filter does not model (sensor noise correlated over seconds,
+velocities differenced from positions) leaves the innovations correlated,
+and their likelihood ratio then overstates the evidence. Each comparison
+also gives a Wald statistic with the coefficients' covariance robust to
+correlation within :data:`BLOCK_SECONDS` blocks of each record (the
+sandwich of Liang & Zeger 1986, the blocks as clusters); the evidence a
+cause is credited with is the smaller of the two (:func:`judge`).
+
+References
+----------
+Jategaonkar, R.V. (2015). Flight vehicle system identification, 2nd ed.
+AIAA, ch. 5 (filter error method).
+
+Liang, K.-Y., Zeger, S. L. (1986). Longitudinal data analysis using
+generalized linear models. Biometrika 73(1), 13-22.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .causes import Combined, Current, MissingTerm, WindUnmodelled, extended_library
+from .causes.base import Cause
+from .fitting import CauseFit, Context
+from .output_error import noise_levels
+from .prediction_error import FilterScores
+
+__all__ = ["BLOCK_SECONDS", "FILTER_STEP", "InnovationDesign", "Judgement", "innovation_design", "beside",
+           "own_columns", "cause_variants", "judge", "cause_steps"]
+
+log = logging.getLogger(__name__)
+
+#: sampling [s] the records are averaged to before filtering (block means)
+FILTER_STEP = 1.0
+#: length [s] of the stretches of a record over which innovations may be correlated
+#: (the clusters of the robust covariance)
+BLOCK_SECONDS = 60.0
+#: relative step of the coefficients' finite differences
+COEFFICIENT_STEP = 1e-3
+#: step of a missing term's coefficient [-, prime]
+TERM_STEP = 1e-4
+
+
+@dataclass
+class InnovationDesign:
+    """The baseline's standardised innovations on every record and what re-identifying
+    its coefficients can do to them.
+
+    Attributes
+    ----------
+    residual : ndarray (N,)
+        Standardised innovations of the baseline (records one after the other,
+        six channels per sample; zero where a channel is not measured).
+    basis : ndarray (N, p)
+        Orthonormal basis of their Jacobian with respect to the baseline's coefficients.
+    projected : ndarray (N,)
+        ``residual`` with that basis projected out (the baseline re-identified on the tracks).
+    coefficient_jacobian : ndarray (N, p)
+        d innovations / d (relative change of each coefficient).
+    blocks : ndarray (N,) of int
+        Cluster of every innovation (:data:`BLOCK_SECONDS` stretches of one record).
+    n : int
+        Measured innovations (the ``n`` of the BIC).
+    log_q_scale : float
+        log10 of the process noise's scale, the likeliest for the baseline.
+    fit : CauseFit
+        The baseline (coefficients from the smoothed records' regression).
+    scorer : FilterScores
+        The filter on the records, its process noise's shape and measurement noise estimated.
+    """
+
+    residual: np.ndarray
+    basis: np.ndarray
+    projected: np.ndarray
+    coefficient_jacobian: np.ndarray
+    blocks: np.ndarray
+    n: int
+    log_q_scale: float
+    fit: CauseFit
+    scorer: FilterScores
+    ctx: Context
+    #: ``(cause, theta, terms)`` acting beneath every cause judged (a first cause
+    #: when a second is judged beside it); None: the baseline alone
+    base: tuple | None = None
+
+    @property
+    def n_blocks(self) -> int:
+        return int(self.blocks.max()) + 1 if len(self.blocks) else 0
+
+    def project(self, columns: np.ndarray) -> np.ndarray:
+        """``columns`` with the coefficients' directions projected out."""
+        return columns - self.basis @ (self.basis.T @ columns)
+
+    def innovations(self, cause: Cause, theta, extra: dict | None = None,
+                    coefficients: dict | None = None) -> np.ndarray:
+        """Standardised innovations of the baseline's coefficients (and ``extra``
+        ones, e.g. an added term's) with ``cause`` acting at ``theta`` (beside
+        :attr:`base`, if any; ``cause`` None: the base alone); ``coefficients``
+        replace the baseline's."""
+        theta = np.asarray(theta, float)
+        if self.base is not None:
+            first, first_theta, first_terms = self.base
+            extra = {**first_terms, **(extra or {})}
+            if cause is None:
+                cause, theta = first, np.asarray(first_theta, float)
+            else:
+                cause = Combined(first, cause)
+                theta = np.concatenate([np.asarray(first_theta, float), theta])
+        setup = cause.setup(self.ctx, theta)
+        fit = replace(self.fit, cause=cause, theta=theta, setup=setup)
+        params = dict(self.fit.params if coefficients is None else coefficients)
+        params.update(extra or {})
+        return self.scorer._likelihood(fit).residuals(setup.model.vector(params, 0.0), self.log_q_scale)
+
+
+def beside(design: InnovationDesign, cause: Cause, theta: np.ndarray, terms: dict,
+           coefficients: dict | None = None) -> InnovationDesign:
+    """The design with ``cause`` acting at ``theta`` (``terms``: its added terms'
+    coefficients) beneath every cause judged, the model's ``coefficients``
+    (default the baseline's) in place of the baseline's: its residual is the
+    innovations of that model, the coefficients' directions those of the
+    baseline."""
+    fit = design.fit if coefficients is None else replace(design.fit, params=dict(coefficients))
+    out = replace(design, base=(cause, np.asarray(theta, float), dict(terms)), fit=fit)
+    r = out.innovations(None, np.zeros(0))
+    out.residual = r
+    out.projected = r - out.basis @ (out.basis.T @ r)
+    return out
+
+
+def own_columns(design: InnovationDesign, steps: np.ndarray) -> np.ndarray:
+    """``-d w / d`` (the base cause's parameters, then its added terms'
+    coefficients) at the base: the first cause re-fitted beside a second."""
+    cause, theta, terms = design.base
+    theta = np.asarray(theta, float)
+    cols = []
+    for j, h in enumerate(steps):
+        plus, minus = theta.copy(), theta.copy()
+        plus[j] += h
+        minus[j] -= h
+        cols.append(-(_alone(design, cause, plus, terms) - _alone(design, cause, minus, terms)) / (2.0 * h))
+    for name in terms:
+        bumped = {**terms, name: terms[name] + TERM_STEP}
+        cols.append(-(_alone(design, cause, theta, bumped) - design.residual) / TERM_STEP)
+    return np.column_stack(cols) if cols else np.zeros((len(design.residual), 0))
+
+
+def _alone(design: InnovationDesign, cause: Cause, theta: np.ndarray, terms: dict) -> np.ndarray:
+    return replace(design, base=None).innovations(cause, theta, terms)
+
+
+def innovation_design(ctx: Context, records: list, baseline: CauseFit, step: float = FILTER_STEP,
+                      block_seconds: float = BLOCK_SECONDS) -> InnovationDesign:
+    """The baseline's filter on ``records`` (measured, not smoothed).
+
+    ``ctx`` gives the vessel and the polynomial baseline; ``baseline`` its
+    coefficients. The measurement noise per channel is the records' noise at
+    ``step`` (:func:`studies.discover.output_error.noise_levels`); the process
+    noise's shape and both noises' levels are then estimated by maximum
+    likelihood under the baseline (:meth:`FilterScores.estimate_shape`)."""
+    rctx = Context(ctx.vessel, ctx.model, list(records), [], "recorded", dynamics=None)
+    scorer = FilterScores(rctx, step, noise_levels(rctx, records, step))
+    scorer.estimate_shape(baseline)
+    beta0 = baseline.setup.model.vector(baseline.params, 0.0)
+    like = scorer._likelihood(baseline)
+    _, log_q = like.fit(beta0)
+    r0 = like.residuals(beta0, log_q)
+    scale = np.maximum(np.abs(beta0), 1e-6)
+    jac = np.empty((len(r0), len(beta0)))
+    for j in range(len(beta0)):
+        b = beta0.copy()
+        b[j] += COEFFICIENT_STEP * scale[j]
+        jac[:, j] = (like.residuals(b, log_q) - r0) / COEFFICIENT_STEP
+    basis = _orthonormal(jac)
+    per = max(1, int(round(block_seconds / scorer.step)))
+    blocks, first = [], 0
+    for z in scorer.measured:
+        idx = np.repeat(np.arange(len(z)) // per, z.shape[1]) + first
+        blocks.append(idx)
+        first = int(idx.max()) + 1
+    fit = replace(baseline, setup=baseline.setup)
+    return InnovationDesign(r0, basis, r0 - basis @ (basis.T @ r0), jac, np.concatenate(blocks),
+                            int(scorer.n), float(log_q), fit, scorer, rctx)
+
+
+def _orthonormal(x: np.ndarray, rtol: float = 1e-9) -> np.ndarray:
+    """An orthonormal basis of the column space of ``x`` (rank-revealing SVD)."""
+    x = np.nan_to_num(x)
+    if x.shape[1] == 0:
+        return x
+    u, s, _ = np.linalg.svd(x, full_matrices=False)
+    keep = s > rtol * (s[0] if len(s) else 0.0)
+    return u[:, keep]
+
+
+def cause_steps(ctx: Context, cause: Cause) -> np.ndarray:
+    """Finite-difference steps of a cause's parameters (ten times its small scale,
+    at most half a percent of its range)."""
+    steps = np.asarray(cause.scales(ctx), float) * 10.0
+    low, high = cause.bounds(ctx)
+    finite = np.isfinite(high - low)
+    steps[finite] = np.minimum(steps[finite], 0.005 * (high - low)[finite])
+    return np.maximum(steps, 1e-9)
+
+
+def cause_variants(design: InnovationDesign, causes: list) -> list:
+    """Every variant of every cause (:class:`studies.discover.inference.Variant`)
+    with its columns ``-d w / d theta`` in the innovations' rows, so that the
+    regression coefficient of a column is the parameter's value."""
+    from .inference import WIND_DIRECTIONS, WIND_REFERENCE, Variant
+
+    ctx = design.ctx
+    r0 = design.residual
+    out = []
+    for cause in causes:
+        if cause.replaces_dynamics or cause.id == "none" or isinstance(cause, MissingTerm):
+            continue
+        if isinstance(cause, Current):
+            # linear in its earth-fixed components (north, east) at no current
+            s = 0.01 * max(float(ctx.vessel.speed), 0.1)
+            north = design.innovations(cause, [s, 0.0]) - design.innovations(cause, [s, np.pi])
+            east = design.innovations(cause, [s, 0.5 * np.pi]) - design.innovations(cause, [s, -0.5 * np.pi])
+            cols = -np.column_stack([north, east]) / (2.0 * s)
+
+            def to_theta(b):
+                return np.array([np.hypot(b[0], b[1]), np.arctan2(b[1], b[0])])
+            out.append(Variant(cause, cause.id, cols, to_theta, 2))
+            continue
+        if isinstance(cause, WindUnmodelled):
+            calm = design.innovations(cause, [0.0, 0.0])
+            for beta in WIND_DIRECTIONS:
+                col = -(design.innovations(cause, [WIND_REFERENCE, beta]) - calm)
+
+                def to_theta(b, beta=beta):
+                    return np.array([WIND_REFERENCE * np.sqrt(max(float(b[0]), 1e-4)), beta])
+                out.append(Variant(cause, f"{cause.id}@{np.rad2deg(beta):.0f}deg", col[:, None], to_theta, 2))
+            continue
+        steps = cause_steps(ctx, cause)
+        cols = []
+        for j, h in enumerate(steps):
+            th = np.zeros(len(steps))
+            th[j] = h
+            plus = design.innovations(cause, th)
+            th[j] = -h
+            cols.append(-(plus - design.innovations(cause, th)) / (2.0 * h))
+        out.append(Variant(cause, cause.id, np.column_stack(cols), lambda b: np.asarray(b, float),
+                           len(steps)))
+    for term in extended_library(ctx.model, 3):
+        added = MissingTerm([term])
+        col = -(design.innovations(added, np.zeros(0), {term.name: TERM_STEP}) - r0) / TERM_STEP
+        if not np.any(col):
+            continue
+        out.append(Variant(added, f"missing_term:{term.name}", col[:, None], lambda b: np.zeros(0), 1))
+    return out
+
+
+@dataclass
+class Judgement:
+    """One regression of the innovations on some causes' columns.
+
+    Attributes
+    ----------
+    coefficients : ndarray
+        The columns' coefficients (the causes' linear parameters).
+    covariance : ndarray
+        Their covariance, robust to correlation within blocks.
+    likelihood_ratio : float
+        Fall in the sum of squared standardised innovations over the model judged against.
+    wald : float
+        Wald statistic of the tested columns with the robust covariance.
+    """
+
+    coefficients: np.ndarray
+    covariance: np.ndarray
+    likelihood_ratio: float
+    wald: float
+
+    @property
+    def evidence(self) -> float:
+        """``min(likelihood ratio, robust Wald)``: the likelihood ratio, unless
+        correlated innovations make it overstate the evidence."""
+        return float(min(self.likelihood_ratio, self.wald))
+
+
+def judge(design: InnovationDesign, columns: np.ndarray, tested: slice | None = None) -> Judgement:
+    """Regress the baseline's innovations on ``columns`` (coefficients' directions
+    projected out) and test the coefficients ``tested`` (default all) against
+    the same regression without them."""
+    x = design.project(np.nan_to_num(np.asarray(columns, float)))
+    y = design.projected
+    k = x.shape[1]
+    tested = slice(0, k) if tested is None else tested
+    coef, *_ = np.linalg.lstsq(x, y, rcond=None)
+    e = y - x @ coef
+    rest = np.ones(k, bool)
+    rest[tested] = False
+    if rest.any():
+        c0, *_ = np.linalg.lstsq(x[:, rest], y, rcond=None)
+        e0 = y - x[:, rest] @ c0
+    else:
+        e0 = y
+    lr = float(e0 @ e0 - e @ e)
+    scores = np.zeros((design.n_blocks, k))
+    np.add.at(scores, design.blocks, x * e[:, None])
+    bread = np.linalg.pinv(x.T @ x)
+    cov = bread @ (scores.T @ scores) @ bread
+    sub = cov[tested, tested]
+    c = coef[tested]
+    wald = float(c @ np.linalg.pinv(sub) @ c) if np.all(np.isfinite(sub)) else 0.0
+    return Judgement(coef, cov, max(lr, 0.0), max(wald, 0.0))

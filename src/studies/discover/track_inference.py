@@ -1,0 +1,296 @@
+"""Discovery on the tracks: every cause judged by how much it improves the
+baseline's one-step-ahead predictions of the measured records.
+
+1. **The filter.** The baseline's extended Kalman filter runs over every
+   record, training and held out, as measured (:mod:`.innovations`): its
+   standardised innovations, their Jacobian with respect to the baseline's
+   coefficients, and every cause's columns (how it would change them) at no
+   effect.
+2. **One criterion.** A verdict (``none``, one cause, or a second cause
+   beside the first) is scored by the Bayesian information criterion of the
+   tracks' likelihood, with a uniform prior over a cause's variants::
+
+       s = E - k ln(n) - 2 ln(m)
+
+   ``E`` the evidence of its causes' columns over the model without them
+   (the fall in the squared standardised innovations, a likelihood ratio,
+   or the Wald statistic with the covariance robust to correlated
+   innovations where smaller: :func:`.innovations.judge`), ``k`` their
+   parameters, ``n`` the measured innovations, ``m`` the cause's variants
+   (the library's terms for a missing term, the directions of a wind);
+   ``none`` scores 0. The probability of a verdict is ``exp(s / 2)``
+   normalised over ``none``, every single cause and every second cause
+   beside the most probable single one (the BIC's approximation of the
+   posterior, Kass & Raftery 1995); the most probable verdict is named and
+   its probability is the confidence.
+3. **Parameters.** Every single cause (named or not) and every pair judged
+   are refined by least squares of the innovations from their linear
+   solution, the coefficients' directions projected out, and judged at that
+   fit; their intervals come
+   from the robust covariance of the linear coefficients
+   (:func:`studies.discover.inference.intervals`). The coefficients of each
+   refined model are those of the smoothed records' regression with the
+   cause acting.
+
+The held-out records measure the named model's gain in the workflow
+(:mod:`studies.workflows.discover_inference`); it is reported, it does not
+name anything.
+
+References
+----------
+Kass, R. E., Raftery, A. E. (1995). Bayes factors. J. Amer. Statist. Assoc.
+90(430), 773-795.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from .causes import Combined, MissingTerm, manoeuvring_causes
+from .causes.base import Cause
+from .fitting import CauseFit, Context, _score, calibrate, integrated_time, scored_fit
+from .inference import (Inference, _by_cause, _catalogue_order, _model_cause, _model_theta, _pair_id,
+                        _with_dynamics, baseline_fit)
+from .innovations import (BLOCK_SECONDS, TERM_STEP, InnovationDesign, beside, cause_steps, cause_variants,
+                          innovation_design, judge, own_columns)
+
+__all__ = ["infer_on_tracks", "refine_on_tracks", "fit_at", "MAX_EVALUATIONS"]
+
+log = logging.getLogger(__name__)
+
+#: evaluations of the filter a cause's refinement on the innovations may take
+MAX_EVALUATIONS = 60
+
+
+def _score_of(evidence: float, n_params: int, n: int, n_variants: int) -> float:
+    return float(evidence - n_params * np.log(n) - 2.0 * np.log(max(n_variants, 1)))
+
+
+def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list | None = None,
+                    pairs: bool = True) -> Inference:
+    """Name the verdict that best predicts the measured tracks (module docstring).
+
+    Parameters
+    ----------
+    ctx : Context
+        The polynomial baseline and its vessel (its training records decide which
+        causes the records can decide).
+    smoothed : list of DataFrame
+        Every record smoothed (states and accelerations): the coefficients of
+        each refined model are identified on them.
+    measured : list of DataFrame
+        The same records as measured: the filter runs on them.
+    causes : list of Cause, optional
+        Default: the catalogue's applicable causes; undecidable ones are left out.
+    pairs : bool
+        Judge a second cause beside the most probable single one.
+    """
+    seconds = {}
+    t0 = time.perf_counter()
+    every = Context(ctx.vessel, ctx.model, list(smoothed), [], "recorded", dynamics=None)
+    calibrate(every)
+    baseline = baseline_fit(every)
+    design = innovation_design(every, measured, baseline)
+    seconds["filter"] = time.perf_counter() - t0
+    causes = causes if causes is not None else list(manoeuvring_causes(ctx))
+    causes = [c for c in causes if c.undecidable(ctx) is None]
+    t1 = time.perf_counter()
+    variants = cause_variants(design, causes)
+    seconds["signatures"] = time.perf_counter() - t1
+
+    # 1. every cause alone against none, judged at its fit refined on the tracks (its parameters
+    # are reported whether named or not)
+    t2 = time.perf_counter()
+    singles = _by_cause(variants)
+    fits, best, scores = {(): baseline}, {}, {"none": 0.0}
+    for cid, idx in singles.items():
+        i, j = max(((i, judge(design, variants[i].columns)) for i in idx), key=lambda ij: ij[1].evidence)
+        fit = refine_on_tracks(design, every, *_start(variants, (i,), j.coefficients))
+        fits[(i,)] = fit
+        best[cid] = i
+        scores[cid] = _score_of(_evidence_at(design, design.projected, _innovations_of(design, fit)),
+                                variants[i].n_params, design.n, len(idx))
+    evidence = {cid: scores[cid] for cid in singles}
+    seconds["comparison"] = time.perf_counter() - t2
+
+    # 2. a second cause beside the most probable single one, the two refined together
+    first = max(singles, key=lambda c: scores[c], default=None)
+    named = (best[first],) if first is not None and scores[first] > 0.0 else ()
+    pair_fits, pair_variants = {}, {}
+    if pairs and first is not None:
+        t3 = time.perf_counter()
+        fit1 = fits[(best[first],)]
+        terms1 = _terms_of(fit1)
+        design2 = beside(design, fit1.cause, fit1.theta, terms1, fit1.params)
+        own = own_columns(design2, cause_steps(every, fit1.cause) if len(fit1.theta) else np.zeros(0))
+        second = cause_variants(design2, [c for c in causes if c.id != first])
+        for cid, idx in _by_cause(second).items():
+            i, j = max(((i, judge(design2, np.hstack([own, second[i].columns]), tested=slice(own.shape[1], None)))
+                        for i in idx), key=lambda ij: ij[1].evidence)
+            _, theta2, terms2 = _start(second, (i,), j.coefficients[own.shape[1]:])
+            fit = refine_on_tracks(design, every, *_join(fit1.cause, fit1.theta, terms1, second[i].cause,
+                                                         theta2, terms2))
+            pair = _pair_id(first, cid)
+            s2 = _score_of(_evidence_at(design2, design2.projected, _innovations_of(design, fit), own),
+                           second[i].n_params, design.n, len(idx))
+            scores[pair] = scores[first] + s2
+            evidence[pair] = s2
+            pair_fits[cid], pair_variants[pair] = fit, second[i]
+        seconds["second_cause"] = time.perf_counter() - t3
+    top = max(scores, key=scores.get)
+    if "+" in top:
+        variants = variants + [pair_variants[top]]
+        named = (best[first], len(variants) - 1)
+        fits[named] = pair_fits[next(c for c in pair_fits if _pair_id(first, c) == top)]
+    named_judgement = judge(design, np.hstack([variants[i].columns for i in named])) if named else None
+
+    top_score = max(scores.values())
+    weights = {k: float(np.exp(0.5 * (s - top_score))) for k, s in scores.items()}
+    total = sum(weights.values())
+    verdicts = {k: w / total for k, w in sorted(weights.items(), key=lambda kv: -kv[1])}
+    inclusion = {}
+    for k, p in verdicts.items():
+        for cid in k.split("+"):
+            if cid != "none":
+                inclusion[cid] = inclusion.get(cid, 0.0) + p
+    beats_none = {cid: float(1.0 / (1.0 + np.exp(-0.5 * scores[cid]))) for cid in singles}
+    out = Inference(variants, tuple(named), inclusion, verdicts,
+                    named_judgement.coefficients if named else np.zeros(0),
+                    named_judgement.covariance if named else np.zeros((0, 0)), int(design.n), seconds,
+                    gains={k: 0.5 * s for k, s in scores.items()}, beats_none=beats_none, threshold=0.0,
+                    evidence=evidence, second_threshold=0.0 if pair_variants else float("nan"),
+                    n_blocks=design.n_blocks, block_seconds=float(BLOCK_SECONDS))
+    out.fits = fits
+    out.fit = fits.get(tuple(named))
+    # what every other cause would be beside a named single one (refined together)
+    out.beside = dict(pair_fits) if len(named) == 1 else {}
+    log.info("discovery on the tracks: %s (scores %s)", out.verdict_of(out.named),
+             ", ".join(f"{k} {v:.1f}" for k, v in sorted(scores.items(), key=lambda kv: -kv[1])[:6]))
+    return out
+
+
+def _evidence_at(design: InnovationDesign, against: np.ndarray, innovations: np.ndarray,
+                 own: np.ndarray | None = None) -> float:
+    """Evidence of a refined model over the model whose projected innovations
+    are ``against``: the fall in their sum of squares (a likelihood ratio),
+    or the Wald statistic of the change it makes (its secant column, ``own``
+    columns fitted beside it) with the covariance robust to correlated
+    innovations where smaller."""
+    after = design.project(np.nan_to_num(innovations)[:, None])[:, 0]
+    if own is not None and own.shape[1]:
+        # the first cause's parameters re-fitted (to first order) in both models
+        q, _ = np.linalg.qr(design.project(own))
+        against = against - q @ (q.T @ against)
+        after = after - q @ (q.T @ after)
+    change = (against - after)[:, None]
+    lr = float(against @ against - after @ after)
+    if own is None or own.shape[1] == 0:
+        wald = judge(design, change).wald
+    else:
+        wald = judge(design, np.hstack([own, change]), tested=slice(own.shape[1], None)).wald
+    return float(min(max(lr, 0.0), wald))
+
+
+def _innovations_of(design: InnovationDesign, fit: CauseFit) -> np.ndarray:
+    """The innovations of a refined fit (its own coefficients)."""
+    return design.innovations(fit.cause, fit.theta, coefficients=fit.params)
+
+
+def _start(variants: list, model: tuple, coefficients: np.ndarray) -> tuple:
+    """``(cause, theta, terms)`` of a model from its columns' linear coefficients."""
+    coefficients = np.asarray(coefficients, float)
+    cause = _model_cause(variants, model)
+    theta = _model_theta(variants, model, coefficients)
+    terms, col = {}, 0
+    for i in model:
+        v = variants[i]
+        if isinstance(v.cause, MissingTerm):
+            terms[v.cause.params[0]] = float(coefficients[col])
+        col += v.columns.shape[1]
+    return cause, theta, terms
+
+
+def _terms_of(fit: CauseFit) -> dict:
+    """The added terms' coefficients of a refined fit."""
+    names = [n for n in (fit.cause.params if _has_terms(fit.cause) else ())]
+    return {n: float(fit.params[n]) for n in names if n in fit.params}
+
+
+def _has_terms(cause: Cause) -> bool:
+    if isinstance(cause, MissingTerm):
+        return True
+    return isinstance(cause, Combined) and (isinstance(cause.first, MissingTerm)
+                                            or isinstance(cause.second, MissingTerm))
+
+
+def _join(first: Cause, theta1, terms1: dict, second: Cause, theta2, terms2: dict) -> tuple:
+    """Two causes as one :class:`Combined` in catalogue order, with their parameters."""
+    parts = sorted([(first, np.atleast_1d(theta1)), (second, np.atleast_1d(theta2))],
+                   key=lambda ct: _catalogue_order(ct[0].id))
+    cause = Combined(parts[0][0], parts[1][0])
+    return cause, np.concatenate([parts[0][1], parts[1][1]]), {**terms1, **terms2}
+
+
+def profiled_innovations(design: InnovationDesign, ctx: Context, cause: Cause, theta: np.ndarray,
+                         terms: dict) -> np.ndarray:
+    """The innovations of ``cause`` at ``theta`` with the coefficients of the
+    smoothed records' regression with the cause acting (``terms``: added
+    terms' coefficients, which replace the regression's)."""
+    setup = _with_dynamics(ctx, cause.setup(ctx, np.asarray(theta, float)))
+    params, _, _ = scored_fit(ctx, setup)
+    return design.innovations(cause, theta, terms, coefficients={**params, **terms})
+
+
+def fit_at(ctx: Context, cause: Cause, theta: np.ndarray, terms: dict | None = None) -> CauseFit:
+    """``cause`` at ``theta`` with the coefficients of the smoothed records'
+    regression (``terms``: values of added terms estimated elsewhere, which
+    replace the regression's)."""
+    setup = _with_dynamics(ctx, cause.setup(ctx, np.asarray(theta, float)))
+    params, residuals, _ = scored_fit(ctx, setup)
+    params = {**params, **(terms or {})}
+    rss = np.array([float(np.sum(r ** 2)) for r in residuals])
+    fit = CauseFit(cause, np.asarray(theta, float), params, rss, setup=setup,
+                   tau=max(integrated_time(r) for r in residuals))
+    fit.score = _score(ctx, rss, cause.n_params())
+    return fit
+
+
+def refine_on_tracks(design: InnovationDesign, ctx: Context, cause: Cause, theta: np.ndarray, terms: dict,
+                     max_nfev: int = MAX_EVALUATIONS) -> CauseFit:
+    """``cause``'s parameters ``theta`` and its added terms' coefficients
+    ``terms`` fitted to the innovations from the values given (SciPy's
+    trust-region least squares of the standardised innovations, the
+    baseline's coefficients' directions projected out: the coefficients
+    re-identified beside the cause to first order); returned at the
+    coefficients of the smoothed records' regression (:func:`fit_at`), an
+    added term's coefficient from the innovations."""
+    theta = np.asarray(theta, float).copy()
+    names = list(terms)
+    n_theta = len(theta)
+    if not (n_theta or names):
+        return fit_at(ctx, cause, theta, terms)
+    low, high = (cause.bounds(ctx) if n_theta else (np.zeros(0), np.zeros(0)))
+    theta = np.clip(theta, low + 1e-9, high - 1e-9)
+    x0 = np.concatenate([theta, [terms[n] for n in names]])
+    scale = np.concatenate([cause_steps(ctx, cause) if n_theta else np.zeros(0),
+                            np.maximum(np.abs([terms[n] for n in names]), TERM_STEP)])
+    lo = np.concatenate([low, np.full(len(names), -np.inf)])
+    hi = np.concatenate([high, np.full(len(names), np.inf)])
+
+    def residual(x):
+        return design.project(np.nan_to_num(profiled_innovations(design, ctx, cause, x[:n_theta], dict(
+            zip(names, x[n_theta:].tolist()))))[:, None])[:, 0]
+    try:
+        # tolerances far below SciPy's defaults: the innovations' sum of squares is large (their
+        # number) and a cause's valley long and flat; the defaults stop half-way along it
+        res = least_squares(residual, x0, bounds=(lo, hi), x_scale=scale, max_nfev=max_nfev,
+                            diff_step=1e-4, method="trf", ftol=1e-12, xtol=1e-12, gtol=1e-12)
+        x = res.x
+    except (ValueError, np.linalg.LinAlgError) as exc:
+        log.info("refining %s on the tracks stopped (%s); its linear solution is kept", cause.id, exc)
+        x = x0
+    return fit_at(ctx, cause, x[:n_theta], dict(zip(names, x[n_theta:].tolist())))
