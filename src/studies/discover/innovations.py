@@ -235,10 +235,11 @@ def cause_steps(ctx: Context, cause: Cause) -> np.ndarray:
     return np.maximum(steps, 1e-9)
 
 
-def cause_variants(design: InnovationDesign, causes: list) -> list:
-    """Every variant of every cause (:class:`studies.discover.inference.Variant`)
+def cause_variants(design: InnovationDesign, causes: list, library: bool = True) -> list:
+    """Every variant of every cause of ``causes`` (:class:`studies.discover.inference.Variant`)
     with its columns ``-d w / d theta`` in the innovations' rows, so that the
-    regression coefficient of a column is the parameter's value."""
+    regression coefficient of a column is the parameter's value; with
+    ``library``, a missing term for every term of the extended library."""
     from .inference import WIND_DIRECTIONS, WIND_REFERENCE, Variant
 
     ctx = design.ctx
@@ -277,7 +278,7 @@ def cause_variants(design: InnovationDesign, causes: list) -> list:
             cols.append(-(plus - design.innovations(cause, th)) / (2.0 * h))
         out.append(Variant(cause, cause.id, np.column_stack(cols), lambda b: np.asarray(b, float),
                            len(steps)))
-    for term in extended_library(ctx.model, 3):
+    for term in (extended_library(ctx.model, 3) if library else []):
         added = MissingTerm([term])
         col = -(design.innovations(added, np.zeros(0), {term.name: TERM_STEP}) - r0) / TERM_STEP
         if not np.any(col):

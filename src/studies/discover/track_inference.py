@@ -127,7 +127,7 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
         terms1 = _terms_of(fit1)
         design2 = beside(design, fit1.cause, fit1.theta, terms1, fit1.params)
         own = own_columns(design2, cause_steps(every, fit1.cause) if len(fit1.theta) else np.zeros(0))
-        second = cause_variants(design2, [c for c in causes if c.id != first])
+        second = cause_variants(design2, [c for c in causes if c.id != first], library=first != "missing_term")
         for cid, idx in _by_cause(second).items():
             i, j = max(((i, judge(design2, np.hstack([own, second[i].columns]), tested=slice(own.shape[1], None)))
                         for i in idx), key=lambda ij: ij[1].evidence)
