@@ -181,6 +181,9 @@ class Inference:
     second_threshold: float = float("nan")
     n_blocks: int = 0
     block_seconds: float = float("nan")
+    #: the smallest probability a verdict's ranking score is taken from (one more than the
+    #: bootstrap's draws for the block cross-validation)
+    probability_floor: float = 1.0 / (DRAWS + 1)
 
     def verdict_of(self, model: tuple) -> str:
         """The verdict id of a model: its causes' ids joined by ``+`` in catalogue order, or ``none``."""
@@ -201,7 +204,7 @@ class Inference:
         items = sorted(set(self.verdicts) | set(self.gains), key=lambda k: (-self.verdicts.get(k, 0.0),
                                                                             -self.gains.get(k, 0.0)))
         top = max(self.verdicts.values(), default=1.0)
-        floor = 1.0 / (DRAWS + 1)
+        floor = self.probability_floor
         return [{"cause": k, "probability": float(self.verdicts.get(k, 0.0)),
                  "gain": float(self.gains.get(k, float("nan"))),
                  "score": float(-2.0 * np.log(max(self.verdicts.get(k, 0.0), floor) / top))} for k in items]

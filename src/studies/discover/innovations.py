@@ -149,11 +149,17 @@ def beside(design: InnovationDesign, cause: Cause, theta: np.ndarray, terms: dic
            coefficients: dict | None = None) -> InnovationDesign:
     """The design with ``cause`` acting at ``theta`` (``terms``: its added terms'
     coefficients) beneath every cause judged, the model's ``coefficients``
-    (default the baseline's) in place of the baseline's: its residual is the
-    innovations of that model, the coefficients' directions those of the
-    baseline."""
+    (default the baseline's) in place of the baseline's, the process noise's
+    scale the likeliest for that model: its residual is the innovations of
+    that model, the coefficients' directions those of the baseline."""
     fit = design.fit if coefficients is None else replace(design.fit, params=dict(coefficients))
     out = replace(design, base=(cause, np.asarray(theta, float), dict(terms)), fit=fit)
+    # the process noise's scale the likeliest with the cause acting: the baseline's took up the
+    # cause's effect as drift and would let the filter follow a second cause's too
+    theta = np.asarray(theta, float)
+    setup = cause.setup(design.ctx, theta)
+    acting = replace(fit, cause=cause, theta=theta, setup=setup)
+    _, out.log_q_scale = design.scorer._likelihood(acting).fit(setup.model.vector({**fit.params, **terms}, 0.0))
     r = out.innovations(None, np.zeros(0))
     out.residual = r
     out.projected = r - out.basis @ (out.basis.T @ r)

@@ -91,9 +91,10 @@ def plot_ranking(ranking: list, path: Path) -> None:
     plt.close(fig)
 
 
-def plot_evidence(evidence: dict, threshold: float, second_threshold: float, named: str, path: Path) -> None:
-    """Each cause's (and each second cause's) held-out gain over its standard
-    error, against the threshold that names it; the named verdict in green."""
+def plot_evidence(evidence: dict, threshold: float, second_threshold: float, named: str, path: Path,
+                  measure: str = "held-out gain over its standard error (blocks left out in turn)") -> None:
+    """Each cause's (and each second cause's) margin (``measure``: what it
+    is), against the threshold that names it; the named verdict in green."""
     plt = pyplot()
     items = sorted(evidence.items(), key=lambda kv: ("+" in kv[0], -kv[1]))
     fig, ax = plt.subplots(figsize=(7, 0.9 + 0.3 * len(items)))
@@ -105,7 +106,7 @@ def plot_evidence(evidence: dict, threshold: float, second_threshold: float, nam
         ax.axvline(second_threshold, color="tab:red", lw=1.0, ls="--",
                    label=f"second cause {second_threshold:.2f}")
     ax.axvline(0.0, color="k", lw=0.6)
-    ax.set_xlabel("held-out gain over its standard error (blocks left out in turn)")
+    ax.set_xlabel(measure if len(measure) < 70 else measure[:measure.index(" (")] if " (" in measure else measure)
     ax.legend(loc="lower right", fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=90)

@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import logging
 import time
+from dataclasses import replace
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -126,16 +127,17 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
         fit1 = fits[(best[first],)]
         terms1 = _terms_of(fit1)
         design2 = beside(design, fit1.cause, fit1.theta, terms1, fit1.params)
+        plain2 = replace(design2, base=None)           # the same filter, nothing beneath
         own = own_columns(design2, cause_steps(every, fit1.cause) if len(fit1.theta) else np.zeros(0))
         second = cause_variants(design2, [c for c in causes if c.id != first], library=first != "missing_term")
         for cid, idx in _by_cause(second).items():
             i, j = max(((i, judge(design2, np.hstack([own, second[i].columns]), tested=slice(own.shape[1], None)))
                         for i in idx), key=lambda ij: ij[1].evidence)
             _, theta2, terms2 = _start(second, (i,), j.coefficients[own.shape[1]:])
-            fit = refine_on_tracks(design, every, *_join(fit1.cause, fit1.theta, terms1, second[i].cause,
+            fit = refine_on_tracks(plain2, every, *_join(fit1.cause, fit1.theta, terms1, second[i].cause,
                                                          theta2, terms2))
             pair = _pair_id(first, cid)
-            s2 = _score_of(_evidence_at(design2, design2.projected, _innovations_of(design, fit), own),
+            s2 = _score_of(_evidence_at(design2, design2.projected, _innovations_of(plain2, fit), own),
                            second[i].n_params, design.n, len(idx))
             scores[pair] = scores[first] + s2
             evidence[pair] = s2
@@ -163,7 +165,7 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
                     named_judgement.covariance if named else np.zeros((0, 0)), int(design.n), seconds,
                     gains={k: 0.5 * s for k, s in scores.items()}, beats_none=beats_none, threshold=0.0,
                     evidence=evidence, second_threshold=0.0 if pair_variants else float("nan"),
-                    n_blocks=design.n_blocks, block_seconds=float(BLOCK_SECONDS))
+                    n_blocks=design.n_blocks, block_seconds=float(BLOCK_SECONDS), probability_floor=1e-300)
     out.fits = fits
     out.fit = fits.get(tuple(named))
     # what every other cause would be beside a named single one (refined together)

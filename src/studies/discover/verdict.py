@@ -79,9 +79,11 @@ class Discovery:
         ``{cause id: parameters}`` of every other single cause refined beside
         a named single cause: what each would be if it acted as well.
     evidence : dict
-        ``{cause or pair: held-out gain over its standard error}`` (the
-        inference; a pair's: its second cause's beside the first), and
-        ``threshold``/``second_threshold``: what naming needs.
+        ``margin``: ``{cause or pair: how far it is towards being named}`` (a
+        pair's: its second cause's beside the first), ``measure``: what the
+        margin is (on the tracks, the BIC score over ``none``; with block
+        cross-validation, the held-out gain over its standard error), and
+        ``threshold``/``second_threshold``: the margin naming needs.
     """
 
     cause: str

@@ -173,13 +173,14 @@ def execute_inference(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict,
                     if len(m) == 1},
         candidates_beside={cid: (f.cause.parameters(f.theta, f.params) or {}).get(cid, {})
                            for cid, f in result.beside.items()},
-        evidence={"t": {k: float(v) for k, v in result.evidence.items()}, "threshold": float(result.threshold),
+        evidence={"margin": {k: float(v) for k, v in result.evidence.items()}, "measure": _measure(on_tracks),
+                  "threshold": float(result.threshold),
                   "second_threshold": (float(result.second_threshold) if np.isfinite(result.second_threshold)
                                        else None)},
         seconds={"smoothing": t_smooth, "inference": t_infer, **{k: float(v) for k, v in result.seconds.items()},
                  "total": time.perf_counter() - t0})
     out = discovery.to_dict()
-    sections, figures = _sections(ctx, result, whole_base, whole_best, named, out_dir)
+    sections, figures = _sections(ctx, result, whole_base, whole_best, named, out_dir, on_tracks)
     write_discovery(out_dir / "discovery.json", out)
     write_report(out_dir, out, out["explanation"], sections, figures)
     metrics = {"discover/gain_pct": gain, "discover/confidence": confidence,
@@ -195,21 +196,36 @@ def execute_inference(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict,
     return out, metrics
 
 
+def _measure(on_tracks: bool) -> str:
+    """What a cause's margin in ``evidence`` is."""
+    if on_tracks:
+        return ("BIC score over none of the tracks' likelihood (evidence less k ln n less 2 ln of the "
+                "cause's variants)")
+    return "held-out gain over its standard error (blocks left out in turn)"
+
+
 def _copy(fit):
     from dataclasses import replace
     return replace(fit)
 
 
-def _sections(ctx, result, whole_base: dict, whole_best: dict, named: str, out_dir: Path):
+def _sections(ctx, result, whole_base: dict, whole_best: dict, named: str, out_dir: Path,
+              on_tracks: bool = False):
     """The report's tables and figures: verdicts, inclusion probabilities,
     predictions of every held-out record."""
     ranking = pd.DataFrame(result.ranking()[:12]).set_index("cause")
     inclusion = pd.DataFrame({"probability": result.inclusion}).sort_values("probability", ascending=False)
     inclusion.index.name = "cause"
-    sections = [("Verdicts compared (probability: share of the bootstrap reweightings of the blocks that "
-                 "name it; gain: held-out log-likelihood gain over none, summed over the blocks; score: -2 ln of the "
-                 "probability relative to the most probable)", ranking),
-                ("Share of the bootstrap reweightings naming each cause (alone or in a pair)", inclusion)]
+    if on_tracks:
+        sections = [("Verdicts compared (probability: BIC weight of the tracks' likelihood; gain: half the "
+                     "BIC score over none; score: -2 ln of the probability relative to the most probable)",
+                     ranking),
+                    ("Probability of each cause (alone or in a pair)", inclusion)]
+    else:
+        sections = [("Verdicts compared (probability: share of the bootstrap reweightings of the blocks that "
+                     "name it; gain: held-out log-likelihood gain over none, summed over the blocks; score: -2 ln "
+                     "of the probability relative to the most probable)", ranking),
+                    ("Share of the bootstrap reweightings naming each cause (alone or in a pair)", inclusion)]
     figures, phase_tables = [], []
     for rec, pb, pe in zip(ctx.validation, whole_base["predictions"], whole_best["predictions"]):
         name = str(rec.attrs.get("name", "record"))
@@ -225,6 +241,7 @@ def _sections(ctx, result, whole_base: dict, whole_best: dict, named: str, out_d
     if phase_tables:
         sections.append(("Prediction error per manoeuvre phase (u, v in m/s, r in deg/s)",
                          pd.concat(phase_tables, ignore_index=True)))
-    plot_evidence(result.evidence, result.threshold, result.second_threshold, named, out_dir / "ranking.png")
+    plot_evidence(result.evidence, result.threshold, result.second_threshold, named, out_dir / "ranking.png",
+                  _measure(on_tracks))
     figures.append("ranking.png")
     return sections, figures
