@@ -126,6 +126,11 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
         t3 = time.perf_counter()
         fit1 = fits[(best[first],)]
         terms1 = _terms_of(fit1)
+        # the first refined again with the process noise's scale its own model implies, so that
+        # the pairs and the first alone are compared at their optimum under one filter
+        design2 = beside(design, fit1.cause, fit1.theta, terms1, fit1.params)
+        fit1 = refine_on_tracks(replace(design2, base=None), every, fit1.cause, fit1.theta, terms1)
+        terms1 = _terms_of(fit1)
         design2 = beside(design, fit1.cause, fit1.theta, terms1, fit1.params)
         plain2 = replace(design2, base=None)           # the same filter, nothing beneath
         own = own_columns(design2, cause_steps(every, fit1.cause) if len(fit1.theta) else np.zeros(0))
