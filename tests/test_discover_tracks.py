@@ -84,3 +84,32 @@ def test_a_second_column_is_tested_beside_the_first():
                      tested=slice(1, None))
     assert alone.likelihood_ratio > 30.0
     assert repeated.likelihood_ratio < chi2.isf(0.01, 1), repeated.likelihood_ratio
+
+
+def test_the_first_cause_is_differentiated_within_its_bounds():
+    """A first cause at a bound (a current of nearly no speed) is re-fitted
+    beside a second through one-sided differences: the filter is never asked
+    for a negative current speed, which the environment refuses."""
+    from dataclasses import dataclass
+
+    from studies.discover.causes import Current
+    from studies.discover.innovations import own_columns
+
+    asked = []
+
+    @dataclass
+    class Recording(InnovationDesign):
+        def innovations(self, cause, theta, extra=None, coefficients=None):
+            asked.append(np.asarray(theta, float).copy())
+            return np.full(len(self.residual), float(np.sum(theta)))
+
+    rng = np.random.default_rng(2)
+    coefficients, _ = _columns(rng)
+    base = _design(rng.standard_normal(N_ROWS), coefficients)
+    d = Recording(**{f: getattr(base, f) for f in base.__dataclass_fields__})
+    d.ctx = None
+    d.base = (Current(), np.array([1e-4, 0.3]), {})
+    cols = own_columns(d, np.array([0.01, 0.05]))
+    assert cols.shape == (N_ROWS, 2)
+    assert min(t[0] for t in asked) >= 0.0, asked
+    assert np.allclose(cols[0], [-1.0, -1.0])        # -d(sum theta)/d theta_j, one-sided or not

@@ -171,12 +171,18 @@ def own_columns(design: InnovationDesign, steps: np.ndarray) -> np.ndarray:
     coefficients) at the base: the first cause re-fitted beside a second."""
     cause, theta, terms = design.base
     theta = np.asarray(theta, float)
+    low, high = cause.bounds(design.ctx) if len(theta) else (theta, theta)
     cols = []
     for j, h in enumerate(steps):
+        # central differences, one-sided at a bound (a current of nearly no speed)
         plus, minus = theta.copy(), theta.copy()
-        plus[j] += h
-        minus[j] -= h
-        cols.append(-(_alone(design, cause, plus, terms) - _alone(design, cause, minus, terms)) / (2.0 * h))
+        plus[j] = min(theta[j] + h, high[j])
+        minus[j] = max(theta[j] - h, low[j])
+        span = plus[j] - minus[j]
+        if span <= 0.0:
+            cols.append(np.zeros(len(design.residual)))
+            continue
+        cols.append(-(_alone(design, cause, plus, terms) - _alone(design, cause, minus, terms)) / span)
     for name in terms:
         bumped = {**terms, name: terms[name] + TERM_STEP}
         cols.append(-(_alone(design, cause, theta, bumped) - design.residual) / TERM_STEP)
