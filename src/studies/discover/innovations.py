@@ -238,13 +238,10 @@ def _orthonormal(x: np.ndarray, rtol: float = 1e-9) -> np.ndarray:
 
 
 def cause_steps(ctx: Context, cause: Cause) -> np.ndarray:
-    """Finite-difference steps of a cause's parameters (ten times its small scale,
-    at most half a percent of its range)."""
-    steps = np.asarray(cause.scales(ctx), float) * 10.0
-    low, high = cause.bounds(ctx)
-    finite = np.isfinite(high - low)
-    steps[finite] = np.minimum(steps[finite], 0.005 * (high - low)[finite])
-    return np.maximum(steps, 1e-9)
+    """Finite-difference steps of a cause's parameters (those of the block
+    cross-validation's signatures, :func:`studies.discover.inference._steps`)."""
+    from .inference import _steps
+    return _steps(ctx, cause)
 
 
 def cause_variants(design: InnovationDesign, causes: list, library: bool = True) -> list:
