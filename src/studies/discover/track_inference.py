@@ -22,7 +22,11 @@ baseline's one-step-ahead predictions of the measured records.
    normalised over ``none``, every single cause and every second cause
    beside the most probable single one (the BIC's approximation of the
    posterior, Kass & Raftery 1995); the most probable verdict is named and
-   its probability is the confidence.
+   its probability is the confidence. A second cause is judged only beside
+   a first that beats ``none`` (forward selection): its evidence is
+   measured under the filter of the first's model, a step of a nested
+   comparison only once the first is accepted; beside a first that ``none``
+   beats, a pair could outscore ``none`` on the second's evidence alone.
 3. **Parameters.** Every single cause (named or not) and every pair judged
    are refined by least squares of the innovations from their linear
    solution, the coefficients' directions projected out, and judged at that
@@ -88,7 +92,7 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
     causes : list of Cause, optional
         Default: the catalogue's applicable causes; undecidable ones are left out.
     pairs : bool
-        Judge a second cause beside the most probable single one.
+        Judge a second cause beside the most probable single one when it beats ``none``.
     """
     seconds = {}
     t0 = time.perf_counter()
@@ -122,7 +126,7 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
     first = max(singles, key=lambda c: scores[c], default=None)
     named = (best[first],) if first is not None and scores[first] > 0.0 else ()
     pair_fits, pair_variants = {}, {}
-    if pairs and first is not None:
+    if pairs and named:
         t3 = time.perf_counter()
         fit1 = fits[(best[first],)]
         terms1 = _terms_of(fit1)
