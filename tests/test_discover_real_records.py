@@ -42,3 +42,22 @@ def test_an_injected_current_is_named_with_its_speed_and_direction(reference, sp
                                                        current_direction=np.deg2rad(direction))), reference)
     assert case["named"] == "current", (case["named"], case["confidence"])
     assert case["right"], (case["parameters"], case["truth"])
+
+
+#: the MMG baseline with its asymmetry terms, the causes judged on the tracks (the prediction-error
+#: filter with the MMG model as its process model)
+ON_TRACKS = ("model.asymmetry=true", "discover.judge=tracks")
+
+
+@pytest.fixture(scope="module")
+def reference_on_tracks():
+    return real_case(str(FOLDER), Injection(), "marin", ON_TRACKS)
+
+
+@pytest.mark.parametrize("offset_deg", [1.0, -2.0])
+def test_on_the_tracks_an_injected_offset_moves_the_fitted_offset_by_itself(reference_on_tracks, offset_deg):
+    """The rudder offset refined on the tracks (named or not: ``candidates``)
+    moves by the injected offset, whatever the records' own errors are."""
+    case = real_case(str(FOLDER), Injection(rudder_offset=np.deg2rad(offset_deg)), "marin", ON_TRACKS)
+    moved = case["candidates"]["rudder_offset"]["delta0"] - reference_on_tracks["candidates"]["rudder_offset"]["delta0"]
+    assert np.rad2deg(moved) == pytest.approx(offset_deg, abs=0.1)

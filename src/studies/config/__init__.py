@@ -43,7 +43,7 @@ from .methods import BayesMethod, GaMethod, MethodConfig, SindyMethod, SvmMethod
 from .models import (MMGModelConfig, ModelConfig, RollModelConfig, RollSynthetic, SimplifiedModelConfig, Simplify,
                      VesselConfig)
 from .tracking import ReportOptions, Tracking, TrackingStore
-from .values import (BAYES_DISCREPANCIES, BAYES_MOVES, CONF_DIR, DATA_SCHEMES, DERIVATIVES, DISCOVERY_METHODS,
+from .values import (BAYES_DISCREPANCIES, BAYES_MOVES, CONF_DIR, DATA_SCHEMES, DERIVATIVES, DISCOVERY_JUDGES, DISCOVERY_METHODS,
                      GA_BASES, GA_PARENT_SELECTIONS,
                      DISTURBANCE_SCALINGS, MANOEUVRE_KINDS, MMG_REFINABLE, MMG_SCALES, OBJECTIVE_SIMULATIONS,
                      RECORD_SCALES, ROLL_DAMPING_TERMS, ROLL_TERMS, SINDY_LIBRARIES, STUDY_KINDS, SVM_LOSSES,
@@ -58,7 +58,7 @@ __all__ = [
     "SimulateCommandConfig", "UserConfigSearchPath",
     "register", "settled_discrepancy", "SCHEMAS", "known_manoeuvres", "manoeuvre_config", "explain_validation_error",
     "CONF_DIR", "USER_CONF_ENV", "user_conf_dir", "compose_settings",
-    "DERIVATIVES", "DISCOVERY_METHODS", "WEIGHTINGS", "STUDY_KINDS", "ROLL_TERMS", "ROLL_DAMPING_TERMS",
+    "DERIVATIVES", "DISCOVERY_JUDGES", "DISCOVERY_METHODS", "WEIGHTINGS", "STUDY_KINDS", "ROLL_TERMS", "ROLL_DAMPING_TERMS",
     "MANOEUVRE_KINDS", "SVM_LOSSES", "SINDY_LIBRARIES", "BAYES_MOVES", "BAYES_DISCREPANCIES", "DISTURBANCE_SCALINGS",
     "DATA_SCHEMES", "GA_BASES", "GA_PARENT_SELECTIONS", "WIND_CONVENTIONS", "OBJECTIVE_SIMULATIONS",
     "RECORD_SCALES", "MMG_REFINABLE", "MMG_SCALES",

@@ -8,7 +8,7 @@ from typing import Any, Optional
 from omegaconf import MISSING
 
 from ..errors import ConfigError
-from .values import DISCOVERY_METHODS, _number, _integer, _flag, _choice
+from .values import DISCOVERY_JUDGES, DISCOVERY_METHODS, _number, _integer, _flag, _choice
 from .conditions import Wind, Objective, Current, Noise, Disturbance
 from .data import Train, Data, Identify, Kalman, Validate
 from .models import Simplify, VesselConfig, ModelConfig
@@ -135,6 +135,16 @@ class DiscoverOptions:
         polynomial baselines only; ``terms_threshold``, ``max_terms``,
         ``posterior_steps``, ``output_error``, ``score`` and ``splits`` are
         its options).
+    judge : str
+        What ``method=inference`` judges the causes on: ``tracks`` (the
+        baseline's prediction-error filter over the measured records, every
+        cause by its gain in the one-step-ahead predictions:
+        :mod:`studies.discover.track_inference`), ``blocks`` (held-out time
+        blocks of the smoothed records' accelerations:
+        :mod:`studies.discover.inference`) or ``auto`` (tracks for a
+        polynomial baseline, blocks for the MMG model: on the measured
+        KVLCC2 records the tracks name the MMG model's own errors as a
+        current, docs/discovery.md).
     """
 
     holdout: float = 0.3
@@ -147,9 +157,11 @@ class DiscoverOptions:
     score: str = "prediction_error"
     splits: bool = False
     method: str = "inference"
+    judge: str = "auto"
 
     def __post_init__(self):
         self.method = _choice("discover.method", self.method, DISCOVERY_METHODS)
+        self.judge = _choice("discover.judge", self.judge, DISCOVERY_JUDGES)
         value = self.output_error
         if not isinstance(value, bool) and str(value).lower() not in ("auto", "true", "false"):
             raise ConfigError(f"discover.output_error must be auto, true or false, got {value!r}")

@@ -9,7 +9,7 @@ from typing import Optional
 
 from ..errors import ConfigError
 
-__all__ = ["CONF_DIR", "DERIVATIVES", "DISCOVERY_METHODS", "DATA_SCHEMES", "WEIGHTINGS", "STUDY_KINDS", "ROLL_TERMS",
+__all__ = ["CONF_DIR", "DERIVATIVES", "DISCOVERY_METHODS", "DISCOVERY_JUDGES", "DATA_SCHEMES", "WEIGHTINGS", "STUDY_KINDS", "ROLL_TERMS",
            "ROLL_DAMPING_TERMS", "MANOEUVRE_KINDS", "SVM_LOSSES", "SINDY_LIBRARIES", "BAYES_MOVES", "GA_BASES",
            "GA_PARENT_SELECTIONS",
            "BAYES_DISCREPANCIES", "WIND_CONVENTIONS", "OBJECTIVE_SIMULATIONS", "DISTURBANCE_SCALINGS",
@@ -26,6 +26,9 @@ DERIVATIVES = ("auto", "central", "savgol", "forward", "ekf", "ekf_kinematic")
 
 #: ``discover.method`` values
 DISCOVERY_METHODS = ("inference", "search")
+#: what the inference judges causes on (``discover.judge``): ``auto`` = tracks for a polynomial
+#: baseline, blocks for the MMG model
+DISCOVERY_JUDGES = ("auto", "tracks", "blocks")
 
 
 #: ``data.scheme``: how the training records of a simulated study are integrated

@@ -197,12 +197,14 @@ def innovation_design(ctx: Context, records: list, baseline: CauseFit, step: flo
                       block_seconds: float = BLOCK_SECONDS) -> InnovationDesign:
     """The baseline's filter on ``records`` (measured, not smoothed).
 
-    ``ctx`` gives the vessel and the polynomial baseline; ``baseline`` its
+    ``ctx`` gives the vessel and the baseline (the polynomial model, or the
+    MMG model when ``ctx.dynamics`` holds it: the filter's process model is
+    then the MMG model, :mod:`studies.identify.mmg_filter`); ``baseline`` its
     coefficients. The measurement noise per channel is the records' noise at
     ``step`` (:func:`studies.discover.output_error.noise_levels`); the process
     noise's shape and both noises' levels are then estimated by maximum
     likelihood under the baseline (:meth:`FilterScores.estimate_shape`)."""
-    rctx = Context(ctx.vessel, ctx.model, list(records), [], "recorded", dynamics=None)
+    rctx = Context(ctx.vessel, ctx.model, list(records), [], "recorded", dynamics=ctx.dynamics)
     scorer = FilterScores(rctx, step, noise_levels(rctx, records, step))
     scorer.estimate_shape(baseline)
     beta0 = baseline.setup.model.vector(baseline.params, 0.0)
@@ -288,6 +290,8 @@ def cause_variants(design: InnovationDesign, causes: list, library: bool = True)
         out.append(Variant(cause, cause.id, np.column_stack(cols), lambda b: np.asarray(b, float),
                            len(steps)))
     for term in (extended_library(ctx.model, 3) if library else []):
+        if ctx.dynamics is not None and term.powers[0]:
+            continue            # the MMG hull is a function of v', r' only: no surge-speed terms
         added = MissingTerm([term])
         col = -(design.innovations(added, np.zeros(0), {term.name: TERM_STEP}) - r0) / TERM_STEP
         if not np.any(col):

@@ -56,6 +56,20 @@ def _measured(record) -> np.ndarray:
                             record["v"].to_numpy(float), record["r"].to_numpy(float)])
 
 
+#: passes of the measurement noise's scaling per round of :meth:`FilterScores.estimate_shape`
+#: (each scales a channel's variance by at most 10), and the spread of the standardised
+#: innovations' variance about 1 at which they stop
+R_PASSES = 6
+R_TOLERANCE = 1.1
+
+
+def _expand(logs: np.ndarray) -> np.ndarray:
+    """The six process-noise log scales (du, v, r, x0, y0, psi) from five: the
+    track's two share one."""
+    logs = np.asarray(logs, float)
+    return np.array([logs[0], logs[1], logs[2], logs[3], logs[3], logs[4]])
+
+
 class FilterScores:
     """Prediction-error scores of refined fits on the training records of ``ctx``.
 
@@ -91,11 +105,19 @@ class FilterScores:
         """Each training record's replay as the fit's cause reads it."""
         setup = fit.cause.setup(self._bare, np.asarray(fit.theta, float))
         model = setup.model
+        dynamics = self.ctx.dynamics
+        if dynamics is not None:
+            # the MMG model as the filter's process model (a baseline's dynamics)
+            return [dynamics.filter_plan(model, setup.sim_record(rec), setup.environment(rec), setup.external())
+                    for rec in self.records]
         out = []
         for i, rec in enumerate(self.records):
             key = (i, id(model))
             if key not in self._plain:
-                self._plain[key] = (model, ReplayPlan(model, self.ctx.vessel, rec, max_step=self.step))
+                # one integration step per sample of this record (records thinned to the same
+                # step differ in its last digits: Froude-scaled sampling)
+                own = float(np.median(np.diff(rec["t"].to_numpy(float))))
+                self._plain[key] = (model, ReplayPlan(model, self.ctx.vessel, rec, max_step=own * (1.0 + 1e-6)))
             seen = setup.sim_record(rec)
             out.append(self._plain[key][1].variant(None if seen is rec else seen, setup.environment(rec),
                                                    setup.external()))
@@ -104,10 +126,13 @@ class FilterScores:
     def _default_shape(self) -> np.ndarray:
         """A starting shape of the process noise: per DOF, the square of a
         hundredth of the records' acceleration (finite differences of the
-        thinned velocities), over a second."""
+        thinned velocities), over a second; on the track and heading, a
+        hundredth of their measurement noise's variance per second."""
         acc = [np.concatenate([np.diff(r[c].to_numpy(float)) / self.step for r in self.records])
                for c in ("u", "v", "r")]
-        return np.array([max(np.sqrt(np.mean(a ** 2)) * 1e-2, 1e-12) ** 2 for a in acc])
+        dynamic = [max(np.sqrt(np.mean(a ** 2)) * 1e-2, 1e-12) ** 2 for a in acc]
+        kinematic = [max(1e-2 * self.R[j], 1e-16) for j in range(3)]
+        return np.array(dynamic + kinematic)
 
     def _likelihood(self, fit: CauseFit) -> PredictionError:
         return PredictionError(self._plans(fit), self.measured, self.R,
@@ -127,15 +152,19 @@ class FilterScores:
             _, a = like.fit(vector)
 
             def cost(logs):
-                like.q0 = q0 * 10.0 ** np.asarray(logs)
+                like.q0 = q0 * 10.0 ** _expand(logs)
                 ll = like.loglik(vector, 0.0)
                 return -ll if np.isfinite(ll) else 1e300
 
-            res = minimize(cost, np.full(3, a), method="Powell",
-                           options={"xtol": 0.05, "ftol": 1e-6, "maxfev": 150})
-            q0 = q0 * 10.0 ** res.x
-            spread = self._innovation_variance(like, vector, q0)
-            self.R = self.R * np.clip(spread, 0.1, 10.0)
+            start = np.full(5, a)
+            res = minimize(cost, start, method="Powell", bounds=list(zip(start - 6.0, start + 4.0)),
+                           options={"xtol": 0.05, "ftol": 1e-6, "maxfev": 300})
+            q0 = q0 * 10.0 ** _expand(res.x)
+            for _ in range(R_PASSES):
+                spread = self._innovation_variance(like, vector, q0)
+                self.R = self.R * np.clip(spread, 0.1, 10.0)
+                if np.all(np.abs(np.log(spread)) < np.log(R_TOLERANCE)):
+                    break
         self.q_shape = q0
         log.info("process noise of the baseline: q = %s; measurement noise sd %s", np.array2string(q0, precision=3),
                  np.array2string(np.sqrt(self.R), precision=3))

@@ -82,8 +82,9 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
     Parameters
     ----------
     ctx : Context
-        The polynomial baseline and its vessel (its training records decide which
-        causes the records can decide).
+        The baseline and its vessel (its training records decide which causes
+        the records can decide); with ``ctx.dynamics``, the MMG model is the
+        filter's process model (:mod:`studies.identify.mmg_filter`).
     smoothed : list of DataFrame
         Every record smoothed (states and accelerations): the coefficients of
         each refined model are identified on them.
@@ -96,7 +97,7 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
     """
     seconds = {}
     t0 = time.perf_counter()
-    every = Context(ctx.vessel, ctx.model, list(smoothed), [], "recorded", dynamics=None)
+    every = Context(ctx.vessel, ctx.model, list(smoothed), [], "recorded", dynamics=ctx.dynamics)
     calibrate(every)
     baseline = baseline_fit(every)
     design = innovation_design(every, measured, baseline)

@@ -21,7 +21,11 @@ du``), ``v`` [m/s] sway through the water, ``r`` [rad/s], ``x0``, ``y0``
 [m], ``psi`` [rad]; the rudder is the record's, linear between samples.
 Process noise: white accelerations on ``du``, ``v``, ``r`` of spectral
 densities ``q`` [(m/s^2)^2/Hz, (m/s^2)^2/Hz, (rad/s^2)^2/Hz], ``Q_d =
-diag(q) dt`` on those states. Measurements (6): ``x0, y0, psi`` and the
+diag(q) dt`` on those states; optionally (``q`` of six) white velocities on
+``x0``, ``y0``, ``psi`` too [m^2/s, m^2/s, rad^2/s]: a track and heading
+that drift slowly from the integral of the measured velocities (the
+position, heading and velocity sensors of a real record disagree by small
+biases and scale factors; the kinematic relations are then not exact). Measurements (6): ``x0, y0, psi`` and the
 over-ground ``u, v`` (through the water plus the current seen in the body
 frame) and ``r``, with white noise of variances ``R``, processed one at a
 time. Mean propagated by one RK4 step per sample (the simulator's
@@ -90,6 +94,111 @@ def _rates(s0, s1, s2, s5, d, rate, c, k, wp, e0, e1, e2, e3, e4, e5, g0, g1, g2
                         e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
 
 
+
+
+@njit(cache=True, inline="always")
+def work_arrays(speed0):
+    """The filter's work arrays: ``J``, ``F``, ``FP`` (6, 6), ``H``, ``ph``
+    (6,), and the Jacobian's steps per state at the approach speed ``speed0``."""
+    return (np.zeros((N_FILTER, N_FILTER)), np.zeros((N_FILTER, N_FILTER)), np.zeros((N_FILTER, N_FILTER)),
+            np.zeros(N_FILTER), np.zeros(N_FILTER), np.array([1e-6 * speed0, 1e-6 * speed0, 1e-8, 1.0, 1.0, 1e-7]))
+
+
+@njit(cache=True, inline="always")
+def propagate_covariance(J, dt, q, P, F, FP):
+    """``P <- F P F^T + Q`` in place, ``F = I + J dt + (J dt)^2 / 2`` from the
+    Jacobian ``J`` of the continuous dynamics (its position columns zeroed:
+    positions do not enter the dynamics), ``Q = diag(q) dt`` on the first
+    ``len(q)`` states (the three velocities; with six, the track and heading
+    too); ``F`` and ``FP`` are work arrays."""
+    for a in range(N_FILTER):
+        J[a, 3] = 0.0
+        J[a, 4] = 0.0
+    for a in range(N_FILTER):
+        for b in range(N_FILTER):
+            acc = 0.0
+            for m in range(N_FILTER):
+                acc += J[a, m] * J[m, b]
+            F[a, b] = J[a, b] * dt + 0.5 * acc * dt * dt
+        F[a, a] += 1.0
+    for a in range(N_FILTER):
+        for b in range(N_FILTER):
+            acc = 0.0
+            for m in range(N_FILTER):
+                acc += F[a, m] * P[m, b]
+            FP[a, b] = acc
+    for a in range(N_FILTER):
+        for b in range(a, N_FILTER):
+            acc = 0.0
+            for m in range(N_FILTER):
+                acc += FP[a, m] * F[b, m]
+            P[a, b] = acc
+            P[b, a] = acc
+    for a in range(q.shape[0]):
+        P[a, a] += q[a] * dt
+
+
+@njit(cache=True, inline="always")
+def measurement_update(s, P, z, R, speed0, current_north, current_east, innovations, variances, H, ph):
+    """The six channels of one sample ``z`` (x0, y0, psi, u, v, r; NaN = not
+    measured) processed one at a time into the state ``s`` (du, v, r through
+    the water, x0, y0, psi; ``u = speed0 + du``) and its covariance ``P``, in
+    place; the over-ground velocities are the state's plus the current's
+    earth-fixed components (north, east) [m/s] seen in the body frame. Fills
+    ``innovations`` and ``variances`` (6,) and returns the sample's
+    log-likelihood; ``H`` and ``ph`` are work arrays."""
+    loglik = 0.0
+    for j in range(_CHANNELS):
+        y = z[j]
+        if not math.isfinite(y):
+            innovations[j] = np.nan
+            variances[j] = np.nan
+            continue
+        cp = math.cos(s[5])
+        sp_ = math.sin(s[5])
+        uc = cp * current_north + sp_ * current_east
+        vc = cp * current_east - sp_ * current_north
+        for a in range(N_FILTER):
+            H[a] = 0.0
+        if j == 0:
+            pred = s[3]
+            H[3] = 1.0
+        elif j == 1:
+            pred = s[4]
+            H[4] = 1.0
+        elif j == 2:
+            pred = s[5]
+            H[5] = 1.0
+        elif j == 3:
+            pred = speed0 + s[0] + uc
+            H[0] = 1.0
+            H[5] = vc
+        elif j == 4:
+            pred = s[1] + vc
+            H[1] = 1.0
+            H[5] = -uc
+        else:
+            pred = s[2]
+            H[2] = 1.0
+        S = R[j]
+        for a in range(N_FILTER):
+            acc = 0.0
+            for b in range(N_FILTER):
+                acc += P[a, b] * H[b]
+            ph[a] = acc
+            S += H[a] * acc
+        e = y - pred
+        innovations[j] = e
+        variances[j] = S
+        loglik += -0.5 * (math.log(2.0 * math.pi * S) + e * e / S)
+        for a in range(N_FILTER):
+            s[a] += ph[a] * e / S
+        for a in range(N_FILTER):
+            for b in range(N_FILTER):
+                P[a, b] -= ph[a] * ph[b] / S
+    return loglik
+
+
 @njit(cache=True)
 def _filter(cm, k, wp, cmd, ext, dt, z, R, q, s_init, P_init, innovations, variances):
     """EKF over the samples of ``z`` (n, 6: x0, y0, psi, u, v, r over ground;
@@ -110,12 +219,7 @@ def _filter(cm, k, wp, cmd, ext, dt, z, R, q, s_init, P_init, innovations, varia
     limit = 5.0 * k[0]
     s = s_init.copy()
     P = P_init.copy()
-    J = np.zeros((N_FILTER, N_FILTER))
-    F = np.zeros((N_FILTER, N_FILTER))
-    FP = np.zeros((N_FILTER, N_FILTER))
-    H = np.zeros(N_FILTER)
-    ph = np.zeros(N_FILTER)
-    hstep = np.array([1e-6 * k[0], 1e-6 * k[0], 1e-8, 1.0, 1.0, 1e-7])
+    J, F, FP, H, ph, hstep = work_arrays(k[0])
     loglik = 0.0
     e0 = e1 = e2 = e3 = e4 = e5 = g0 = g1 = g2 = 0.0
     for i in range(n):
@@ -151,89 +255,16 @@ def _filter(cm, k, wp, cmd, ext, dt, z, R, q, s_init, P_init, innovations, varia
                 fm = _rates(b0, b1, b2, b5, d0, rate, c, k, wp, e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
                 for a in range(N_FILTER):
                     J[a, j] = (fp[a] - fm[a]) / (2.0 * h)
-            for a in range(N_FILTER):
-                J[a, 3] = 0.0
-                J[a, 4] = 0.0
-            # F = I + J dt + (J dt)^2 / 2
-            for a in range(N_FILTER):
-                for b in range(N_FILTER):
-                    acc = 0.0
-                    for m in range(N_FILTER):
-                        acc += J[a, m] * J[m, b]
-                    F[a, b] = J[a, b] * dt + 0.5 * acc * dt * dt
-                F[a, a] += 1.0
             nxt = _step(s[0], s[1], s[2], s[3], s[4], s[5], d0, d1, dt, c, k, wp,
                         e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
             for a in range(N_FILTER):
                 s[a] = nxt[a]
-            # P = F P F^T + Q
-            for a in range(N_FILTER):
-                for b in range(N_FILTER):
-                    acc = 0.0
-                    for m in range(N_FILTER):
-                        acc += F[a, m] * P[m, b]
-                    FP[a, b] = acc
-            for a in range(N_FILTER):
-                for b in range(a, N_FILTER):
-                    acc = 0.0
-                    for m in range(N_FILTER):
-                        acc += FP[a, m] * F[b, m]
-                    P[a, b] = acc
-                    P[b, a] = acc
-            for a in range(3):
-                P[a, a] += q[a] * dt
+            propagate_covariance(J, dt, q, P, F, FP)
             u = k[0] + s[0]
             if not (u > 0.0 and u < limit and abs(s[1]) < limit and abs(s[2]) < 1.0
                     and math.isfinite(s[3]) and math.isfinite(s[4])):
                 return -np.inf
-        for j in range(_CHANNELS):
-            y = z[i, j]
-            if not math.isfinite(y):
-                innovations[i, j] = np.nan
-                variances[i, j] = np.nan
-                continue
-            cp = math.cos(s[5])
-            sp_ = math.sin(s[5])
-            uc = cp * k[11] + sp_ * k[12]
-            vc = cp * k[12] - sp_ * k[11]
-            for a in range(N_FILTER):
-                H[a] = 0.0
-            if j == 0:
-                pred = s[3]
-                H[3] = 1.0
-            elif j == 1:
-                pred = s[4]
-                H[4] = 1.0
-            elif j == 2:
-                pred = s[5]
-                H[5] = 1.0
-            elif j == 3:
-                pred = k[0] + s[0] + uc
-                H[0] = 1.0
-                H[5] = vc
-            elif j == 4:
-                pred = s[1] + vc
-                H[1] = 1.0
-                H[5] = -uc
-            else:
-                pred = s[2]
-                H[2] = 1.0
-            S = R[j]
-            for a in range(N_FILTER):
-                acc = 0.0
-                for b in range(N_FILTER):
-                    acc += P[a, b] * H[b]
-                ph[a] = acc
-                S += H[a] * acc
-            e = y - pred
-            innovations[i, j] = e
-            variances[i, j] = S
-            loglik += -0.5 * (math.log(2.0 * math.pi * S) + e * e / S)
-            for a in range(N_FILTER):
-                s[a] += ph[a] * e / S
-            for a in range(N_FILTER):
-                for b in range(N_FILTER):
-                    P[a, b] -= ph[a] * ph[b] / S
+        loglik += measurement_update(s, P, z[i], R, k[0], k[11], k[12], innovations[i], variances[i], H, ph)
     return loglik
 
 
@@ -243,9 +274,11 @@ def innovation_likelihood(plan, vector: np.ndarray, measured: np.ndarray, R: np.
 
     Parameters
     ----------
-    plan : studies.simulate.simulator.ReplayPlan
+    plan : studies.simulate.simulator.ReplayPlan or MMGFilterPlan
         The record's replay (its rudder, wind, current and external forces as
-        the cause reads them), prepared with one integration step per sample.
+        the cause reads them), prepared with one integration step per sample;
+        or a plan with its own process model and ``likelihood`` method
+        (:class:`studies.identify.mmg_filter.MMGFilterPlan`), which runs instead.
     vector : ndarray
         Prime coefficients in the plan's model order.
     measured : ndarray (n, 6)
@@ -253,8 +286,9 @@ def innovation_likelihood(plan, vector: np.ndarray, measured: np.ndarray, R: np.
         and ``r`` [rad/s] at the plan's samples.
     R : ndarray (6,)
         Measurement-noise variances of those channels.
-    q : ndarray (3,)
-        Process-noise spectral densities on ``du``, ``v``, ``r``.
+    q : ndarray (3,) or (6,)
+        Process-noise spectral densities on ``du``, ``v``, ``r`` (and ``x0``,
+        ``y0``, ``psi``).
     initial : ndarray (6,), optional
         Initial ``du, v, r, x0, y0, psi`` through the water (default: the
         plan's start, the record's first row).
@@ -263,6 +297,9 @@ def innovation_likelihood(plan, vector: np.ndarray, measured: np.ndarray, R: np.
     -------
     (loglik, innovations (n, 6), variances (n, 6))
     """
+    if hasattr(plan, "likelihood"):
+        # a plan with its own process model (the MMG model: studies.identify.mmg_filter)
+        return plan.likelihood(vector, measured, R, q, initial)
     inputs = plan.inputs
     if inputs.substeps != 1:
         raise ValueError("the prediction-error filter takes one integration step per sample")

@@ -96,7 +96,8 @@ def execute_inference(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict,
     calibrate(ctx)
     undecidable = [(c.id, c.undecidable(ctx)[1]) for c in manoeuvring_causes(ctx)
                    if c.undecidable(ctx) is not None]
-    on_tracks = dynamics is None
+    judge = str(getattr(opts, "judge", "auto"))
+    on_tracks = judge == "tracks" or (judge == "auto" and dynamics is None)
     if on_tracks:
         result = infer_on_tracks(ctx, smoothed, raw, pairs=opts.second_cause)
     else:

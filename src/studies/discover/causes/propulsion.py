@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...identify.kalman import estimate_derivatives
+from ...identify.mmg_filter import MMGFilterPlan
 from ...identify.mmg_regression import mmg_problems
 from ...models.abkowitz import ManoeuvringModel
 from ...models.mmg import HULL_TERMS, MMGParameters, mmg
@@ -18,6 +19,22 @@ __all__ = ["Propulsion", "MMGDynamics", "PRIOR_SCALE"]
 #: (the ``model=mmg`` default, :class:`studies.config.MMGModelConfig`)
 PRIOR_SCALE = 0.5
 PRIOR_FLOOR = 0.005
+
+
+def _through_the_water(record, environment) -> tuple:
+    """``(speed [m/s], direction it flows to [rad], record)``: the current of
+    ``environment`` (none: zero) and ``record`` with its over-ground ``u``,
+    ``v`` turned into velocities through the water (the record itself
+    without a current)."""
+    speed, direction = ((float(environment.current_speed), float(environment.current_direction))
+                        if environment is not None else (0.0, 0.0))
+    if not speed:
+        return speed, direction, record
+    seen = record.copy()
+    psi = record["psi"].to_numpy(float)
+    seen["u"] = record["u"] - speed * np.cos(direction - psi)
+    seen["v"] = record["v"] - speed * np.sin(direction - psi)
+    return speed, direction, seen
 
 
 class MMGDynamics:
@@ -77,14 +94,7 @@ class MMGDynamics:
         (an approximation: the replay's speed and heading differ from the
         record's where the replay departs from it).
         """
-        speed, direction = ((float(environment.current_speed), float(environment.current_direction))
-                            if environment is not None else (0.0, 0.0))
-        seen = record
-        if speed:
-            seen = record.copy()
-            psi = record["psi"].to_numpy(float)
-            seen["u"] = record["u"] - speed * np.cos(direction - psi)
-            seen["v"] = record["v"] - speed * np.sin(direction - psi)
+        speed, direction, seen = _through_the_water(record, environment)
         model = model or self.model
         hull = {name for name, *_ in HULL_TERMS}
         extra = [t for t in model.terms if t.name not in hull]
@@ -119,10 +129,13 @@ class MMGDynamics:
         :meth:`_accelerations` are (the same approximation where the replay
         departs from the record).
         """
+        return self.term_accelerations_at(terms, params, record, plan.t0 + plan.step * np.arange(plan.steps))
+
+    def term_accelerations_at(self, terms, params: dict, record, times: np.ndarray) -> np.ndarray:
+        """:meth:`_term_accelerations` at ``times`` [s] of the record (rows)."""
         vessel = self.vessel
-        grid = plan.t0 + plan.step * np.arange(plan.steps)
         t = record["t"].to_numpy(float)
-        u, v, r, delta = (np.interp(grid, t, record[c].to_numpy(float)) for c in ("u", "v", "r", "delta"))
+        u, v, r, delta = (np.interp(times, t, record[c].to_numpy(float)) for c in ("u", "v", "r", "delta"))
         speed = np.sqrt(u * u + v * v)
         primes = np.column_stack([np.zeros_like(u), v / speed, r * vessel.length / speed, delta])
         prime = {dof: np.zeros_like(u) for dof in ("X", "Y", "N")}
@@ -143,12 +156,15 @@ class MMGDynamics:
 
     def _accelerations(self, external: np.ndarray, record, plan) -> np.ndarray:
         """SI accelerations per integration step of prime external forces (see :meth:`replay`)."""
+        return self.accelerations_at(external, record, plan.t0 + plan.step * np.arange(plan.steps))
+
+    def accelerations_at(self, external: np.ndarray, record, times: np.ndarray) -> np.ndarray:
+        """:meth:`_accelerations` at ``times`` [s] of the record (rows)."""
         vessel = self.vessel
-        grid = plan.t0 + plan.step * np.arange(plan.steps)
         t = record["t"].to_numpy(float)
-        u = np.interp(grid, t, record["u"].to_numpy(float))
-        v = np.interp(grid, t, record["v"].to_numpy(float))
-        psi = np.interp(grid, t, record["psi"].to_numpy(float))
+        u = np.interp(times, t, record["u"].to_numpy(float))
+        v = np.interp(times, t, record["v"].to_numpy(float))
+        psi = np.interp(times, t, record["psi"].to_numpy(float))
         speed2 = u * u + v * v
         q = 0.5 * vessel.rho * vessel.length ** 2
         bx, by, bn = external[:3]
@@ -158,6 +174,25 @@ class MMGDynamics:
                                   np.full_like(psi, bn) * vessel.length])
         body += vessel.speed ** 2 * np.array([[fx], [fy], [fn * vessel.length]])
         return self._through_mass(q * body)
+
+    def filter_plan(self, model, record, environment=None, external=None) -> MMGFilterPlan:
+        """``record`` (uniformly sampled, as the model sees it: a rudder offset
+        applied) in the prediction-error filter with the MMG model
+        (:class:`studies.identify.mmg_filter.MMGFilterPlan`): the current of
+        ``environment``, the prime ``external`` forces (:meth:`replay`) and
+        the terms of ``model`` outside the MMG hull as accelerations along the
+        record's states at the start of each step."""
+        # velocities through the water along the record (what the forces act on)
+        speed, direction, seen = _through_the_water(record, environment)
+        current = (speed * np.cos(direction), speed * np.sin(direction))
+        times = record["t"].to_numpy(float)[:-1]
+        acc = None
+        if external is not None and np.any(external):
+            acc = self.accelerations_at(np.asarray(external, float), seen, times)
+
+        def unit(terms, rec):
+            return {term.name: self.term_accelerations_at([term], {term.name: 1.0}, seen, times) for term in terms}
+        return MMGFilterPlan(model, self.vessel, record, current, acc, unit, self.modules)
 
 
 class Propulsion(Cause):
