@@ -794,13 +794,22 @@ def refine(ctx: Context, cause: Cause, start: np.ndarray, max_nfev: int = 40) ->
         except (ValueError, np.linalg.LinAlgError) as exc:
             log.info("refining %s from the linear solution failed (%s); the linear solution is kept",
                      cause.id, exc)
-    setup = _with_dynamics(ctx, cause.setup(ctx, theta))
+    fit = fit_at(ctx, cause, theta)
+    fit.seconds = time.perf_counter() - t0
+    return fit
+
+
+def fit_at(ctx: Context, cause: Cause, theta: np.ndarray, terms: dict | None = None) -> CauseFit:
+    """``cause`` at ``theta`` with the coefficients of the smoothed records'
+    regression (``terms``: values of added terms estimated elsewhere, which
+    replace the regression's), scored on its residuals."""
+    setup = _with_dynamics(ctx, cause.setup(ctx, np.asarray(theta, float)))
     params, residuals, _ = scored_fit(ctx, setup)
+    params = {**params, **(terms or {})}
     rss = np.array([float(np.sum(r ** 2)) for r in residuals])
     fit = CauseFit(cause, np.asarray(theta, float), params, rss, setup=setup,
                    tau=max(integrated_time(r) for r in residuals))
     fit.score = _score(ctx, rss, cause.n_params())
-    fit.seconds = time.perf_counter() - t0
     return fit
 
 

@@ -57,9 +57,9 @@ from scipy.optimize import least_squares
 
 from .causes import Combined, MissingTerm, manoeuvring_causes
 from .causes.base import Cause
-from .fitting import CauseFit, Context, _score, calibrate, integrated_time, scored_fit
+from .fitting import CauseFit, Context, calibrate, scored_fit
 from .inference import (Inference, _by_cause, _catalogue_order, _model_cause, _model_theta, _pair_id,
-                        _with_dynamics, baseline_fit)
+                        _with_dynamics, baseline_fit, fit_at)
 from .innovations import (BLOCK_SECONDS, TERM_STEP, InnovationDesign, beside, cause_steps, cause_variants,
                           innovation_design, judge, own_columns)
 
@@ -255,20 +255,6 @@ def profiled_innovations(design: InnovationDesign, ctx: Context, cause: Cause, t
     setup = _with_dynamics(ctx, cause.setup(ctx, np.asarray(theta, float)))
     params, _, _ = scored_fit(ctx, setup)
     return design.innovations(cause, theta, terms, coefficients={**params, **terms})
-
-
-def fit_at(ctx: Context, cause: Cause, theta: np.ndarray, terms: dict | None = None) -> CauseFit:
-    """``cause`` at ``theta`` with the coefficients of the smoothed records'
-    regression (``terms``: values of added terms estimated elsewhere, which
-    replace the regression's)."""
-    setup = _with_dynamics(ctx, cause.setup(ctx, np.asarray(theta, float)))
-    params, residuals, _ = scored_fit(ctx, setup)
-    params = {**params, **(terms or {})}
-    rss = np.array([float(np.sum(r ** 2)) for r in residuals])
-    fit = CauseFit(cause, np.asarray(theta, float), params, rss, setup=setup,
-                   tau=max(integrated_time(r) for r in residuals))
-    fit.score = _score(ctx, rss, cause.n_params())
-    return fit
 
 
 def refine_on_tracks(design: InnovationDesign, ctx: Context, cause: Cause, theta: np.ndarray, terms: dict,
