@@ -205,7 +205,7 @@ def innovation_design(ctx: Context, records: list, baseline: CauseFit, step: flo
     noise's shape and both noises' levels are then estimated by maximum
     likelihood under the baseline (:meth:`FilterScores.estimate_shape`)."""
     rctx = Context(ctx.vessel, ctx.model, list(records), [], "recorded", dynamics=ctx.dynamics)
-    scorer = FilterScores(rctx, step, noise_levels(rctx, records, step))
+    scorer = FilterScores(rctx, step, noise_levels(rctx, records, step), drift=True)
     scorer.estimate_shape(baseline)
     beta0 = baseline.setup.model.vector(baseline.params, 0.0)
     like = scorer._likelihood(baseline)

@@ -56,20 +56,6 @@ def _measured(record) -> np.ndarray:
                             record["v"].to_numpy(float), record["r"].to_numpy(float)])
 
 
-#: passes of the measurement noise's scaling per round of :meth:`FilterScores.estimate_shape`
-#: (each scales a channel's variance by at most 10), and the spread of the standardised
-#: innovations' variance about 1 at which they stop
-R_PASSES = 6
-R_TOLERANCE = 1.1
-
-
-def _expand(logs: np.ndarray) -> np.ndarray:
-    """The six process-noise log scales (du, v, r, x0, y0, psi) from five: the
-    track's two share one."""
-    logs = np.asarray(logs, float)
-    return np.array([logs[0], logs[1], logs[2], logs[3], logs[3], logs[4]])
-
-
 class FilterScores:
     """Prediction-error scores of refined fits on the training records of ``ctx``.
 
@@ -84,10 +70,19 @@ class FilterScores:
     records : list of DataFrame, optional
         The records scored (default the training records; the validation
         records for :meth:`held_out`).
+    drift : bool
+        Let the track and heading drift from the integral of the velocities
+        (process noise on ``x0, y0, psi`` as well, by maximum likelihood in
+        :meth:`estimate_shape`): what measured records need, whose sensors
+        disagree by small biases and scale factors (the discovery on the
+        tracks). False: process noise on the velocities only (the earlier
+        search, ``discover.method=search``).
     """
 
-    def __init__(self, ctx: Context, step: float, sigma: np.ndarray, records: list | None = None):
+    def __init__(self, ctx: Context, step: float, sigma: np.ndarray, records: list | None = None,
+                 drift: bool = False):
         self.ctx = ctx
+        self.drift = bool(drift)
         self.records = []
         for rec in (ctx.train if records is None else records):
             thin = block_means(rec, step)
@@ -131,16 +126,27 @@ class FilterScores:
         acc = [np.concatenate([np.diff(r[c].to_numpy(float)) / self.step for r in self.records])
                for c in ("u", "v", "r")]
         dynamic = [max(np.sqrt(np.mean(a ** 2)) * 1e-2, 1e-12) ** 2 for a in acc]
+        if not self.drift:
+            return np.array(dynamic)
         kinematic = [max(1e-2 * self.R[j], 1e-16) for j in range(3)]
         return np.array(dynamic + kinematic)
+
+    def _expand(self, logs: np.ndarray) -> np.ndarray:
+        """The process noise's log scales per density from those searched: with
+        ``drift``, six (du, v, r, x0, y0, psi) from five, the track's two sharing one."""
+        logs = np.asarray(logs, float)
+        if not self.drift:
+            return logs
+        return np.array([logs[0], logs[1], logs[2], logs[3], logs[3], logs[4]])
 
     def _likelihood(self, fit: CauseFit) -> PredictionError:
         return PredictionError(self._plans(fit), self.measured, self.R,
                                self.q_shape if self.q_shape is not None else self._default_shape())
 
     def estimate_shape(self, fit: CauseFit, rounds: int = 2) -> np.ndarray:
-        """The process noise's three spectral densities by maximum likelihood
-        on ``fit`` (the baseline), kept as the shape every fit is scaled from;
+        """The process noise's spectral densities (three, six with ``drift``)
+        by maximum likelihood on ``fit`` (the baseline), kept as the shape
+        every fit is scaled from;
         and, alternately, the measurement-noise variances: each channel's
         scaled by the variance of its standardised innovations, so that they
         come out of unit variance (a noise level estimated by smoothing is off
@@ -152,19 +158,20 @@ class FilterScores:
             _, a = like.fit(vector)
 
             def cost(logs):
-                like.q0 = q0 * 10.0 ** _expand(logs)
+                like.q0 = q0 * 10.0 ** self._expand(logs)
                 ll = like.loglik(vector, 0.0)
                 return -ll if np.isfinite(ll) else 1e300
 
-            start = np.full(5, a)
-            res = minimize(cost, start, method="Powell", bounds=list(zip(start - 6.0, start + 4.0)),
-                           options={"xtol": 0.05, "ftol": 1e-6, "maxfev": 300})
-            q0 = q0 * 10.0 ** _expand(res.x)
-            for _ in range(R_PASSES):
-                spread = self._innovation_variance(like, vector, q0)
-                self.R = self.R * np.clip(spread, 0.1, 10.0)
-                if np.all(np.abs(np.log(spread)) < np.log(R_TOLERANCE)):
-                    break
+            if self.drift:
+                start = np.full(5, a)
+                res = minimize(cost, start, method="Powell", bounds=list(zip(start - 6.0, start + 4.0)),
+                               options={"xtol": 0.05, "ftol": 1e-6, "maxfev": 300})
+            else:
+                res = minimize(cost, np.full(3, a), method="Powell",
+                               options={"xtol": 0.05, "ftol": 1e-6, "maxfev": 150})
+            q0 = q0 * 10.0 ** self._expand(res.x)
+            spread = self._innovation_variance(like, vector, q0)
+            self.R = self.R * np.clip(spread, 0.1, 10.0)
         self.q_shape = q0
         log.info("process noise of the baseline: q = %s; measurement noise sd %s", np.array2string(q0, precision=3),
                  np.array2string(np.sqrt(self.R), precision=3))
