@@ -143,8 +143,8 @@ class MMGFilterPlan:
     external : ndarray (n - 1, 3), optional
         Accelerations [m/s^2, m/s^2, rad/s^2] per step besides the model's.
     term_accelerations : callable, optional
-        ``f(terms, record) -> {term name: (n - 1, 3) accelerations per unit
-        coefficient}`` for the terms outside the MMG hull.
+        ``f(terms) -> {term name: (n - 1, 3) accelerations per unit
+        coefficient}`` for the terms outside the MMG hull, along the record.
     modules : MMGParameters, optional
         Propeller and rudder (default ``vessel.modules``).
     """
@@ -163,7 +163,7 @@ class MMGFilterPlan:
         self.external = None if external is None else np.asarray(external, float)[: n - 1]
         self.terms = {}
         if extra:
-            unit = term_accelerations(extra, record)
+            unit = term_accelerations(extra)
             self.terms = {self.names.index(name): np.asarray(acc, float)[: n - 1] for name, acc in unit.items()}
         self.k, self.a = mmg_inputs(vessel, modules)
         self.g = _module_accelerations(self.k, self.a)

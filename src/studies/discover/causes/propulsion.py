@@ -190,7 +190,7 @@ class MMGDynamics:
         if external is not None and np.any(external):
             acc = self.accelerations_at(np.asarray(external, float), seen, times)
 
-        def unit(terms, rec):
+        def unit(terms):
             return {term.name: self.term_accelerations_at([term], {term.name: 1.0}, seen, times) for term in terms}
         return MMGFilterPlan(model, self.vessel, record, current, acc, unit, self.modules)
 
