@@ -10,8 +10,15 @@ is injected. A 1 deg rudder offset at 3 % noise, and a current and a rudder
 offset together, are named since the causes are judged on the tracks (the
 block cross-validation named ``none`` for the first, and the offset beside a
 current as a missing surge term ``Xd``).
+
+Two other kinds of sensors, drawn here with numpy: noise correlated over
+5 s on every channel, and velocities that are a satellite receiver's track
+differenced and smoothed; a 2 deg rudder offset is named in both with its
+value (before the filter read them as it now does: 1.5 deg under the
+coloured noise, ``none`` from the receiver).
 """
 
+import logging
 from pathlib import Path
 
 import numpy as np
@@ -124,3 +131,114 @@ def test_a_current_and_a_rudder_offset_together_are_named_as_a_pair(tmp_path, st
     assert d["cause"] == "rudder_offset+current", (d["cause"], d["parameters"], d["ranking"][:3])
     for cause, truth in injection.truth().items():
         assert parameters_match(cause, d["parameters"][cause], truth), (cause, d["parameters"], truth)
+
+
+# ---------------------------------------------------------------- sensors the filter must read right
+
+def _ar1_noisy(record: dict, rng, level: float, tau: float = 5.0) -> pd.DataFrame:
+    """Coloured sensor noise: on every channel a stationary first-order
+    autoregression of e-folding time ``tau`` [s] with the standard deviations
+    of :func:`_noisy` (a drifting log, gyro and track)."""
+    out = pd.DataFrame(record)
+    t = out["t"].to_numpy(float)
+    a = np.exp(-float(np.median(np.diff(t))) / tau)
+
+    def coloured(n):
+        e = np.empty(n)
+        e[0] = rng.standard_normal()
+        w = np.sqrt(1.0 - a * a) * rng.standard_normal(n)
+        for i in range(1, n):
+            e[i] = a * e[i - 1] + w[i]
+        return e
+
+    for c, sd in (("x0", 0.1), ("y0", 0.1), ("psi", np.deg2rad(0.1)), ("delta", np.deg2rad(0.1))):
+        out[c] = out[c] + sd * coloured(len(out))
+    for c in ("u", "v", "r"):
+        x = out[c].to_numpy(float)
+        span = np.max(np.abs(x - ref.U0)) if c == "u" else np.max(np.abs(x))
+        out[c] = x + level * span * coloured(len(out))
+    return out
+
+
+def _receiver(record: pd.DataFrame, rng) -> pd.DataFrame:
+    """A satellite receiver and a compass: white noise on the track (0.1 m),
+    heading (0.1 deg) and rudder (0.1 deg); ``u, v, r`` not measured but
+    differenced from the noisy track and heading (central differences,
+    rotated into body axes with the noisy heading) and smoothed over 2 s."""
+    out = record.copy()
+    for c, sd in (("x0", 0.1), ("y0", 0.1), ("psi", np.deg2rad(0.1)), ("delta", np.deg2rad(0.1))):
+        out[c] = out[c] + sd * rng.standard_normal(len(out))
+    t = out["t"].to_numpy(float)
+    psi = out["psi"].to_numpy(float)
+    north, east, yaw = (np.gradient(out[c].to_numpy(float), t) for c in ("x0", "y0", "psi"))
+    window = int(round(2.0 / float(np.median(np.diff(t))))) | 1
+    kernel = np.ones(window) / window
+
+    def smooth(x):
+        return np.convolve(np.pad(x, window // 2, mode="edge"), kernel, mode="valid")
+
+    out["u"] = smooth(north * np.cos(psi) + east * np.sin(psi))
+    out["v"] = smooth(-north * np.sin(psi) + east * np.cos(psi))
+    out["r"] = smooth(yaw)
+    return out
+
+
+@pytest.mark.parametrize("injection", [
+    Injection(current_speed=0.5, current_direction=np.deg2rad(135.0)),
+    Injection(rudder_offset=np.deg2rad(-2.0)),
+], ids=lambda x: x.label)
+def test_coloured_sensor_noise_is_read_as_noise(tmp_path, clean_runs, injection, caplog):
+    """Noise correlated over 5 s on every channel (3 % of each velocity's
+    excursion): the filter steps over it (its innovations are nearly
+    independent at the step it chooses) and names the injected effect alone."""
+    caplog.set_level(logging.INFO, logger="studies.discover.innovations")
+    rng = np.random.default_rng(8)
+    records = []
+    for name, rec in zip(("turning_35", "zigzag_20", "zigzag_10"), clean_runs):
+        frame = _ar1_noisy(rec, rng, 0.03)
+        frame.attrs["name"] = name
+        records.append(inject(frame, injection))
+    d = _discover(tmp_path, records)
+    step, measured = _filter_reading(caplog)
+    assert step > 1.5 and measured, (step, measured)
+    (cause, truth), = injection.truth().items()
+    assert d["cause"] == cause, (d["cause"], d["parameters"], d["ranking"][:3])
+    assert parameters_match(cause, d["parameters"], truth), (d["parameters"], truth)
+
+
+@pytest.mark.parametrize("injection", [
+    Injection(current_speed=0.5, current_direction=np.deg2rad(135.0)),
+    Injection(rudder_offset=np.deg2rad(-2.0)),
+], ids=lambda x: x.label)
+def test_velocities_differenced_from_the_track_are_not_taken_for_sensors(tmp_path, clean_runs, injection, caplog):
+    """Velocities that are a satellite receiver's differenced and smoothed
+    track: the filter reads the track and heading alone and names the
+    injected effect."""
+    caplog.set_level(logging.INFO, logger="studies.discover.innovations")
+    rng = np.random.default_rng(9)
+    records = []
+    for name, rec in zip(("turning_35", "zigzag_20", "zigzag_10"), clean_runs):
+        frame = inject(pd.DataFrame(rec), injection)
+        frame = _receiver(frame, rng)
+        frame.attrs["name"] = name
+        records.append(frame)
+    d = _discover(tmp_path, records)
+    step, measured = _filter_reading(caplog)
+    assert step == 1.0 and not measured, (step, measured)
+    (cause, truth), = injection.truth().items()
+    assert d["cause"] == cause, (d["cause"], d["parameters"], d["ranking"][:3])
+    assert parameters_match(cause, d["parameters"], truth), (d["parameters"], truth)
+
+
+def test_white_sensor_noise_keeps_the_filters_reading(tmp_path, still_water, caplog):
+    """Independent white sensors: one-second steps, the velocities measured."""
+    caplog.set_level(logging.INFO, logger="studies.discover.innovations")
+    _discover(tmp_path, still_water[0.03])
+    assert _filter_reading(caplog) == (1.0, True)
+
+
+def _filter_reading(caplog) -> tuple[float, bool]:
+    """``(step [s], velocities measured)`` the discovery's filter logged."""
+    (message,) = [r.getMessage() for r in caplog.records if r.getMessage().startswith("innovations: filter step")]
+    step = float(message.split("filter step ")[1].split(" s")[0])
+    return step, "velocities measured" in message

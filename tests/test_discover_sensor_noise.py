@@ -40,9 +40,9 @@ def _named(d, cause, truth):
 def test_each_noise_family_names_the_hidden_cause_and_no_second(tmp_path, vessel, family, cause, seed):
     """One noise family each, a different cause each; pairs are tried and none
     is named (only one effect is hidden). GNSS-derived velocities twice: no
-    cause stays none, and an environmental bias is named because derived
-    velocities are scored by output error (the prediction-error likelihood,
-    taking them for independent sensors, named none)."""
+    cause stays none, and an environmental bias is named (the filter reads
+    the track and heading alone, not the velocities differenced from them:
+    :func:`studies.discover.innovations.innovation_design`)."""
     records, truth = hidden_records(vessel, cause, seed=seed, noise=LEVEL, noise_family=family)
     d = _discover(tmp_path, records, ["discover.posterior_steps=10"])
     _named(d, cause, truth)

@@ -29,11 +29,24 @@ of :data:`~studies.discover.inference.WIND_DIRECTIONS`.
 
 Noise the filter does not model (sensor noise correlated over seconds,
 velocities differenced from positions) leaves the innovations correlated,
-and their likelihood ratio then overstates the evidence. Each comparison
-also gives a Wald statistic with the coefficients' covariance robust to
-correlation within :data:`BLOCK_SECONDS` blocks of each record (the
-sandwich of Liang & Zeger 1986, the blocks as clusters); the evidence a
-cause is credited with is the smaller of the two (:func:`judge`).
+and their likelihood ratio then overstates the evidence. Two things keep
+the filter's reading of the records right (:func:`innovation_design`):
+
+- velocities derived from the track (:func:`.kinematics.derived_velocities`:
+  a satellite receiver's differenced positions) are not measured: their
+  noise is a filtered copy of the track's, which the filter would weigh
+  twice and follow with a large process noise; the filter infers them from
+  the track and heading, and the track has no drift of its own then;
+- records whose velocity noise is coloured
+  (:func:`.kinematics.coloured_velocity_noise`) are filtered at a step long
+  enough for the innovations to be nearly independent
+  (:func:`filter_setting`).
+
+Each comparison also gives a Wald statistic with the coefficients'
+covariance robust to the correlation left within :data:`BLOCK_SECONDS`
+blocks of each record (the sandwich of Liang & Zeger 1986, the blocks as
+clusters); the evidence a cause is credited with is the smaller of the two
+(:func:`judge`).
 
 References
 ----------
@@ -54,6 +67,7 @@ import numpy as np
 from .causes import Combined, Current, MissingTerm, WindUnmodelled, extended_library
 from .causes.base import Cause
 from .fitting import CauseFit, Context
+from .kinematics import coloured_velocity_noise, derived_velocities
 from .output_error import noise_levels
 from .prediction_error import FilterScores
 
@@ -64,6 +78,8 @@ log = logging.getLogger(__name__)
 
 #: sampling [s] the records are averaged to before filtering (block means)
 FILTER_STEP = 1.0
+#: longest filter step, as a share of the ship's time unit L / U0 (records with coloured noise)
+MAX_STEP_PER_TIME_UNIT = 0.25
 #: length [s] of the stretches of a record over which innovations may be correlated
 #: (the clusters of the robust covariance)
 BLOCK_SECONDS = 60.0
@@ -193,7 +209,7 @@ def _alone(design: InnovationDesign, cause: Cause, theta: np.ndarray, terms: dic
     return replace(design, base=None).innovations(cause, theta, terms)
 
 
-def innovation_design(ctx: Context, records: list, baseline: CauseFit, step: float = FILTER_STEP,
+def innovation_design(ctx: Context, records: list, baseline: CauseFit, step: float | None = None,
                       block_seconds: float = BLOCK_SECONDS) -> InnovationDesign:
     """The baseline's filter on ``records`` (measured, not smoothed).
 
@@ -201,11 +217,62 @@ def innovation_design(ctx: Context, records: list, baseline: CauseFit, step: flo
     MMG model when ``ctx.dynamics`` holds it: the filter's process model is
     then the MMG model, :mod:`studies.identify.mmg_filter`); ``baseline`` its
     coefficients. The measurement noise per channel is the records' noise at
-    ``step`` (:func:`studies.discover.output_error.noise_levels`); the process
-    noise's shape and both noises' levels are then estimated by maximum
-    likelihood under the baseline (:meth:`FilterScores.estimate_shape`)."""
+    the filter's step (:func:`studies.discover.output_error.noise_levels`);
+    the process noise's shape and both noises' levels are then estimated by
+    maximum likelihood under the baseline (:meth:`FilterScores.estimate_shape`).
+
+    The filter's likelihood counts its standardised innovations as
+    independent; what the records' sensors are decides how it reads them
+    (:func:`filter_setting`, unless ``step`` is given): velocities derived
+    from the track are not measured (the filter infers them from the track),
+    and records whose velocity noise is coloured are filtered at a step long
+    enough for the innovations to be nearly independent.
+    """
     rctx = Context(ctx.vessel, ctx.model, list(records), [], "recorded", dynamics=ctx.dynamics)
-    scorer = FilterScores(rctx, step, noise_levels(rctx, records, step), drift=True)
+    velocities = not derived_velocities(records)
+    design = _design_at(rctx, records, baseline, FILTER_STEP if step is None else step, velocities,
+                        block_seconds)
+    if step is None:
+        longer = filter_setting(ctx, records, design)
+        if longer > design.scorer.step * 1.01:
+            design = _design_at(rctx, records, baseline, longer, velocities, block_seconds)
+    log.info("innovations: filter step %.2f s, velocities %s", design.scorer.step,
+             "measured" if velocities else "derived from the track, not measured")
+    return design
+
+
+def filter_setting(ctx: Context, records: list, design: InnovationDesign) -> float:
+    """The filter's step [s] for records whose velocity noise is coloured
+    (:func:`.kinematics.coloured_velocity_noise`; otherwise the design's own):
+    twice the e-folding time of the standardised innovations' lag-one
+    autocorrelation ``rho`` at the design's step (``-step / ln rho``, the
+    median over the measured channels; a first-order autoregression's block
+    means over twice its time are correlated by about 0.2), at most
+    :data:`MAX_STEP_PER_TIME_UNIT` of the ship's time unit ``L / U0``, where
+    the filter's one integration step per sample stays accurate."""
+    step = design.scorer.step
+    if not coloured_velocity_noise(records):
+        return step
+    w = design.residual.reshape(-1, 6)
+    rhos = []
+    for j in range(6):
+        x = w[:, j]
+        x = x[x != 0.0]
+        if len(x) > 10:
+            rhos.append(float(np.corrcoef(x[:-1], x[1:])[0, 1]))
+    rho = float(np.median(rhos)) if rhos else 0.0
+    if not 0.0 < rho < 1.0:
+        return step
+    cap = MAX_STEP_PER_TIME_UNIT * float(ctx.vessel.length) / float(ctx.vessel.speed)
+    return float(min(max(step, 2.0 * step / -np.log(rho)), max(cap, step)))
+
+
+def _design_at(rctx: Context, records: list, baseline: CauseFit, step: float, velocities: bool,
+               block_seconds: float) -> InnovationDesign:
+    """:func:`innovation_design` at a given filter step."""
+    # the track's drift from the integral of the velocities is a disagreement between two sensors:
+    # with the velocities not measured there is none (it would take the place of the dynamics)
+    scorer = FilterScores(rctx, step, noise_levels(rctx, records, step), drift=velocities, velocities=velocities)
     scorer.estimate_shape(baseline)
     beta0 = baseline.setup.model.vector(baseline.params, 0.0)
     like = scorer._likelihood(baseline)

@@ -49,11 +49,16 @@ log = logging.getLogger(__name__)
 REPLAY_GUARD = 2.0
 
 
-def _measured(record) -> np.ndarray:
-    """``x0, y0, psi`` (unwrapped), ``u, v, r`` of a record as an (n, 6) array."""
-    return np.column_stack([record["x0"].to_numpy(float), record["y0"].to_numpy(float),
-                            np.unwrap(record["psi"].to_numpy(float)), record["u"].to_numpy(float),
-                            record["v"].to_numpy(float), record["r"].to_numpy(float)])
+def _measured(record, velocities: bool = True) -> np.ndarray:
+    """``x0, y0, psi`` (unwrapped), ``u, v, r`` of a record as an (n, 6) array;
+    without ``velocities``, ``u, v, r`` are NaN (not measured: the filter
+    skips them)."""
+    z = np.column_stack([record["x0"].to_numpy(float), record["y0"].to_numpy(float),
+                         np.unwrap(record["psi"].to_numpy(float)), record["u"].to_numpy(float),
+                         record["v"].to_numpy(float), record["r"].to_numpy(float)])
+    if not velocities:
+        z[:, 3:] = np.nan
+    return z
 
 
 class FilterScores:
@@ -77,19 +82,24 @@ class FilterScores:
         disagree by small biases and scale factors (the discovery on the
         tracks). False: process noise on the velocities only (the earlier
         search, ``discover.method=search``).
+    velocities : bool
+        Measure ``u, v, r`` as well as the track and heading. False for
+        velocities derived from the track (their noise is the track's, which
+        the filter would otherwise weigh twice): the filter then infers them.
     """
 
     def __init__(self, ctx: Context, step: float, sigma: np.ndarray, records: list | None = None,
-                 drift: bool = False):
+                 drift: bool = False, velocities: bool = True):
         self.ctx = ctx
         self.drift = bool(drift)
+        self.velocities = bool(velocities)
         self.records = []
         for rec in (ctx.train if records is None else records):
             thin = block_means(rec, step)
             thin.attrs = dict(rec.attrs)
             self.records.append(thin)
         self.step = float(np.median(np.diff(self.records[0]["t"].to_numpy(float))))
-        self.measured = [_measured(r) for r in self.records]
+        self.measured = [_measured(r, self.velocities) for r in self.records]
         self.R = np.asarray(sigma, float) ** 2
         self.n = int(sum(np.isfinite(z).sum() for z in self.measured))
         self.q_shape = None
@@ -189,7 +199,8 @@ class FilterScores:
             w2 = e * e / S
             sums += np.nansum(w2, axis=0)
             count += np.sum(np.isfinite(w2), axis=0)
-        return sums / np.maximum(count, 1)
+        # a channel not measured keeps its variance
+        return np.where(count > 0, sums / np.maximum(count, 1), 1.0)
 
     def held_out(self, fits: list, training: "FilterScores") -> None:
         """Keep in ``refined["filter"]["held_out_loglik"]`` the log-likelihood of

@@ -29,12 +29,17 @@ baseline's one-step-ahead predictions of the measured records.
    beats, a pair could outscore ``none`` on the second's evidence alone.
 3. **Parameters.** Every single cause (named or not) and every pair judged
    are refined by least squares of the innovations from their linear
-   solution, the coefficients' directions projected out, and judged at that
-   fit; their intervals come
-   from the robust covariance of the linear coefficients
+   solution and judged at that fit; their intervals come from the robust
+   covariance of the linear coefficients
    (:func:`studies.discover.inference.intervals`). The coefficients of each
    refined model are those of the smoothed records' regression with the
-   cause acting.
+   cause acting, and the innovations fitted are that model's own: the
+   coefficients are profiled by the regression, once. Projecting the
+   coefficients' directions out of them as well (a second, linearised
+   profile about the baseline) is what judging needs, so that a cause gets
+   no credit for what re-identified coefficients would do; as an estimator
+   it is biased (on white 3 % noise it put a 2.1 deg rudder offset at
+   1.4 deg, where the model's own innovations are smallest at 2.1 deg).
 
 The held-out records measure the named model's gain in the workflow
 (:mod:`studies.workflows.discover_inference`); it is reported, it does not
@@ -261,11 +266,10 @@ def refine_on_tracks(design: InnovationDesign, ctx: Context, cause: Cause, theta
                      max_nfev: int = MAX_EVALUATIONS) -> CauseFit:
     """``cause``'s parameters ``theta`` and its added terms' coefficients
     ``terms`` fitted to the innovations from the values given (SciPy's
-    trust-region least squares of the standardised innovations, the
-    baseline's coefficients' directions projected out: the coefficients
-    re-identified beside the cause to first order); returned at the
-    coefficients of the smoothed records' regression (:func:`fit_at`), an
-    added term's coefficient from the innovations."""
+    trust-region least squares of the standardised innovations of the model
+    whose coefficients are the smoothed records' regression with the cause
+    acting, :func:`profiled_innovations`); returned at those coefficients
+    (:func:`fit_at`), an added term's coefficient from the innovations."""
     theta = np.asarray(theta, float).copy()
     names = list(terms)
     n_theta = len(theta)
@@ -280,8 +284,8 @@ def refine_on_tracks(design: InnovationDesign, ctx: Context, cause: Cause, theta
     hi = np.concatenate([high, np.full(len(names), np.inf)])
 
     def residual(x):
-        return design.project(np.nan_to_num(profiled_innovations(design, ctx, cause, x[:n_theta], dict(
-            zip(names, x[n_theta:].tolist()))))[:, None])[:, 0]
+        return np.nan_to_num(profiled_innovations(design, ctx, cause, x[:n_theta], dict(
+            zip(names, x[n_theta:].tolist()))))
     try:
         # tolerances far below SciPy's defaults: the innovations' sum of squares is large (their
         # number) and a cause's valley long and flat; the defaults stop half-way along it
