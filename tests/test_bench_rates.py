@@ -59,3 +59,20 @@ def test_an_injected_current_beside_the_records_own_cause_is_judged_against_its_
     assert not judge_real(case(0.80), reference)["right"]        # 0.3 alone + 0.5: the wrong reference
     alone = judge_real({**case(0.8, "current"), "parameters": {"speed": 0.8, "direction": 0.0}}, reference)
     assert not alone["right"] and alone["exactly_injected"]      # the records' own term is lost
+
+
+def test_the_bench_judges_the_confidence_on_the_causes_and_on_the_parameters_apart():
+    """A verdict with the right cause and a parameter 30 % off counts as right
+    in the causes' reliability table and wrong in the whole one."""
+    from studies.bench_discovery import _summary
+
+    def case(named, right, cause_right, confidence):
+        return {"kind": "single", "family": "white_all", "hidden": "current", "named": named, "right": right,
+                "cause_right": cause_right, "spurious_second": False, "confidence": confidence, "elapsed": 1.0}
+
+    out = _summary([case("current", True, True, 0.95), case("current", False, True, 0.97),
+                    case("rudder_offset", False, False, 0.93)])
+    assert out["right_when_confidence_at_least_0.9"]["hits"] == 1
+    assert out["causes_right_when_confidence_at_least_0.9"]["hits"] == 2
+    top = {(row["low"], row["high"]): row for row in out["reliability_causes"]}[(0.9, 1.0)]
+    assert top["n"] == 3 and abs(top["share_right"] - 2 / 3) < 1e-12
