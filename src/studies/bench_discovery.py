@@ -38,14 +38,15 @@ real records
 
 Seeds: development read seeds 100-101, 1000-1001, 2000, 2100-2101, 2200,
 2300, 2400, 7000-7001, 9600-9601, 9700-9701, 12000-12003 and 14000-14003
-(15000-15003 and 16000-16003 measured once); ``seed_base`` defaults to 9000. A seed read to fix a case is development data from then
-on: measure on seeds no one has looked at (docs/discovery.md keeps the list).
+(15000-15003 and 16000-16003 measured once); ``seed_base`` defaults to
+9000. A seed read to fix a case is development data from then on: measure
+on seeds no one has looked at (docs/discovery.md keeps the list).
 
 Output: a JSON object of rates (``rate``, ``low``, ``high``: Wilson 90 %),
 the confusion matrices, the reliability table of the stated confidence
 (``reliability``: right = causes and parameters; ``reliability_causes``:
-the named causes alone, what the confidence states) and the median times; every case's line is appended to ``out`` (JSON lines) as
-it finishes.
+the named causes alone, what the confidence states) and the median times;
+every case's line is appended to ``out`` (JSON lines) as it finishes.
 """
 
 from __future__ import annotations

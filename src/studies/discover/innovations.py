@@ -230,30 +230,31 @@ def innovation_design(ctx: Context, records: list, baseline: CauseFit, step: flo
     """
     rctx = Context(ctx.vessel, ctx.model, list(records), [], "recorded", dynamics=ctx.dynamics)
     velocities = not derived_velocities(records)
-    design = _design_at(rctx, records, baseline, FILTER_STEP if step is None else step, velocities,
-                        block_seconds)
+    scorer, like, log_q, r0 = _baseline_filtered(rctx, records, baseline, FILTER_STEP if step is None else step,
+                                                 velocities)
     if step is None:
-        longer = filter_setting(ctx, records, design)
-        if longer > design.scorer.step * 1.01:
-            design = _design_at(rctx, records, baseline, longer, velocities, block_seconds)
-    log.info("innovations: filter step %.2f s, velocities %s", design.scorer.step,
+        longer = filter_setting(ctx, records, scorer.step, r0)
+        if longer > scorer.step * 1.01:
+            scorer, like, log_q, r0 = _baseline_filtered(rctx, records, baseline, longer, velocities)
+    log.info("innovations: filter step %.2f s, velocities %s", scorer.step,
              "measured" if velocities else "derived from the track, not measured")
-    return design
+    return _design_of(rctx, baseline, scorer, like, log_q, r0, block_seconds)
 
 
-def filter_setting(ctx: Context, records: list, design: InnovationDesign) -> float:
+def filter_setting(ctx: Context, records: list, step: float, residual: np.ndarray) -> float:
     """The filter's step [s] for records whose velocity noise is coloured
-    (:func:`.kinematics.coloured_velocity_noise`; otherwise the design's own):
-    twice the e-folding time of the standardised innovations' lag-one
-    autocorrelation ``rho`` at the design's step (``-step / ln rho``, the
-    median over the measured channels; a first-order autoregression's block
-    means over twice its time are correlated by about 0.2), at most
-    :data:`MAX_STEP_PER_TIME_UNIT` of the ship's time unit ``L / U0``, where
-    the filter's one integration step per sample stays accurate."""
-    step = design.scorer.step
+    (:func:`.kinematics.coloured_velocity_noise`; otherwise ``step``, the
+    filter's at ``residual``): twice the e-folding time of the standardised
+    innovations' lag-one autocorrelation ``rho`` at ``step`` (``-step / ln
+    rho``, the median over the measured channels; a first-order
+    autoregression's block means over twice its time are correlated by about
+    0.2), at most :data:`MAX_STEP_PER_TIME_UNIT` of the ship's time unit
+    ``L / U0``, where the filter's one integration step per sample stays
+    accurate. ``residual``: the baseline's standardised innovations, six
+    channels per sample, zero where not measured."""
     if not coloured_velocity_noise(records):
         return step
-    w = design.residual.reshape(-1, 6)
+    w = residual.reshape(-1, 6)
     rhos = []
     for j in range(6):
         x = w[:, j]
@@ -267,9 +268,10 @@ def filter_setting(ctx: Context, records: list, design: InnovationDesign) -> flo
     return float(min(max(step, 2.0 * step / -np.log(rho)), max(cap, step)))
 
 
-def _design_at(rctx: Context, records: list, baseline: CauseFit, step: float, velocities: bool,
-               block_seconds: float) -> InnovationDesign:
-    """:func:`innovation_design` at a given filter step."""
+def _baseline_filtered(rctx: Context, records: list, baseline: CauseFit, step: float,
+                       velocities: bool) -> tuple:
+    """The baseline's filter on the records at ``step``: ``(scorer, likelihood,
+    log10 process-noise scale, standardised innovations)``."""
     # the track's drift from the integral of the velocities is a disagreement between two sensors:
     # with the velocities not measured there is none (it would take the place of the dynamics)
     scorer = FilterScores(rctx, step, noise_levels(rctx, records, step), drift=velocities, velocities=velocities)
@@ -277,7 +279,14 @@ def _design_at(rctx: Context, records: list, baseline: CauseFit, step: float, ve
     beta0 = baseline.setup.model.vector(baseline.params, 0.0)
     like = scorer._likelihood(baseline)
     _, log_q = like.fit(beta0)
-    r0 = like.residuals(beta0, log_q)
+    return scorer, like, log_q, like.residuals(beta0, log_q)
+
+
+def _design_of(rctx: Context, baseline: CauseFit, scorer: FilterScores, like, log_q: float, r0: np.ndarray,
+               block_seconds: float) -> InnovationDesign:
+    """The design of the baseline's filtered innovations ``r0``: their Jacobian
+    with respect to the coefficients and the blocks of the robust covariance."""
+    beta0 = baseline.setup.model.vector(baseline.params, 0.0)
     scale = np.maximum(np.abs(beta0), 1e-6)
     jac = np.empty((len(r0), len(beta0)))
     for j in range(len(beta0)):
