@@ -63,6 +63,7 @@ import logging
 from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.optimize import least_squares
 
 from .causes import Combined, Current, MissingTerm, WindUnmodelled, extended_library
 from .causes.base import Cause
@@ -71,7 +72,7 @@ from .kinematics import coloured_velocity_noise, derived_velocities
 from .output_error import noise_levels
 from .prediction_error import FilterScores
 
-__all__ = ["BLOCK_SECONDS", "FILTER_STEP", "InnovationDesign", "Judgement", "innovation_design", "beside",
+__all__ = ["BLOCK_SECONDS", "FILTER_STEP", "InnovationDesign", "Judgement", "innovation_design", "beside", "robust_wald",
            "own_columns", "cause_variants", "judge", "cause_steps"]
 
 log = logging.getLogger(__name__)
@@ -87,6 +88,10 @@ BLOCK_SECONDS = 60.0
 COEFFICIENT_STEP = 1e-3
 #: step of a missing term's coefficient [-, prime]
 TERM_STEP = 1e-4
+#: rounds of the baseline's fit to the tracks (noises estimated, then the coefficients)
+BASELINE_ROUNDS = 2
+#: least-squares evaluations of the baseline's coefficients per round
+BASELINE_EVALUATIONS = 8
 
 
 @dataclass
@@ -130,6 +135,19 @@ class InnovationDesign:
     #: ``(cause, theta, terms)`` acting beneath every cause judged (a first cause
     #: when a second is judged beside it); None: the baseline alone
     base: tuple | None = None
+    #: the coefficients' scales of ``coefficient_jacobian`` (its columns are relative changes)
+    coefficient_scale: np.ndarray | None = None
+
+    @property
+    def coefficient_names(self) -> list:
+        return [t.name for t in self.fit.setup.model.terms]
+
+    def coefficients_at(self, relative: np.ndarray) -> dict:
+        """The fit's coefficients changed by ``relative`` times :attr:`coefficient_scale`."""
+        out = dict(self.fit.params)
+        for name, x, s in zip(self.coefficient_names, relative, self.coefficient_scale):
+            out[name] = out.get(name, 0.0) + float(x) * float(s)
+        return out
 
     @property
     def n_blocks(self) -> int:
@@ -167,7 +185,8 @@ def beside(design: InnovationDesign, cause: Cause, theta: np.ndarray, terms: dic
     coefficients) beneath every cause judged, the model's ``coefficients``
     (default the baseline's) in place of the baseline's, the process noise's
     scale the likeliest for that model: its residual is the innovations of
-    that model, the coefficients' directions those of the baseline."""
+    that model, the coefficients' directions (their Jacobian) taken again
+    under that filter."""
     fit = design.fit if coefficients is None else replace(design.fit, params=dict(coefficients))
     out = replace(design, base=(cause, np.asarray(theta, float), dict(terms)), fit=fit)
     # the process noise's scale the likeliest with the cause acting: the baseline's took up the
@@ -177,6 +196,15 @@ def beside(design: InnovationDesign, cause: Cause, theta: np.ndarray, terms: dic
     acting = replace(fit, cause=cause, theta=theta, setup=setup)
     _, out.log_q_scale = design.scorer._likelihood(acting).fit(setup.model.vector({**fit.params, **terms}, 0.0))
     r = out.innovations(None, np.zeros(0))
+    # the coefficients' directions under this filter (its process noise is not the baseline's)
+    names = design.coefficient_names
+    scale = np.maximum(np.abs(np.array([float(fit.params.get(n, 0.0)) for n in names])), 1e-6)
+    jac = np.empty((len(r), len(names)))
+    for j, name in enumerate(names):
+        bumped = dict(fit.params)
+        bumped[name] = bumped.get(name, 0.0) + COEFFICIENT_STEP * scale[j]
+        jac[:, j] = (out.innovations(None, np.zeros(0), coefficients=bumped) - r) / COEFFICIENT_STEP
+    out.coefficient_jacobian, out.coefficient_scale, out.basis = jac, scale, _orthonormal(jac)
     out.residual = r
     out.projected = r - out.basis @ (out.basis.T @ r)
     return out
@@ -230,15 +258,15 @@ def innovation_design(ctx: Context, records: list, baseline: CauseFit, step: flo
     """
     rctx = Context(ctx.vessel, ctx.model, list(records), [], "recorded", dynamics=ctx.dynamics)
     velocities = not derived_velocities(records)
-    scorer, like, log_q, r0 = _baseline_filtered(rctx, records, baseline, FILTER_STEP if step is None else step,
-                                                 velocities)
+    scorer, fit, like, log_q, r0 = _baseline_filtered(rctx, records, baseline,
+                                                      FILTER_STEP if step is None else step, velocities)
     if step is None:
         longer = filter_setting(ctx, records, scorer.step, r0)
         if longer > scorer.step * 1.01:
-            scorer, like, log_q, r0 = _baseline_filtered(rctx, records, baseline, longer, velocities)
+            scorer, fit, like, log_q, r0 = _baseline_filtered(rctx, records, fit, longer, velocities)
     log.info("innovations: filter step %.2f s, velocities %s", scorer.step,
              "measured" if velocities else "derived from the track, not measured")
-    return _design_of(rctx, baseline, scorer, like, log_q, r0, block_seconds)
+    return _design_of(rctx, fit, scorer, like, log_q, r0, block_seconds)
 
 
 def filter_setting(ctx: Context, records: list, step: float, residual: np.ndarray) -> float:
@@ -270,16 +298,74 @@ def filter_setting(ctx: Context, records: list, step: float, residual: np.ndarra
 
 def _baseline_filtered(rctx: Context, records: list, baseline: CauseFit, step: float,
                        velocities: bool) -> tuple:
-    """The baseline's filter on the records at ``step``: ``(scorer, likelihood,
-    log10 process-noise scale, standardised innovations)``."""
+    """The baseline's filter on the records at ``step``, its coefficients
+    fitted to the tracks (:func:`baseline_on_tracks`): ``(scorer, fit,
+    likelihood, log10 process-noise scale, standardised innovations)``."""
     # the track's drift from the integral of the velocities is a disagreement between two sensors:
     # with the velocities not measured there is none (it would take the place of the dynamics)
     scorer = FilterScores(rctx, step, noise_levels(rctx, records, step), drift=velocities, velocities=velocities)
-    scorer.estimate_shape(baseline)
-    beta0 = baseline.setup.model.vector(baseline.params, 0.0)
-    like = scorer._likelihood(baseline)
+    fit = baseline_on_tracks(scorer, baseline)
+    scorer.estimate_shape(fit)
+    beta0 = fit.setup.model.vector(fit.params, 0.0)
+    like = scorer._likelihood(fit)
     _, log_q = like.fit(beta0)
-    return scorer, like, log_q, like.residuals(beta0, log_q)
+    return scorer, fit, like, log_q, like.residuals(beta0, log_q)
+
+
+def coefficient_jacobian(like, beta: np.ndarray, log_q: float, r0: np.ndarray | None = None) -> np.ndarray:
+    """d (standardised innovations) / d (relative change of each coefficient)
+    at ``beta`` (forward differences of :data:`COEFFICIENT_STEP`; ``r0`` the
+    innovations at ``beta`` if known)."""
+    r0 = like.residuals(beta, log_q) if r0 is None else r0
+    scale = np.maximum(np.abs(beta), 1e-6)
+    jac = np.empty((len(r0), len(beta)))
+    for j in range(len(beta)):
+        b = beta.copy()
+        b[j] += COEFFICIENT_STEP * scale[j]
+        jac[:, j] = (like.residuals(b, log_q) - r0) / COEFFICIENT_STEP
+    return jac
+
+
+def baseline_on_tracks(scorer: FilterScores, baseline: CauseFit, rounds: int = BASELINE_ROUNDS,
+                       max_nfev: int = BASELINE_EVALUATIONS) -> CauseFit:
+    """The baseline's coefficients fitted to the measured tracks: the
+    filter-error method (Jategaonkar 2015, ch. 5), SciPy's trust-region least
+    squares of the filter's standardised innovations with the process and
+    measurement noise held, then both noises estimated again
+    (:meth:`FilterScores.estimate_shape`), ``rounds`` times.
+
+    The smoothed records' regression only starts it. Its coefficients are
+    those of states smoothed from sensors whose errors the smoother does not
+    know (velocities derived from the track, coloured noise): on a record
+    whose velocities were differenced from satellite positions its sway and
+    yaw derivatives came out with the wrong sign, and the filter then needed
+    a process noise that hid every cause. The causes are judged against the
+    coefficients that predict the tracks best."""
+    model = baseline.setup.model
+    names = [t.name for t in model.terms]
+    fit = baseline
+    for _ in range(rounds):
+        scorer.estimate_shape(fit)
+        like = scorer._likelihood(fit)
+        beta0 = model.vector(fit.params, 0.0)
+        _, log_q = like.fit(beta0)
+        scale = np.maximum(np.abs(beta0), 1e-6)
+
+        def residuals(x):
+            return like.residuals(beta0 + x * scale, log_q)
+
+        def jacobian(x):
+            beta = beta0 + x * scale
+            # d w / d x: the relative changes of the coefficients at beta0's scale
+            return coefficient_jacobian(like, beta, log_q) * (scale / np.maximum(np.abs(beta), 1e-6))
+
+        r0 = residuals(np.zeros(len(beta0)))
+        res = least_squares(residuals, np.zeros(len(beta0)), jac=jacobian, method="trf", max_nfev=max_nfev)
+        if not float(res.fun @ res.fun) < float(r0 @ r0):
+            break
+        beta = beta0 + res.x * scale
+        fit = replace(fit, params={**fit.params, **dict(zip(names, beta.tolist()))})
+    return fit
 
 
 def _design_of(rctx: Context, baseline: CauseFit, scorer: FilterScores, like, log_q: float, r0: np.ndarray,
@@ -287,12 +373,7 @@ def _design_of(rctx: Context, baseline: CauseFit, scorer: FilterScores, like, lo
     """The design of the baseline's filtered innovations ``r0``: their Jacobian
     with respect to the coefficients and the blocks of the robust covariance."""
     beta0 = baseline.setup.model.vector(baseline.params, 0.0)
-    scale = np.maximum(np.abs(beta0), 1e-6)
-    jac = np.empty((len(r0), len(beta0)))
-    for j in range(len(beta0)):
-        b = beta0.copy()
-        b[j] += COEFFICIENT_STEP * scale[j]
-        jac[:, j] = (like.residuals(b, log_q) - r0) / COEFFICIENT_STEP
+    jac = coefficient_jacobian(like, beta0, log_q, r0)
     basis = _orthonormal(jac)
     per = max(1, int(round(block_seconds / scorer.step)))
     blocks, first = [], 0
@@ -302,7 +383,8 @@ def _design_of(rctx: Context, baseline: CauseFit, scorer: FilterScores, like, lo
         first = int(idx.max()) + 1
     fit = replace(baseline, setup=baseline.setup)
     return InnovationDesign(r0, basis, r0 - basis @ (basis.T @ r0), jac, np.concatenate(blocks),
-                            int(scorer.n), float(log_q), fit, scorer, rctx)
+                            int(scorer.n), float(log_q), fit, scorer, rctx,
+                            coefficient_scale=np.maximum(np.abs(beta0), 1e-6))
 
 
 def _orthonormal(x: np.ndarray, rtol: float = 1e-9) -> np.ndarray:
@@ -402,6 +484,22 @@ class Judgement:
         """``min(likelihood ratio, robust Wald)``: the likelihood ratio, unless
         correlated innovations make it overstate the evidence."""
         return float(min(self.likelihood_ratio, self.wald))
+
+
+def robust_wald(design: InnovationDesign, y: np.ndarray, change: np.ndarray) -> float:
+    """The Wald statistic of ``y``'s regression on one column ``change`` (no
+    projection), its variance robust to correlation within the design's
+    blocks (the sandwich over them)."""
+    x = np.nan_to_num(np.asarray(change, float))
+    xx = float(x @ x)
+    if xx <= 0.0:
+        return 0.0
+    c = float(x @ y) / xx
+    e = y - c * x
+    scores = np.zeros(design.n_blocks)
+    np.add.at(scores, design.blocks, x * e)
+    var = float(scores @ scores) / xx ** 2
+    return float(c * c / var) if var > 0.0 else 0.0
 
 
 def judge(design: InnovationDesign, columns: np.ndarray, tested: slice | None = None) -> Judgement:

@@ -88,6 +88,16 @@ def _smooth(x: np.ndarray, n: int) -> np.ndarray:
     return savgol_filter(x, n, 3, mode="interp") if n < len(x) else x
 
 
+def noise_floors(vessel) -> np.ndarray:
+    """The smallest noise standard deviation a channel of :data:`CHANNELS` is
+    credited with: 1e-4 of its natural unit (``L`` [m], 1 rad, ``U0`` [m/s],
+    ``U0 / L`` [rad/s]). A record cleaner than that (a simulation's) is still
+    compared with a model integrated at a finite step, whose own error is of
+    that order."""
+    L, U = float(vessel.length), float(vessel.speed)
+    return np.array([1e-4 * L, 1e-4 * L, 1e-4, 1e-4 * U, 1e-4 * U, 1e-4 * U / L])
+
+
 def noise_levels(ctx: Context, records, step: float | None = None) -> np.ndarray:
     """Noise standard deviation per channel of :data:`CHANNELS`: the record
     minus its smoothing (window by the discrepancy principle), pooled over the
@@ -103,8 +113,7 @@ def noise_levels(ctx: Context, records, step: float | None = None) -> np.ndarray
     the levels of ``u, v, r`` are their RMS difference from the velocities
     derived from the track (:func:`.kinematics.kinematic_noise_levels`), if
     larger."""
-    L, U = float(ctx.vessel.length), float(ctx.vessel.speed)
-    floors = np.array([1e-4 * L, 1e-4 * L, 1e-4, 1e-4 * U, 1e-4 * U, 1e-4 * U / L])
+    floors = noise_floors(ctx.vessel)
     sums, count = np.zeros(len(CHANNELS)), 0
     for rec in records:
         n = smoothing_window(rec)

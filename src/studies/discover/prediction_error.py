@@ -39,6 +39,7 @@ from ..data.resample import block_means
 from ..identify.filter_error import PredictionError
 from ..simulate.simulator import ReplayPlan
 from .fitting import CauseFit, Context, training_error
+from .output_error import noise_floors
 
 __all__ = ["FilterScores", "REPLAY_GUARD"]
 
@@ -155,52 +156,58 @@ class FilterScores:
 
     def estimate_shape(self, fit: CauseFit, rounds: int = 2) -> np.ndarray:
         """The process noise's spectral densities (three, six with ``drift``)
-        by maximum likelihood on ``fit`` (the baseline), kept as the shape
-        every fit is scaled from;
-        and, alternately, the measurement-noise variances: each channel's
-        scaled by the variance of its standardised innovations, so that they
-        come out of unit variance (a noise level estimated by smoothing is off
-        when the noise is coloured or the signal sharp)."""
+        and the measurement-noise variances by maximum likelihood on ``fit``
+        (the baseline), jointly (SciPy's Powell search over their log10
+        scales: the track's two process densities and its two noise levels
+        each share one, a channel not measured has none); the process noise
+        is kept as the shape every fit is scaled from. The measurement noise
+        starts from the levels given (:func:`.output_error.noise_levels`),
+        which a smoothing of the records misjudges when the noise is coloured
+        or the signal sharp, and a heading's when its rate is derived from
+        it; the process noise and a white measurement noise are told apart by
+        the innovations' correlation, which only the joint likelihood weighs.
+        ``rounds``: the searches, each from the last one's end."""
         vector = fit.setup.model.vector(fit.params, 0.0)
         q0 = self._default_shape()
+        groups = self._noise_groups()
+        like = PredictionError(self._plans(fit), self.measured, self.R, q0)
+        _, a = like.fit(vector)
+        nq = 5 if self.drift else 3
+        R0 = self.R.copy()
+
+        def unpack(x):
+            r = R0.copy()
+            for g, cols in enumerate(groups):
+                r[cols] = R0[cols] * 10.0 ** x[nq + g]
+            return q0 * 10.0 ** self._expand(x[:nq]), r
+
+        def cost(x):
+            like.q0, like.R = unpack(x)
+            ll = like.loglik(vector, 0.0)
+            return -ll if np.isfinite(ll) else 1e300
+
+        x = np.concatenate([np.full(nq, a), np.zeros(len(groups))])
+        # no channel below the floor of a sensor's resolution (noise_floors)
+        floor = noise_floors(self.ctx.vessel) ** 2
+        lowest = [min(0.0, max(-2.0, float(np.log10(np.max(floor[g] / R0[g]))))) for g in groups]
+        bounds = [(a - 6.0, a + 4.0)] * nq + [(low, 2.0) for low in lowest]
         for _ in range(rounds):
-            like = PredictionError(self._plans(fit), self.measured, self.R, q0)
-            _, a = like.fit(vector)
-
-            def cost(logs):
-                like.q0 = q0 * 10.0 ** self._expand(logs)
-                ll = like.loglik(vector, 0.0)
-                return -ll if np.isfinite(ll) else 1e300
-
-            if self.drift:
-                start = np.full(5, a)
-                res = minimize(cost, start, method="Powell", bounds=list(zip(start - 6.0, start + 4.0)),
-                               options={"xtol": 0.05, "ftol": 1e-6, "maxfev": 300})
-            else:
-                res = minimize(cost, np.full(3, a), method="Powell",
-                               options={"xtol": 0.05, "ftol": 1e-6, "maxfev": 150})
-            q0 = q0 * 10.0 ** self._expand(res.x)
-            spread = self._innovation_variance(like, vector, q0)
-            self.R = self.R * np.clip(spread, 0.1, 10.0)
-        self.q_shape = q0
-        log.info("process noise of the baseline: q = %s; measurement noise sd %s", np.array2string(q0, precision=3),
-                 np.array2string(np.sqrt(self.R), precision=3))
+            res = minimize(cost, x, method="Powell", bounds=bounds,
+                           options={"xtol": 0.05, "ftol": 1e-6, "maxfev": 150 * (nq + len(groups))})
+            x = res.x
+        self.q_shape, self.R = unpack(x)
+        log.info("process noise of the baseline: q = %s; measurement noise sd %s", np.array2string(self.q_shape,
+                 precision=3), np.array2string(np.sqrt(self.R), precision=3))
         return self.q_shape
 
-    def _innovation_variance(self, like: PredictionError, vector: np.ndarray, q: np.ndarray) -> np.ndarray:
-        """Per channel, the mean square of the standardised innovations over the records."""
-        from ..identify.filter_error import innovation_likelihood
-
-        sums, count = np.zeros(6), np.zeros(6)
-        for plan, z in zip(like.plans, like.measured):
-            ll, e, S = innovation_likelihood(plan, vector, z, self.R, q)
-            if not np.isfinite(ll):
-                return np.ones(6)
-            w2 = e * e / S
-            sums += np.nansum(w2, axis=0)
-            count += np.sum(np.isfinite(w2), axis=0)
-        # a channel not measured keeps its variance
-        return np.where(count > 0, sums / np.maximum(count, 1), 1.0)
+    def _noise_groups(self) -> list:
+        """The measured channels' groups of one measurement-noise scale: the
+        track (``x0, y0``), the heading, then each velocity measured."""
+        measured = np.zeros(6, bool)
+        for z in self.measured:
+            measured |= np.isfinite(z).any(axis=0)
+        groups = [[0, 1], [2]] + [[j] for j in (3, 4, 5)]
+        return [g for g in groups if measured[g].all()]
 
     def held_out(self, fits: list, training: "FilterScores") -> None:
         """Keep in ``refined["filter"]["held_out_loglik"]`` the log-likelihood of

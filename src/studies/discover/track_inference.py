@@ -60,13 +60,13 @@ from dataclasses import replace
 import numpy as np
 from scipy.optimize import least_squares
 
-from .causes import Combined, MissingTerm, manoeuvring_causes
+from .causes import Combined, MissingTerm, NoCause, manoeuvring_causes
 from .causes.base import Cause
-from .fitting import CauseFit, Context, calibrate, scored_fit
+from .fitting import CauseFit, Context, calibrate
 from .inference import (Inference, _by_cause, _catalogue_order, _model_cause, _model_theta, _pair_id,
-                        _with_dynamics, baseline_fit, fit_at)
+                        baseline_fit, fit_at)
 from .innovations import (BLOCK_SECONDS, TERM_STEP, InnovationDesign, beside, cause_steps, cause_variants,
-                          innovation_design, judge, own_columns)
+                          innovation_design, judge, own_columns, robust_wald)
 
 __all__ = ["infer_on_tracks", "refine_on_tracks", "fit_at", "MAX_EVALUATIONS"]
 
@@ -106,6 +106,7 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
     calibrate(every)
     baseline = baseline_fit(every)
     design = innovation_design(every, measured, baseline)
+    log.info("baseline on the tracks: cost %.2f", 0.5 * float(design.residual @ design.residual))
     seconds["filter"] = time.perf_counter() - t0
     causes = causes if causes is not None else list(manoeuvring_causes(ctx))
     causes = [c for c in causes if c.undecidable(ctx) is None]
@@ -117,13 +118,18 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
     # are reported whether named or not)
     t2 = time.perf_counter()
     singles = _by_cause(variants)
-    fits, best, scores = {(): baseline}, {}, {"none": 0.0}
+    # none refined as every cause is (its coefficients to convergence under this filter): a cause is
+    # credited only with what it adds
+    none = refine_on_tracks(design, every, NoCause(), np.zeros(0), {})
+    against = _innovations_of(design, none)
+    fits, best, scores = {(): none}, {}, {"none": 0.0}
     for cid, idx in singles.items():
         i, j = max(((i, judge(design, variants[i].columns)) for i in idx), key=lambda ij: ij[1].evidence)
         fit = refine_on_tracks(design, every, *_start(variants, (i,), j.coefficients))
         fits[(i,)] = fit
         best[cid] = i
-        scores[cid] = _score_of(_evidence_at(design, design.projected, _innovations_of(design, fit)),
+        nested = _nested(against, _innovations_of(design, replace(none, params=_without(fit.params, fit))))
+        scores[cid] = _score_of(_evidence_at(design, nested, _innovations_of(design, fit)),
                                 variants[i].n_params, design.n, len(idx))
     evidence = {cid: scores[cid] for cid in singles}
     seconds["comparison"] = time.perf_counter() - t2
@@ -136,13 +142,13 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
         t3 = time.perf_counter()
         fit1 = fits[(best[first],)]
         terms1 = _terms_of(fit1)
-        # the first refined again with the process noise's scale its own model implies, so that
-        # the pairs and the first alone are compared at their optimum under one filter
-        design2 = beside(design, fit1.cause, fit1.theta, terms1, fit1.params)
-        fit1 = refine_on_tracks(replace(design2, base=None), every, fit1.cause, fit1.theta, terms1)
-        terms1 = _terms_of(fit1)
+        # the filter with the process noise's scale the first's model implies; the first refined
+        # again under it, as the pairs are, so that they are compared at their optimum under one filter
         design2 = beside(design, fit1.cause, fit1.theta, terms1, fit1.params)
         plain2 = replace(design2, base=None)           # the same filter, nothing beneath
+        fit1 = refine_on_tracks(plain2, every, fit1.cause, fit1.theta, terms1)
+        terms1 = _terms_of(fit1)
+        against = _innovations_of(plain2, fit1)
         own = own_columns(design2, cause_steps(every, fit1.cause) if len(fit1.theta) else np.zeros(0))
         second = cause_variants(design2, [c for c in causes if c.id != first], library=first != "missing_term")
         for cid, idx in _by_cause(second).items():
@@ -152,7 +158,8 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
             fit = refine_on_tracks(plain2, every, *_join(fit1.cause, fit1.theta, terms1, second[i].cause,
                                                          theta2, terms2))
             pair = _pair_id(first, cid)
-            s2 = _score_of(_evidence_at(design2, design2.projected, _innovations_of(plain2, fit), own),
+            nested = _nested(against, _innovations_of(plain2, _first_of(fit, fit1)))
+            s2 = _score_of(_evidence_at(design2, nested, _innovations_of(plain2, fit)),
                            second[i].n_params, design.n, len(idx))
             scores[pair] = scores[first] + s2
             evidence[pair] = s2
@@ -190,26 +197,42 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
     return out
 
 
-def _evidence_at(design: InnovationDesign, against: np.ndarray, innovations: np.ndarray,
-                 own: np.ndarray | None = None) -> float:
-    """Evidence of a refined model over the model whose projected innovations
-    are ``against``: the fall in their sum of squares (a likelihood ratio),
-    or the Wald statistic of the change it makes (its secant column, ``own``
-    columns fitted beside it) with the covariance robust to correlated
-    innovations where smaller."""
-    after = design.project(np.nan_to_num(innovations)[:, None])[:, 0]
-    if own is not None and own.shape[1]:
-        # the first cause's parameters re-fitted (to first order) in both models
-        q, _ = np.linalg.qr(design.project(own))
-        against = against - q @ (q.T @ against)
-        after = after - q @ (q.T @ after)
-    change = (against - after)[:, None]
+def _evidence_at(design: InnovationDesign, against: np.ndarray, innovations: np.ndarray) -> float:
+    """Evidence of a refined model over the refined model whose innovations
+    are ``against`` (both with their coefficients fitted to the tracks): the
+    fall in their sum of squares (a likelihood ratio), or, where smaller, the
+    Wald statistic of the change it makes with the covariance robust to
+    innovations correlated within the design's blocks."""
+    after = np.nan_to_num(innovations)
+    change = against - after
     lr = float(against @ against - after @ after)
-    if own is None or own.shape[1] == 0:
-        wald = judge(design, change).wald
-    else:
-        wald = judge(design, np.hstack([own, change]), tested=slice(own.shape[1], None)).wald
-    return float(min(max(lr, 0.0), wald))
+    return float(min(max(lr, 0.0), robust_wald(design, against, change)))
+
+
+def _nested(*innovations: np.ndarray) -> np.ndarray:
+    """Of the nested model's innovations at its own fit and at the larger
+    model's coefficients, those of the smaller sum of squares: a larger model
+    is credited only with what its own parameters add, not with coefficients
+    its refinement found and the nested one's did not."""
+    return min(innovations, key=lambda w: float(np.nan_to_num(w) @ np.nan_to_num(w)))
+
+
+def _first_of(pair: CauseFit, first: CauseFit) -> CauseFit:
+    """The first cause alone at a refined pair's values (its parameters, its
+    added terms', the coefficients): the nested model at the larger one's fit."""
+    cause = pair.cause
+    a, b = cause._split(np.asarray(pair.theta, float))
+    theta = a if cause.first.id == first.cause.id else b
+    own = set(first.cause.params) if _has_terms(first.cause) else set()
+    other = (set(pair.cause.params) - own) if _has_terms(pair.cause) else set()
+    params = {k: v for k, v in pair.params.items() if k not in other}
+    return replace(first, theta=np.asarray(theta, float), params=params)
+
+
+def _without(params: dict, fit: CauseFit) -> dict:
+    """A refined fit's coefficients without its added terms."""
+    own = set(fit.cause.params) if _has_terms(fit.cause) else set()
+    return {k: v for k, v in params.items() if k not in own}
 
 
 def _innovations_of(design: InnovationDesign, fit: CauseFit) -> np.ndarray:
@@ -252,47 +275,49 @@ def _join(first: Cause, theta1, terms1: dict, second: Cause, theta2, terms2: dic
     return cause, np.concatenate([parts[0][1], parts[1][1]]), {**terms1, **terms2}
 
 
-def profiled_innovations(design: InnovationDesign, ctx: Context, cause: Cause, theta: np.ndarray,
-                         terms: dict) -> np.ndarray:
-    """The innovations of ``cause`` at ``theta`` with the coefficients of the
-    smoothed records' regression with the cause acting (``terms``: added
-    terms' coefficients, which replace the regression's)."""
-    setup = _with_dynamics(ctx, cause.setup(ctx, np.asarray(theta, float)))
-    params, _, _ = scored_fit(ctx, setup)
-    return design.innovations(cause, theta, terms, coefficients={**params, **terms})
-
-
 def refine_on_tracks(design: InnovationDesign, ctx: Context, cause: Cause, theta: np.ndarray, terms: dict,
                      max_nfev: int = MAX_EVALUATIONS) -> CauseFit:
-    """``cause``'s parameters ``theta`` and its added terms' coefficients
-    ``terms`` fitted to the innovations from the values given (SciPy's
-    trust-region least squares of the standardised innovations of the model
-    whose coefficients are the smoothed records' regression with the cause
-    acting, :func:`profiled_innovations`); returned at those coefficients
-    (:func:`fit_at`), an added term's coefficient from the innovations."""
+    """``cause``'s parameters ``theta``, its added terms' coefficients
+    ``terms`` and the model's coefficients fitted together to the tracks from
+    the values given and the design's coefficients (the filter-error method:
+    SciPy's trust-region least squares of the standardised innovations at the
+    design's process and measurement noise). The Jacobian's columns of the
+    coefficients are the design's, taken once at its coefficients; the
+    cause's by central differences of :func:`cause_steps`. Returned as a
+    :class:`CauseFit` whose coefficients are those fitted (its scores those
+    of the smoothed records' regression, :func:`fit_at`)."""
     theta = np.asarray(theta, float).copy()
     names = list(terms)
-    n_theta = len(theta)
-    if not (n_theta or names):
-        return fit_at(ctx, cause, theta, terms)
+    n_theta, n_own = len(theta), len(theta) + len(names)
+    nb = design.coefficient_jacobian.shape[1]
     low, high = (cause.bounds(ctx) if n_theta else (np.zeros(0), np.zeros(0)))
     theta = np.clip(theta, low + 1e-9, high - 1e-9)
-    x0 = np.concatenate([theta, [terms[n] for n in names]])
-    scale = np.concatenate([cause_steps(ctx, cause) if n_theta else np.zeros(0),
-                            np.maximum(np.abs([terms[n] for n in names]), TERM_STEP)])
-    lo = np.concatenate([low, np.full(len(names), -np.inf)])
-    hi = np.concatenate([high, np.full(len(names), np.inf)])
+    steps = np.concatenate([cause_steps(ctx, cause) if n_theta else np.zeros(0), np.full(len(names), TERM_STEP)])
+    x0 = np.concatenate([theta, [terms[n] for n in names], np.zeros(nb)])
+    lo = np.concatenate([low, np.full(len(names) + nb, -np.inf)])
+    hi = np.concatenate([high, np.full(len(names) + nb, np.inf)])
 
     def residual(x):
-        return np.nan_to_num(profiled_innovations(design, ctx, cause, x[:n_theta], dict(
-            zip(names, x[n_theta:].tolist()))))
+        return np.nan_to_num(design.innovations(cause, x[:n_theta], dict(zip(names, x[n_theta:n_own].tolist())),
+                                                coefficients=design.coefficients_at(x[n_own:])))
+
+    def jacobian(x):
+        cols = []
+        for j, h in enumerate(steps):
+            # central differences, one-sided at a bound (a current of nearly no speed)
+            plus, minus = x.copy(), x.copy()
+            plus[j], minus[j] = min(x[j] + h, hi[j]), max(x[j] - h, lo[j])
+            cols.append((residual(plus) - residual(minus)) / max(plus[j] - minus[j], 1e-300))
+        return np.column_stack(cols + [design.coefficient_jacobian])
+
     try:
-        # tolerances far below SciPy's defaults: the innovations' sum of squares is large (their
-        # number) and a cause's valley long and flat; the defaults stop half-way along it
-        res = least_squares(residual, x0, bounds=(lo, hi), x_scale=scale, max_nfev=max_nfev,
-                            diff_step=1e-4, method="trf", ftol=1e-12, xtol=1e-12, gtol=1e-12)
+        res = least_squares(residual, x0, jac=jacobian, bounds=(lo, hi), max_nfev=max_nfev, method="trf")
         x = res.x
+        log.info("refine %s: nfev %d njev %d status %d cost %.2f -> %.2f theta %s", cause.id, res.nfev, res.njev,
+                 res.status, 0.5 * float(residual(x0) @ residual(x0)), res.cost, np.array2string(x[:n_own], precision=5))
     except (ValueError, np.linalg.LinAlgError) as exc:
         log.info("refining %s on the tracks stopped (%s); its linear solution is kept", cause.id, exc)
         x = x0
-    return fit_at(ctx, cause, x[:n_theta], dict(zip(names, x[n_theta:].tolist())))
+    added = dict(zip(names, x[n_theta:n_own].tolist()))
+    fit = fit_at(ctx, cause, x[:n_theta], added)
+    return replace(fit, params={**design.coefficients_at(x[n_own:]), **added})

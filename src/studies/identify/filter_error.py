@@ -268,6 +268,28 @@ def _filter(cm, k, wp, cmd, ext, dt, z, R, q, s_init, P_init, innovations, varia
     return loglik
 
 
+#: standard deviation of the initial surge and sway velocity when the record does not measure
+#: them, as a share of the approach speed (and of ``U0 / L`` for the yaw rate)
+UNMEASURED_START_SHARE = 0.05
+
+
+def initial_covariance(R: np.ndarray, measured: np.ndarray, speed0: float, length: float) -> np.ndarray:
+    """The filter's initial state covariance (``du, v, r, x0, y0, psi``): each
+    channel's measurement-noise variance ``R`` where the first sample measures
+    it; a velocity the record does not measure (NaN, e.g. velocities derived
+    from the track and not read as measured) starts with a standard deviation
+    of :data:`UNMEASURED_START_SHARE` of ``U0`` [m/s] (``U0 / L`` [rad/s] for
+    ``r``), so the first samples of the track set it. A start held to a
+    derived velocity's noise would hold the filter to that velocity's error,
+    which only a large process noise could then undo."""
+    R = np.asarray(R, float)
+    first = np.asarray(measured, float)[0] if len(measured) else np.zeros(6)
+    floor = np.array([1e-12, 1e-12, 1e-16])
+    wide = (UNMEASURED_START_SHARE * float(speed0)) ** 2 * np.array([1.0, 1.0, 1.0 / float(length) ** 2])
+    velocity = np.where(np.isfinite(first[3:6]), np.maximum(R[3:6], floor), np.maximum(wide, floor))
+    return np.diag([*velocity, max(R[0], 1e-12), max(R[1], 1e-12), max(R[2], 1e-16)])
+
+
 def innovation_likelihood(plan, vector: np.ndarray, measured: np.ndarray, R: np.ndarray, q: np.ndarray,
                           initial: np.ndarray | None = None) -> tuple[float, np.ndarray, np.ndarray]:
     """Prediction-error log-likelihood of one record replayed by ``plan``.
@@ -310,8 +332,7 @@ def innovation_likelihood(plan, vector: np.ndarray, measured: np.ndarray, R: np.
     ext = _ext_rows(inputs.ext, len(inputs.cmd))
     start = plan.initial_state()[:N_FILTER] if initial is None else np.asarray(initial, float)
     R = np.asarray(R, float)
-    P0 = np.diag([max(R[3], 1e-12), max(R[4], 1e-12), max(R[5], 1e-16), max(R[0], 1e-12), max(R[1], 1e-12),
-                  max(R[2], 1e-16)])
+    P0 = initial_covariance(R, measured, inputs.speed0, inputs.length)
     innovations = np.empty((n, _CHANNELS))
     variances = np.empty((n, _CHANNELS))
     loglik = _filter(cm, k, _wind_tuple(inputs.wind), cmd, np.ascontiguousarray(ext[: max(n - 1, 0)]),

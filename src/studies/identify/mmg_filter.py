@@ -36,7 +36,7 @@ from numba import njit
 
 from ..models.mmg import HULL_TERMS
 from ..simulate.mmg import _derivatives, _module_accelerations, mmg_inputs
-from .filter_error import N_FILTER, measurement_update, propagate_covariance, work_arrays
+from .filter_error import N_FILTER, initial_covariance, measurement_update, propagate_covariance, work_arrays
 
 __all__ = ["MMGFilterPlan"]
 
@@ -168,6 +168,7 @@ class MMGFilterPlan:
         self.k, self.a = mmg_inputs(vessel, modules)
         self.g = _module_accelerations(self.k, self.a)
         self.speed0 = float(vessel.speed)
+        self.length = float(vessel.length)
         cn, ce = self.current
         first = record.iloc[0]
         psi = float(first["psi"])
@@ -195,8 +196,7 @@ class MMGFilterPlan:
         hull = tuple(float(vector[i]) if i >= 0 else 0.0 for i in self.hull_index)
         start = self.start if initial is None else np.asarray(initial, float)
         R = np.asarray(R, float)
-        P0 = np.diag([max(R[3], 1e-12), max(R[4], 1e-12), max(R[5], 1e-16), max(R[0], 1e-12), max(R[1], 1e-12),
-                      max(R[2], 1e-16)])
+        P0 = initial_covariance(R, measured, self.speed0, self.length)
         innovations = np.empty((n, 6))
         variances = np.empty((n, 6))
         cn, ce = self.current

@@ -217,8 +217,8 @@ _START_COLUMNS = ("u", "v", "r", "x0", "y0", "psi", "delta")
 
 
 def _first_row(record: pd.DataFrame) -> dict:
-    row = record[list(_START_COLUMNS)].to_numpy(float)[0]
-    return dict(zip(_START_COLUMNS, row.tolist()))
+    # column by column: selecting the columns as a frame copies the whole record
+    return {c: float(record[c].to_numpy(float)[0]) for c in _START_COLUMNS}
 
 
 def _replay_initial(record: pd.DataFrame, environment: Environment, initial: dict | None,
