@@ -258,15 +258,28 @@ def innovation_design(ctx: Context, records: list, baseline: CauseFit, step: flo
     """
     rctx = Context(ctx.vessel, ctx.model, list(records), [], "recorded", dynamics=ctx.dynamics)
     velocities = not derived_velocities(records)
-    scorer, fit, like, log_q, r0 = _baseline_filtered(rctx, records, baseline,
-                                                      FILTER_STEP if step is None else step, velocities)
     if step is None:
-        longer = filter_setting(ctx, records, scorer.step, r0)
-        if longer > scorer.step * 1.01:
-            scorer, fit, like, log_q, r0 = _baseline_filtered(rctx, records, fit, longer, velocities)
+        step = FILTER_STEP
+        if coloured_velocity_noise(records):
+            step = filter_setting(ctx, records, step, _plain_innovations(rctx, records, baseline, step, velocities))
+    scorer, fit, like, log_q, r0 = _baseline_filtered(rctx, records, baseline, step, velocities)
     log.info("innovations: filter step %.2f s, velocities %s", scorer.step,
              "measured" if velocities else "derived from the track, not measured")
     return _design_of(rctx, fit, scorer, like, log_q, r0, block_seconds)
+
+
+def _plain_innovations(rctx: Context, records: list, baseline: CauseFit, step: float,
+                       velocities: bool) -> np.ndarray:
+    """The baseline's standardised innovations at ``step`` with the records'
+    noise levels as measured and the process noise's default shape at its
+    likeliest scale: how correlated the sensors' noise looks before the
+    noises are fitted (fitted, a noise correlated over seconds is taken up
+    as process noise and the track's drift, and the innovations look white)."""
+    scorer = FilterScores(rctx, step, noise_levels(rctx, records, step), drift=velocities, velocities=velocities)
+    beta = baseline.setup.model.vector(baseline.params, 0.0)
+    like = scorer._likelihood(baseline)
+    _, log_q = like.fit(beta)
+    return like.residuals(beta, log_q)
 
 
 def filter_setting(ctx: Context, records: list, step: float, residual: np.ndarray) -> float:

@@ -246,6 +246,11 @@ class Cause:
         return Setup(self.model(ctx, theta), [self.transform(r, theta) for r in ctx.train],
                      cause=self, theta=theta)
 
+    def acts(self, theta) -> bool:
+        """Whether the cause at ``theta`` is an effect at all (a cause whose
+        fit lies where it is no effect is not named: its evidence is none)."""
+        return True
+
     @property
     def nl_params(self) -> tuple:
         """Parameters fitted by the outer (nonlinear) search; the others come out of LS."""

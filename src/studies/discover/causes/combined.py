@@ -31,6 +31,10 @@ class Combined(Cause):
         self._n = len(first.nl_params)
         self._starts = starts
 
+    def acts(self, theta):
+        a, b = self._split(theta)
+        return self.first.acts(a) and self.second.acts(b)
+
     @property
     def nl_params(self):
         return tuple(self.first.nl_params) + tuple(self.second.nl_params)

@@ -12,6 +12,10 @@ from .base import Cause
 __all__ = ["WindUnmodelled", "WindSpeedBias"]
 
 
+#: true wind speed [m/s] below which a fitted wind is calm air (a cup anemometer's starting speed)
+CALM = 0.5
+
+
 class WindUnmodelled(Cause):
     """A steady wind on a vessel whose records carry no wind.
 
@@ -57,6 +61,14 @@ class WindUnmodelled(Cause):
 
     def parameters(self, theta, fitted=None):
         return {"speed": float(theta[0]), "direction": float(np.angle(np.exp(1j * theta[1])) % (2 * np.pi))}
+
+    def acts(self, theta):
+        """A true wind of at least :data:`CALM` m/s. The wind load model
+        (:func:`studies.environment.wind.wind_load`) is off in calm air and
+        on at any true wind, where the ship's own speed through the air
+        loads it too: a fit at nearly no wind would be credited with that
+        air resistance, which the baseline's coefficients already hold."""
+        return bool(theta[0] >= CALM)
 
 
 class WindSpeedBias(Cause):
