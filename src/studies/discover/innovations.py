@@ -91,7 +91,7 @@ TERM_STEP = 1e-4
 #: rounds of the baseline's fit to the tracks (noises estimated, then the coefficients)
 BASELINE_ROUNDS = 2
 #: least-squares evaluations of the baseline's coefficients per round
-BASELINE_EVALUATIONS = 8
+BASELINE_EVALUATIONS = 6
 
 
 @dataclass
@@ -318,7 +318,7 @@ def _baseline_filtered(rctx: Context, records: list, baseline: CauseFit, step: f
     # with the velocities not measured there is none (it would take the place of the dynamics)
     scorer = FilterScores(rctx, step, noise_levels(rctx, records, step), drift=velocities, velocities=velocities)
     fit = baseline_on_tracks(scorer, baseline)
-    scorer.estimate_shape(fit)
+    scorer.estimate_shape(fit, rounds=1)
     beta0 = fit.setup.model.vector(fit.params, 0.0)
     like = scorer._likelihood(fit)
     _, log_q = like.fit(beta0)
@@ -358,7 +358,7 @@ def baseline_on_tracks(scorer: FilterScores, baseline: CauseFit, rounds: int = B
     names = [t.name for t in model.terms]
     fit = baseline
     for _ in range(rounds):
-        scorer.estimate_shape(fit)
+        scorer.estimate_shape(fit, rounds=1)
         like = scorer._likelihood(fit)
         beta0 = model.vector(fit.params, 0.0)
         _, log_q = like.fit(beta0)

@@ -166,9 +166,11 @@ class FilterScores:
         or the signal sharp, and a heading's when its rate is derived from
         it; the process noise and a white measurement noise are told apart by
         the innovations' correlation, which only the joint likelihood weighs.
-        ``rounds``: the searches, each from the last one's end."""
+        ``rounds``: the searches, each from the last one's end; the first
+        from the last estimate, if any."""
         vector = fit.setup.model.vector(fit.params, 0.0)
-        q0 = self._default_shape()
+        # from the last estimate, if any (the same records under a model refined since)
+        q0 = self._default_shape() if self.q_shape is None else self.q_shape
         groups = self._noise_groups()
         like = PredictionError(self._plans(fit), self.measured, self.R, q0)
         _, a = like.fit(vector)
@@ -195,6 +197,7 @@ class FilterScores:
             res = minimize(cost, x, method="Powell", bounds=bounds,
                            options={"xtol": 0.05, "ftol": 1e-6, "maxfev": 150 * (nq + len(groups))})
             x = res.x
+            log.info("noises: %d evaluations, -ln L %.2f", res.nfev, res.fun)
         self.q_shape, self.R = unpack(x)
         log.info("process noise of the baseline: q = %s; measurement noise sd %s", np.array2string(self.q_shape,
                  precision=3), np.array2string(np.sqrt(self.R), precision=3))

@@ -73,7 +73,7 @@ __all__ = ["infer_on_tracks", "refine_on_tracks", "fit_at", "MAX_EVALUATIONS"]
 log = logging.getLogger(__name__)
 
 #: evaluations of the filter a cause's refinement on the innovations may take
-MAX_EVALUATIONS = 60
+MAX_EVALUATIONS = 40
 
 
 def _score_of(evidence: float, n_params: int, n: int, n_variants: int) -> float:
