@@ -5,17 +5,19 @@ An extended Kalman filter whose process model is the baseline (the
 simulator's own right-hand side, :mod:`studies.identify.filter_error`)
 predicts every sample of every record from the samples before it; white
 process noise on ``du, v, r`` (its shape and scale by maximum likelihood)
-absorbs what no model holds. The standardised innovations ``w`` (innovation
-over its standard deviation, six channels ``x0, y0, psi, u, v, r`` per
-sample) are white and of unit variance when the model is right, and ``-2 ln
-L = |w|^2`` up to terms that hardly depend on the model. A cause with
+absorbs what no model holds. The baseline's coefficients, the process
+noise and the measurement noise are fitted to the tracks
+(:func:`baseline_on_tracks`, :meth:`FilterScores.estimate_shape`). The
+standardised innovations ``w`` (innovation over its standard deviation, six
+channels ``x0, y0, psi, u, v, r`` per sample) are white and of unit variance
+when the model is right, and ``-2 ln L = |w|^2`` up to terms that hardly
+depend on the model: a cause is judged on the tracks themselves, where a
+0.1 m position carries what a noisy acceleration does not. A cause with
 parameters ``theta`` changes them by ``J theta`` to first order; the
-baseline's coefficients ``beta`` by ``J_beta d_beta``. Every comparison of
-the discovery is then a linear regression of ``w`` on those columns, the
-coefficients' columns projected out (the coefficients re-identified beside
-each cause, to first order): the fall in ``|w|^2`` is the likelihood ratio of
-the cause over ``none`` on the tracks themselves, where a 0.1 m position
-carries what a noisy acceleration does not.
+baseline's coefficients ``beta`` by ``J_beta d_beta``. The linear
+regression of ``w`` on those columns, the coefficients' columns projected
+out (:func:`judge`), chooses each cause's variant and starts its fit
+(:mod:`.track_inference` fits every model to the tracks before judging it).
 
 Columns (:func:`cause_variants`), each from the cause's own hooks
 (:class:`~studies.discover.causes.base.Cause`: the records as the cause reads

@@ -2,44 +2,51 @@
 baseline's one-step-ahead predictions of the measured records.
 
 1. **The filter.** The baseline's extended Kalman filter runs over every
-   record, training and held out, as measured (:mod:`.innovations`): its
-   standardised innovations, their Jacobian with respect to the baseline's
-   coefficients, and every cause's columns (how it would change them) at no
-   effect.
-2. **One criterion.** A verdict (``none``, one cause, or a second cause
+   record, training and held out, as measured (:mod:`.innovations`); the
+   baseline's coefficients and the filter's process and measurement noise
+   are fitted to the tracks first (the filter-error method,
+   :func:`.innovations.baseline_on_tracks`: the smoothed records'
+   regression only starts it). Every cause's columns (how it would change
+   the standardised innovations at no effect) choose its variant and start
+   its fit.
+2. **Every model fitted to the tracks.** ``none``, every single cause and
+   every pair judged are fitted by least squares of the filter's
+   standardised innovations, the cause's parameters and the model's
+   coefficients together (:func:`refine_on_tracks`), so that every verdict
+   is compared at its own optimum under one filter: a cause is credited
+   only with what its parameters add to coefficients that are re-identified
+   beside it. A nested model is also taken at the larger one's fit (the
+   first cause alone at a pair's values): what the larger model's
+   refinement found for the shared coefficients is not credited to its own
+   parameters. A cause whose fit lies where it is no effect
+   (:meth:`~studies.discover.causes.base.Cause.acts`) is not credited.
+3. **One criterion.** A verdict (``none``, one cause, or a second cause
    beside the first) is scored by the Bayesian information criterion of the
    tracks' likelihood, with a uniform prior over a cause's variants::
 
        s = E - k ln(n) - 2 ln(m)
 
-   ``E`` the evidence of its causes' columns over the model without them
-   (the fall in the squared standardised innovations, a likelihood ratio,
-   or the Wald statistic with the covariance robust to correlated
-   innovations where smaller: :func:`.innovations.judge`), ``k`` their
-   parameters, ``n`` the measured innovations, ``m`` the cause's variants
-   (the library's terms for a missing term, the directions of a wind);
-   ``none`` scores 0. The probability of a verdict is ``exp(s / 2)``
-   normalised over ``none``, every single cause and every second cause
-   beside the most probable single one (the BIC's approximation of the
-   posterior, Kass & Raftery 1995); the most probable verdict is named and
-   its probability is the confidence. A second cause is judged only beside
-   a first that beats ``none`` (forward selection): its evidence is
-   measured under the filter of the first's model, a step of a nested
-   comparison only once the first is accepted; beside a first that ``none``
-   beats, a pair could outscore ``none`` on the second's evidence alone.
-3. **Parameters.** Every single cause (named or not) and every pair judged
-   are refined by least squares of the innovations from their linear
-   solution and judged at that fit; their intervals come from the robust
-   covariance of the linear coefficients
-   (:func:`studies.discover.inference.intervals`). The coefficients of each
-   refined model are those of the smoothed records' regression with the
-   cause acting, and the innovations fitted are that model's own: the
-   coefficients are profiled by the regression, once. Projecting the
-   coefficients' directions out of them as well (a second, linearised
-   profile about the baseline) is what judging needs, so that a cause gets
-   no credit for what re-identified coefficients would do; as an estimator
-   it is biased (on white 3 % noise it put a 2.1 deg rudder offset at
-   1.4 deg, where the model's own innovations are smallest at 2.1 deg).
+   ``E`` the evidence of its model over the model without it (the fall in
+   the squared standardised innovations, a likelihood ratio, or the Wald
+   statistic of that change with a variance robust to innovations
+   correlated within :data:`~.innovations.BLOCK_SECONDS` stretches where
+   smaller: :func:`_evidence_at`), ``k`` its parameters, ``n`` the
+   measured innovations, ``m`` the cause's variants (the library's terms
+   for a missing term, the directions of a wind); ``none`` scores 0. The
+   probability of a verdict is ``exp(s / 2)`` normalised over ``none``,
+   every single cause and every second cause beside the most probable
+   single one (the BIC's approximation of the posterior, Kass & Raftery
+   1995); the most probable verdict is named and its probability is the
+   confidence. A second cause is judged only beside a first that beats
+   ``none`` (forward selection), under the filter whose process noise is
+   the likeliest for the first's model, against the first refined again
+   under that filter.
+4. **Parameters.** The named single cause's parameters are those of its
+   refit under its own filter (under the baseline's process noise, which
+   follows part of a cause's effect, a current of 0.8 m/s came out at
+   0.58 m/s); every other single cause's (``candidates``) those of its fit
+   under the baseline's filter; intervals come from the robust covariance
+   of the linear coefficients (:func:`studies.discover.inference.intervals`).
 
 The held-out records measure the named model's gain in the workflow
 (:mod:`studies.workflows.discover_inference`); it is reported, it does not
@@ -74,6 +81,8 @@ log = logging.getLogger(__name__)
 
 #: evaluations of the filter a cause's refinement on the innovations may take
 MAX_EVALUATIONS = 40
+#: a second cause is refined beside the first only when its first-order score is above minus this
+PAIR_SCREEN = 20.0
 
 
 def _score_of(evidence: float, n_params: int, n: int, n_variants: int) -> float:
@@ -123,12 +132,19 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
     none = refine_on_tracks(design, every, NoCause(), np.zeros(0), {})
     against = _innovations_of(design, none)
     fits, best, scores = {(): none}, {}, {"none": 0.0}
+    at_fits = []
     for cid, idx in singles.items():
         i, j = max(((i, judge(design, variants[i].columns)) for i in idx), key=lambda ij: ij[1].evidence)
         fit = refine_on_tracks(design, every, *_start(variants, (i,), j.coefficients))
         fits[(i,)] = fit
         best[cid] = i
-        nested = _nested(against, _innovations_of(design, replace(none, params=_without(fit.params, fit))))
+        at_fits.append(_innovations_of(design, replace(none, params=_without(fit.params, fit))))
+    # none at the best of its own refit and every cause's coefficients: a cause is credited only
+    # with what its own parameters add
+    nested = _nested(against, *at_fits)
+    for cid, idx in singles.items():
+        i = best[cid]
+        fit = fits[(i,)]
         scores[cid] = _score_of(_evidence_at(design, nested, _innovations_of(design, fit))
                                 if fit.cause.acts(fit.theta) else 0.0, variants[i].n_params, design.n, len(idx))
     evidence = {cid: scores[cid] for cid in singles}
@@ -157,20 +173,29 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
         t3 = time.perf_counter()
         own = own_columns(design2, cause_steps(every, fit1.cause) if len(fit1.theta) else np.zeros(0))
         second = cause_variants(design2, [c for c in causes if c.id != first], library=first != "missing_term")
+        tried = []
         for cid, idx in _by_cause(second).items():
             i, j = max(((i, judge(design2, np.hstack([own, second[i].columns]), tested=slice(own.shape[1], None)))
                         for i in idx), key=lambda ij: ij[1].evidence)
+            linear = _score_of(j.evidence, second[i].n_params, design.n, len(idx))
+            if linear < -PAIR_SCREEN:
+                # its first-order evidence is far below what naming it would take: not refined
+                scores[_pair_id(first, cid)] = scores[first] + linear
+                evidence[_pair_id(first, cid)] = linear
+                continue
             _, theta2, terms2 = _start(second, (i,), j.coefficients[own.shape[1]:])
             fit = refine_on_tracks(plain2, every, *_join(fit1.cause, fit1.theta, terms1, second[i].cause,
                                                          theta2, terms2))
+            tried.append((cid, i, idx, fit, _innovations_of(plain2, _first_of(fit, fit1))))
+        # the first alone at the best of its own refit and the pairs' values of its parameters and the
+        # coefficients: a pair is credited only with what its second cause adds
+        nested = _nested(against, *[at_pair for *_, at_pair in tried])
+        for cid, i, idx, fit, _ in tried:
             pair = _pair_id(first, cid)
-            at_pair = _innovations_of(plain2, _first_of(fit, fit1))
-            nested = _nested(against, at_pair)
-            log.info("pair %s: against %.2f, first at the pair's fit %.2f, pair %.2f", cid,
-                     0.5 * float(against @ against), 0.5 * float(at_pair @ at_pair),
-                     0.5 * float(np.sum(_innovations_of(plain2, fit) ** 2)))
-            s2 = _score_of(_evidence_at(design2, nested, _innovations_of(plain2, fit)) if fit.cause.acts(fit.theta)
-                           else 0.0,
+            after = _innovations_of(plain2, fit)
+            log.debug("pair %s: first alone %.2f, pair %.2f", cid, 0.5 * float(nested @ nested),
+                      0.5 * float(after @ after))
+            s2 = _score_of(_evidence_at(design2, nested, after) if fit.cause.acts(fit.theta) else 0.0,
                            second[i].n_params, design.n, len(idx))
             scores[pair] = scores[first] + s2
             evidence[pair] = s2
@@ -325,7 +350,7 @@ def refine_on_tracks(design: InnovationDesign, ctx: Context, cause: Cause, theta
         res = least_squares(residual, x0, jac=jacobian, bounds=(lo, hi), max_nfev=max_nfev, method="trf",
                             x_scale="jac")
         x = res.x
-        log.info("refine %s: nfev %d njev %d status %d cost %.2f -> %.2f theta %s", cause.id, res.nfev, res.njev,
+        log.debug("refine %s: nfev %d njev %d status %d cost %.2f -> %.2f theta %s", cause.id, res.nfev, res.njev,
                  res.status, 0.5 * float(residual(x0) @ residual(x0)), res.cost, np.array2string(x[:n_own], precision=5))
     except (ValueError, np.linalg.LinAlgError) as exc:
         log.info("refining %s on the tracks stopped (%s); its linear solution is kept", cause.id, exc)

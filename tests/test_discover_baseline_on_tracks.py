@@ -1,0 +1,83 @@
+"""The baseline the discovery judges against is fitted to the measured tracks.
+
+Records from the independent SciPy Mariner (``reference_mariner.py``), whose
+velocities are not measured but differenced from a satellite receiver's noisy
+track and heading: the smoothed records' regression misreads the sway and
+yaw derivatives there, and a filter built on it needs a process noise that
+hides what discovery looks for. Fitted to the tracks (the filter-error
+method), the linear manoeuvring derivatives come out as the simulator's.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+import reference_mariner as ref
+from test_discover_independent import _receiver
+
+from studies.discover.fitting import Context, calibrate
+from studies.discover.inference import baseline_fit, smooth_with_baseline
+from studies.discover.innovations import innovation_design
+from studies.discover.output_error import noise_floors
+from studies.discover.prediction_error import FilterScores
+from studies.models.registry import abkowitz
+from studies.vessels import get_vessel
+
+pytestmark = pytest.mark.slow
+
+#: the independent simulator's linear derivatives (its own listing)
+LINEAR = {"Yv": ref.Yv, "Yr": ref.Yr, "Yd": ref.Yd, "Nv": ref.Nv, "Nr": ref.Nr, "Nd": ref.Nd}
+
+
+@pytest.fixture(scope="module")
+def receiver_runs():
+    rng = np.random.default_rng(21)
+    runs = [ref.turning_record(35.0, duration=700.0, dt=0.5), ref.zigzag_record(20.0, 20.0, duration=900.0, dt=0.5),
+            ref.zigzag_record(10.0, 10.0, duration=600.0, dt=0.5)]
+    out = []
+    for name, rec in zip(("turning_35", "zigzag_20", "zigzag_10"), runs):
+        frame = _receiver(pd.DataFrame(rec), rng)
+        frame.attrs["name"] = name
+        out.append(frame)
+    return out
+
+
+@pytest.fixture(scope="module")
+def design(receiver_runs):
+    vessel, model = get_vessel("mariner"), abkowitz()
+    first = Context(vessel, model, list(receiver_runs), [], "recorded")
+    smoothed = smooth_with_baseline(first, receiver_runs)
+    every = Context(vessel, model, smoothed, [], "recorded")
+    calibrate(every)
+    regression = baseline_fit(every)
+    return regression, innovation_design(every, receiver_runs, regression)
+
+
+def test_the_linear_derivatives_fitted_to_the_tracks_are_the_simulators(design):
+    _, fitted = design
+    errors = {name: fitted.fit.params[name] / truth - 1.0 for name, truth in LINEAR.items()}
+    assert all(abs(e) < 0.10 for e in errors.values()), errors
+
+
+def test_fitted_to_the_tracks_the_baseline_predicts_them_better(design):
+    """The filter's likelihood of the tracks under the fitted coefficients
+    beats that under the regression's, with each one's noises estimated."""
+    regression, fitted = design
+    scorer = fitted.scorer
+    beta_fit = fitted.fit.setup.model.vector(fitted.fit.params, 0.0)
+    beta_reg = regression.setup.model.vector(regression.params, 0.0)
+    ll_fit, _ = scorer._likelihood(fitted.fit).fit(beta_fit)
+    other = FilterScores(fitted.ctx, scorer.step, np.sqrt(scorer.R), drift=scorer.drift, velocities=scorer.velocities)
+    other.estimate_shape(regression)
+    ll_reg, _ = other._likelihood(regression).fit(beta_reg)
+    assert ll_fit > ll_reg + 100.0, (ll_fit, ll_reg)
+
+
+def test_no_measurement_noise_is_fitted_below_a_sensors_resolution(design):
+    """The joint maximum likelihood of the noises keeps every measured
+    channel at or above its floor (1e-4 of its natural unit)."""
+    _, fitted = design
+    floors = noise_floors(get_vessel("mariner"))
+    measured = [0, 1, 2] if not fitted.scorer.velocities else list(range(6))
+    assert np.all(np.sqrt(fitted.scorer.R[measured]) >= 0.999 * floors[measured])
