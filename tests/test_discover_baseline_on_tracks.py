@@ -57,7 +57,8 @@ def design(receiver_runs):
 def test_the_linear_derivatives_fitted_to_the_tracks_are_the_simulators(design):
     _, fitted = design
     errors = {name: fitted.fit.params[name] / truth - 1.0 for name, truth in LINEAR.items()}
-    assert all(abs(e) < 0.10 for e in errors.values()), errors
+    # (the smoothed records' regression, which only starts the fit, is 8-20 % off on these records)
+    assert all(abs(e) < 0.05 for e in errors.values()), errors
 
 
 def test_fitted_to_the_tracks_the_baseline_predicts_them_better(design):
