@@ -196,17 +196,16 @@ def beside(design: InnovationDesign, cause: Cause, theta: np.ndarray, terms: dic
     theta = np.asarray(theta, float)
     setup = cause.setup(design.ctx, theta)
     acting = replace(fit, cause=cause, theta=theta, setup=setup)
-    _, out.log_q_scale = design.scorer._likelihood(acting).fit(setup.model.vector({**fit.params, **terms}, 0.0))
-    r = out.innovations(None, np.zeros(0))
-    # the coefficients' directions under this filter (its process noise is not the baseline's)
-    names = design.coefficient_names
-    scale = np.maximum(np.abs(np.array([float(fit.params.get(n, 0.0)) for n in names])), 1e-6)
-    jac = np.empty((len(r), len(names)))
-    for j, name in enumerate(names):
-        bumped = dict(fit.params)
-        bumped[name] = bumped.get(name, 0.0) + COEFFICIENT_STEP * scale[j]
-        jac[:, j] = (out.innovations(None, np.zeros(0), coefficients=bumped) - r) / COEFFICIENT_STEP
-    out.coefficient_jacobian, out.coefficient_scale, out.basis = jac, scale, _orthonormal(jac)
+    like = design.scorer._likelihood(acting)
+    beta = setup.model.vector({**fit.params, **terms}, 0.0)
+    _, out.log_q_scale = like.fit(beta)
+    r = like.residuals(beta, out.log_q_scale)
+    # the coefficients' directions under this filter (its process noise is not the baseline's): the
+    # baseline's coefficients' columns of the acting model's Jacobian
+    idx = [setup.model.names.index(n) for n in design.coefficient_names]
+    jac = coefficient_jacobian(like, beta, out.log_q_scale, r)[:, idx]
+    out.coefficient_jacobian, out.coefficient_scale = jac, np.maximum(np.abs(beta[idx]), 1e-6)
+    out.basis = _orthonormal(jac)
     out.residual = r
     out.projected = r - out.basis @ (out.basis.T @ r)
     return out

@@ -197,7 +197,7 @@ class FilterScores:
             res = minimize(cost, x, method="Powell", bounds=bounds,
                            options={"xtol": 0.05, "ftol": 1e-6, "maxfev": 150 * (nq + len(groups))})
             x = res.x
-            log.info("noises: %d evaluations, -ln L %.2f", res.nfev, res.fun)
+            log.debug("noises: %d evaluations, -ln L %.2f", res.nfev, res.fun)
         self.q_shape, self.R = unpack(x)
         log.info("process noise of the baseline: q = %s; measurement noise sd %s", np.array2string(self.q_shape,
                  precision=3), np.array2string(np.sqrt(self.R), precision=3))
