@@ -38,8 +38,9 @@ m32 = m * xG - Nvdot
 m33 = Iz - Nrdot
 
 
-def mariner(x, delta_c):
-    """mariner.m: x = [du v r x y psi delta] (du perturbation), delta_c commanded."""
+def mariner(x, delta_c, extra=(0.0, 0.0, 0.0)):
+    """mariner.m: x = [du v r x y psi delta] (du perturbation), delta_c commanded;
+    ``extra``: nondimensional forces X', Y', N' added (a disturbance)."""
     U = np.sqrt((U0 + x[0]) ** 2 + x[1] ** 2)
     u, v, r, psi, delta = x[0] / U, x[1] / U, x[2] * L / U, x[5], x[6]
     delta_c = np.clip(delta_c, -DELTA_MAX, DELTA_MAX)
@@ -52,6 +53,7 @@ def mariner(x, delta_c):
     N = (Nv * v + Nr * r + Nvvv * v**3 + Nvvr * v**2 * r + Nvu * v * u + Nru * r * u
          + Nd * delta + Nddd * delta**3 + Nud * u * delta + Nuud * u**2 * delta
          + Nvdd * v * delta**2 + Nvvd * v**2 * delta + (N0 + N0u * u + N0uu * u**2))
+    X, Y, N = X + extra[0], Y + extra[1], N + extra[2]
     det = m22 * m33 - m23 * m32
     return np.array([
         X * (U**2 / L) / m11,
@@ -64,9 +66,14 @@ def mariner(x, delta_c):
     ])
 
 
-def zigzag_record(amplitude_deg=20.0, heading_deg=20.0, duration=1500.0, dt=0.1):
+def _none(t):
+    return (0.0, 0.0, 0.0)
+
+
+def zigzag_record(amplitude_deg=20.0, heading_deg=20.0, duration=1500.0, dt=0.1, disturbance=_none):
     """Zig-zag (positive rudder first, the Mariner then turns to negative heading),
-    sampled every ``dt``; columns of the studies data contract, SI units."""
+    sampled every ``dt``; columns of the studies data contract, SI units.
+    ``disturbance(t)``: nondimensional forces X', Y', N' added at time t [s]."""
     amp, switch = np.deg2rad(amplitude_deg), np.deg2rad(heading_deg)
     t_out = np.arange(0.0, duration + dt / 2, dt)
     x = np.zeros(7)
@@ -80,7 +87,7 @@ def zigzag_record(amplitude_deg=20.0, heading_deg=20.0, duration=1500.0, dt=0.1)
             return y[5] - target
 
         event.terminal = True
-        sol = solve_ivp(lambda t, y, s=sign: mariner(y, s * amp), (t0, duration), x,
+        sol = solve_ivp(lambda t, y, s=sign: mariner(y, s * amp, disturbance(t)), (t0, duration), x,
                         method="RK45", rtol=1e-10, atol=1e-12, max_step=0.5,
                         events=event, dense_output=True)
         mask = (t_out >= t0) & (t_out <= sol.t[-1])
@@ -98,18 +105,18 @@ def zigzag_record(amplitude_deg=20.0, heading_deg=20.0, duration=1500.0, dt=0.1)
             "u": U0 + states[:, 0], "v": states[:, 1], "r": states[:, 2], "delta": states[:, 6]}
 
 
-def turning_record(amplitude_deg=18.0, duration=1000.0, dt=0.5, execute=0.0):
+def turning_record(amplitude_deg=18.0, duration=1000.0, dt=0.5, execute=0.0, disturbance=_none):
     """Turning circle: the rudder commanded to ``amplitude_deg`` at t =
     ``execute`` (amidships before it) and held (the Mariner turns to negative
     heading), sampled every ``dt``; columns of the studies data contract, SI
-    units."""
+    units. ``disturbance(t)``: nondimensional forces X', Y', N' added at time t [s]."""
     amp = np.deg2rad(amplitude_deg)
     t_out = np.arange(0.0, duration + dt / 2, dt)
     x, pieces = np.zeros(7), []
     for start, end, command in ((0.0, execute, 0.0), (execute, duration, amp)):
         if end <= start:
             continue
-        sol = solve_ivp(lambda t, y, c=command: mariner(y, c), (start, end), x, method="RK45",
+        sol = solve_ivp(lambda t, y, c=command: mariner(y, c, disturbance(t)), (start, end), x, method="RK45",
                         rtol=1e-9, atol=1e-10, max_step=1.0, dense_output=True)
         inside = (t_out >= start) & ((t_out < end) if end < duration else (t_out <= end))
         pieces.append(sol.sol(t_out[inside]).T)

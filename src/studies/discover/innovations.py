@@ -86,6 +86,8 @@ MAX_STEP_PER_TIME_UNIT = 0.25
 #: length [s] of the stretches of a record over which innovations may be correlated
 #: (the clusters of the robust covariance)
 BLOCK_SECONDS = 60.0
+#: the filter's process noise on du, v, r coloured, its correlation time estimated (FilterScores)
+COLOURED_PROCESS_NOISE = True
 #: relative step of the coefficients' finite differences
 COEFFICIENT_STEP = 1e-3
 #: step of a missing term's coefficient [-, prime]
@@ -317,9 +319,11 @@ def _baseline_filtered(rctx: Context, records: list, baseline: CauseFit, step: f
     likelihood, log10 process-noise scale, standardised innovations)``."""
     # the track's drift from the integral of the velocities is a disagreement between two sensors:
     # with the velocities not measured there is none (it would take the place of the dynamics)
-    scorer = FilterScores(rctx, step, noise_levels(rctx, records, step), drift=velocities, velocities=velocities)
+    scorer = FilterScores(rctx, step, noise_levels(rctx, records, step), drift=velocities, velocities=velocities,
+                          coloured=COLOURED_PROCESS_NOISE)
     fit = baseline_on_tracks(scorer, baseline)
-    scorer.estimate_shape(fit, rounds=1)
+    # white or coloured process noise decided again under the coefficients fitted to the tracks
+    scorer.estimate_shape(fit, rounds=1, decide=True)
     beta0 = fit.setup.model.vector(fit.params, 0.0)
     like = scorer._likelihood(fit)
     _, log_q = like.fit(beta0)

@@ -45,6 +45,11 @@ __all__ = ["FilterScores", "REPLAY_GUARD"]
 
 log = logging.getLogger(__name__)
 
+NOISE_SEARCH = "powell"
+NOISE_FTOL = 1e-5
+#: the coloured process noise's search starts at this many filter steps of correlation time
+COLOURED_START = 10.0
+
 #: a filter-error refinement is refused when its windowed replay of the training
 #: records errs more than this many times its start's
 REPLAY_GUARD = 2.0
@@ -87,10 +92,18 @@ class FilterScores:
         Measure ``u, v, r`` as well as the track and heading. False for
         velocities derived from the track (their noise is the track's, which
         the filter would otherwise weigh twice): the filter then infers them.
+    coloured : bool
+        Let the process noise on ``du, v, r`` be coloured: a disturbance
+        acceleration whose correlation time :attr:`tau` is estimated with the
+        noises (:meth:`estimate_shape`; white is its limit). Waves, gusts and
+        a model's own errors push a ship for seconds to minutes; taken as
+        white, such a push looks like a constant force or a missing term to
+        the filter, and is credited to a cause. The polynomial baseline's
+        filter only (:mod:`studies.identify.filter_error`).
     """
 
     def __init__(self, ctx: Context, step: float, sigma: np.ndarray, records: list | None = None,
-                 drift: bool = False, velocities: bool = True):
+                 drift: bool = False, velocities: bool = True, coloured: bool = False):
         self.ctx = ctx
         self.drift = bool(drift)
         self.velocities = bool(velocities)
@@ -104,6 +117,11 @@ class FilterScores:
         self.R = np.asarray(sigma, float) ** 2
         self.n = int(sum(np.isfinite(z).sum() for z in self.measured))
         self.q_shape = None
+        #: correlation time [s] of the process noise on du, v, r (0: white); estimated with the
+        #: noises when ``coloured`` (estimate_shape)
+        self.tau = 0.0
+        self.coloured = bool(coloured) and ctx.dynamics is None
+        self._tau_tried = 0.0
         self._plain = {}
         self._bare = replace(ctx, train=[])
 
@@ -152,9 +170,9 @@ class FilterScores:
 
     def _likelihood(self, fit: CauseFit) -> PredictionError:
         return PredictionError(self._plans(fit), self.measured, self.R,
-                               self.q_shape if self.q_shape is not None else self._default_shape())
+                               self.q_shape if self.q_shape is not None else self._default_shape(), self.tau)
 
-    def estimate_shape(self, fit: CauseFit, rounds: int = 2) -> np.ndarray:
+    def estimate_shape(self, fit: CauseFit, rounds: int = 2, decide: bool = False) -> np.ndarray:
         """The process noise's spectral densities (three, six with ``drift``)
         and the measurement-noise variances by maximum likelihood on ``fit``
         (the baseline), jointly (SciPy's Powell search over their log10
@@ -167,41 +185,97 @@ class FilterScores:
         it; the process noise and a white measurement noise are told apart by
         the innovations' correlation, which only the joint likelihood weighs.
         ``rounds``: the searches, each from the last one's end; the first
-        from the last estimate, if any."""
+        from the last estimate, if any.
+
+        With :attr:`coloured`, the process noise is white or coloured
+        (:attr:`tau`), whichever is the likelier by more than the BIC's
+        penalty of the correlation time (one more parameter): decided at the
+        first estimate and again when ``decide``."""
         vector = fit.setup.model.vector(fit.params, 0.0)
         # from the last estimate, if any (the same records under a model refined since)
         q0 = self._default_shape() if self.q_shape is None else self.q_shape
         groups = self._noise_groups()
-        like = PredictionError(self._plans(fit), self.measured, self.R, q0)
+        like = PredictionError(self._plans(fit), self.measured, self.R, q0, self.tau)
         _, a = like.fit(vector)
         nq = 5 if self.drift else 3
+        nr = len(groups)
         R0 = self.R.copy()
 
         def unpack(x):
             r = R0.copy()
             for g, cols in enumerate(groups):
                 r[cols] = R0[cols] * 10.0 ** x[nq + g]
-            return q0 * 10.0 ** self._expand(x[:nq]), r
+            tau = 10.0 ** x[nq + nr] if len(x) > nq + nr else 0.0
+            return q0 * 10.0 ** self._expand(x[:nq]), r, tau
 
         def cost(x):
-            like.q0, like.R = unpack(x)
+            like.q0, like.R, like.tau = unpack(x)
             ll = like.loglik(vector, 0.0)
             return -ll if np.isfinite(ll) else 1e300
 
-        x = np.concatenate([np.full(nq, a), np.zeros(len(groups))])
         # no channel below the floor of a sensor's resolution (noise_floors)
         floor = noise_floors(self.ctx.vessel) ** 2
         lowest = [min(0.0, max(-2.0, float(np.log10(np.max(floor[g] / R0[g]))))) for g in groups]
         bounds = [(a - 6.0, a + 4.0)] * nq + [(low, 2.0) for low in lowest]
-        for _ in range(rounds):
-            res = minimize(cost, x, method="Powell", bounds=bounds,
-                           options={"xtol": 0.05, "ftol": 1e-6, "maxfev": 150 * (nq + len(groups))})
-            x = res.x
-            log.debug("noises: %d evaluations, -ln L %.2f", res.nfev, res.fun)
-        self.q_shape, self.R = unpack(x)
-        log.info("process noise of the baseline: q = %s; measurement noise sd %s", np.array2string(self.q_shape,
-                 precision=3), np.array2string(np.sqrt(self.R), precision=3))
+
+        def search(x, bounds, rounds):
+            x = np.clip(x, [b[0] for b in bounds], [b[1] for b in bounds])
+            for _ in range(rounds):
+                if NOISE_SEARCH == "lbfgs":
+                    res = minimize(cost, x, method="L-BFGS-B", bounds=bounds,
+                                   options={"eps": 1e-3, "maxiter": 40, "ftol": 1e-9, "gtol": 1e-3})
+                else:
+                    res = minimize(cost, x, method="Powell", bounds=bounds,
+                                   options={"xtol": 0.05, "ftol": NOISE_FTOL, "maxfev": 150 * len(x)})
+                x = res.x
+                log.info("noises: %d evaluations, -ln L %.2f", res.nfev, res.fun)
+            return x, float(cost(x))
+
+        x = np.concatenate([np.full(nq, a), np.zeros(nr)])
+        # the correlation time in log10 seconds, from a tenth of the step to ten minutes
+        tau_bounds = (float(np.log10(0.1 * self.step)), float(np.log10(600.0)))
+        coloured = bounds + [tau_bounds]
+        if self.tau > 0.0:
+            x, best = search(np.append(x, np.log10(self.tau)), coloured, rounds)
+        else:
+            x, best = search(x, bounds, rounds)
+        if self.coloured and (decide or self.q_shape is None):
+            # white and coloured process noise are not nested (over a filter step a coloured push is
+            # held, white noise accumulates): the other one, searched from this one's end (the
+            # dynamic densities' common scale, and the correlation time), is kept when its
+            # likelihood is the higher by more than the BIC's penalty of the correlation time
+            was_coloured = self.tau > 0.0
+            start = np.log10(self._tau_tried or COLOURED_START * self.step)
+            other, value = self._other_noise(cost, x[:nq + nr], None if was_coloured else start, tau_bounds)
+            white, col = (value, best) if was_coloured else (best, value)
+            if not was_coloured:
+                self._tau_tried = 10.0 ** other[-1]
+            log.info("process noise: -ln L %.2f white, %.2f coloured (correlation time %.3g s)", white, col,
+                     self.tau if was_coloured else self._tau_tried)
+            if (col < white - 0.5 * np.log(max(self.n, 2))) != was_coloured:
+                x, best = other, value
+        self.q_shape, self.R, self.tau = unpack(x)
+        log.info("process noise of the baseline: q = %s, correlation time %.3g s; measurement noise sd %s; "
+                 "-ln L %.2f", np.array2string(self.q_shape, precision=3), self.tau,
+                 np.array2string(np.sqrt(self.R), precision=3), best)
         return self.q_shape
+
+    @staticmethod
+    def _other_noise(cost, x: np.ndarray, log_tau: float | None, tau_bounds: tuple) -> tuple:
+        """The other process noise's search from the noises ``x`` (log10 scales,
+        white's layout): the three dynamic densities' common scale, and with
+        ``log_tau`` (the coloured noise's start) the correlation time; the rest
+        held. ``(x of the other's layout, -ln L)``."""
+        def full(y):
+            z = np.asarray(x, float).copy()
+            z[:3] += y[0]
+            return z if log_tau is None else np.append(z, y[1])
+
+        y0 = [0.0] if log_tau is None else [0.0, float(np.clip(log_tau, *tau_bounds))]
+        bounds = [(-3.0, 3.0)] + ([] if log_tau is None else [tau_bounds])
+        res = minimize(lambda y: cost(full(y)), y0, method="Powell", bounds=bounds,
+                       options={"xtol": 0.05, "ftol": 1e-6, "maxfev": 60 * len(y0)})
+        return full(res.x), float(res.fun)
 
     def _noise_groups(self) -> list:
         """The measured channels' groups of one measurement-noise scale: the
@@ -223,7 +297,7 @@ class FilterScores:
         them closely overconfident on a manoeuvre it extrapolates to, and
         favour a poorer model that needed more process noise. -inf when a
         prediction leaves the physical range."""
-        self.q_shape = training.q_shape
+        self.q_shape, self.tau = training.q_shape, training.tau
         for f in fits:
             info = (f.refined or {}).get("filter")
             if info is None:

@@ -226,6 +226,10 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
                     n_blocks=design.n_blocks, block_seconds=float(BLOCK_SECONDS), probability_floor=1e-300)
     out.fits = fits
     out.fit = fits.get(tuple(named))
+    scorer = design.scorer
+    out.filter_reading = {"step_s": float(scorer.step), "velocities_measured": bool(scorer.velocities),
+                          "process_noise": "coloured" if scorer.tau > 0.0 else "white",
+                          "correlation_time_s": float(scorer.tau)}
     # what every other cause would be beside a named single one (refined together)
     out.beside = dict(pair_fits) if len(named) == 1 else {}
     log.info("discovery on the tracks: %s (scores %s)", out.verdict_of(out.named),

@@ -21,7 +21,12 @@ du``), ``v`` [m/s] sway through the water, ``r`` [rad/s], ``x0``, ``y0``
 [m], ``psi`` [rad]; the rudder is the record's, linear between samples.
 Process noise: white accelerations on ``du``, ``v``, ``r`` of spectral
 densities ``q`` [(m/s^2)^2/Hz, (m/s^2)^2/Hz, (rad/s^2)^2/Hz], ``Q_d =
-diag(q) dt`` on those states; optionally (``q`` of six) white velocities on
+diag(q) dt`` on those states, or (``tau`` > 0) coloured: three more states,
+disturbance accelerations on ``du``, ``v``, ``r`` that wander as
+first-order autoregressions of correlation time ``tau`` with the same
+low-frequency density ``q`` (a shaping filter, Gelb 1974; what waves,
+gusts and a model's own errors do: they push for seconds to minutes, and
+white noise would read such a push as a constant force); optionally (``q`` of six) white velocities on
 ``x0``, ``y0``, ``psi`` too [m^2/s, m^2/s, rad^2/s]: a track and heading
 that drift slowly from the integral of the measured velocities (the
 position, heading and velocity sensors of a real record disagree by small
@@ -40,6 +45,9 @@ aircraft stability and control: the output-error approach. NASA RP-1168.
 
 Jategaonkar, R.V. (2015). Flight vehicle system identification, 2nd ed.
 AIAA, ch. 5 (filter error method).
+
+Gelb, A. (ed.) (1974). Applied optimal estimation. MIT Press (correlated
+process noise by a shaping filter: the augmented state).
 """
 
 from __future__ import annotations
@@ -63,25 +71,30 @@ _CHANNELS = 6
 
 
 @njit(cache=True, inline="always")
-def _step(s0, s1, s2, s3, s4, s5, d0, d1, dt, c, k, wp, e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext):
-    """One RK4 step of (du, v, r, x0, y0, psi), the rudder linear from ``d0`` to ``d1``."""
+def _step(s0, s1, s2, s3, s4, s5, d0, d1, dt, c, k, wp, e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext,
+          f0, f1, f2, k1):
+    """One RK4 step of (du, v, r, x0, y0, psi), the rudder linear from ``d0`` to
+    ``d1``, the disturbance accelerations ``f0, f1, f2`` [m/s^2, m/s^2,
+    rad/s^2] on ``du, v, r`` held over the step; ``k1`` the derivatives at
+    the step's start (:func:`_rates`)."""
     rate = (d1 - d0) / dt
     h = 0.5 * dt
-    k1 = _derivatives(s0, s1, s2, math.cos(s5), math.sin(s5), d0, 0.0, rate, True, c, k, wp,
-                      e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
+    a0, a1, a2 = k1[0] + f0, k1[1] + f1, k1[2] + f2
     p5 = s5 + h * k1[5]
-    k2 = _derivatives(s0 + h * k1[0], s1 + h * k1[1], s2 + h * k1[2], math.cos(p5), math.sin(p5),
+    k2 = _derivatives(s0 + h * a0, s1 + h * a1, s2 + h * a2, math.cos(p5), math.sin(p5),
                       d0 + h * rate, 0.0, rate, True, c, k, wp, e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
+    b0, b1, b2 = k2[0] + f0, k2[1] + f1, k2[2] + f2
     p5 = s5 + h * k2[5]
-    k3 = _derivatives(s0 + h * k2[0], s1 + h * k2[1], s2 + h * k2[2], math.cos(p5), math.sin(p5),
+    k3 = _derivatives(s0 + h * b0, s1 + h * b1, s2 + h * b2, math.cos(p5), math.sin(p5),
                       d0 + h * rate, 0.0, rate, True, c, k, wp, e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
+    c0, c1, c2 = k3[0] + f0, k3[1] + f1, k3[2] + f2
     p5 = s5 + dt * k3[5]
-    k4 = _derivatives(s0 + dt * k3[0], s1 + dt * k3[1], s2 + dt * k3[2], math.cos(p5), math.sin(p5),
+    k4 = _derivatives(s0 + dt * c0, s1 + dt * c1, s2 + dt * c2, math.cos(p5), math.sin(p5),
                       d1, 0.0, rate, True, c, k, wp, e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
     w = dt / 6.0
-    return (s0 + w * (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0]),
-            s1 + w * (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1]),
-            s2 + w * (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2]),
+    return (s0 + w * (a0 + 2.0 * (b0 + c0) + k4[0] + f0),
+            s1 + w * (a1 + 2.0 * (b1 + c1) + k4[1] + f1),
+            s2 + w * (a2 + 2.0 * (b2 + c2) + k4[2] + f2),
             s3 + w * (k1[3] + 2.0 * (k2[3] + k3[3]) + k4[3]),
             s4 + w * (k1[4] + 2.0 * (k2[4] + k3[4]) + k4[4]),
             s5 + w * (k1[5] + 2.0 * (k2[5] + k3[5]) + k4[5]))
@@ -97,40 +110,46 @@ def _rates(s0, s1, s2, s5, d, rate, c, k, wp, e0, e1, e2, e3, e4, e5, g0, g1, g2
 
 
 @njit(cache=True, inline="always")
-def work_arrays(speed0):
-    """The filter's work arrays: ``J``, ``F``, ``FP`` (6, 6), ``H``, ``ph``
-    (6,), and the Jacobian's steps per state at the approach speed ``speed0``."""
-    return (np.zeros((N_FILTER, N_FILTER)), np.zeros((N_FILTER, N_FILTER)), np.zeros((N_FILTER, N_FILTER)),
-            np.zeros(N_FILTER), np.zeros(N_FILTER), np.array([1e-6 * speed0, 1e-6 * speed0, 1e-8, 1.0, 1.0, 1e-7]))
+def work_arrays(speed0, n):
+    """The filter's work arrays for ``n`` states: ``J``, ``F``, ``FP`` (n, n),
+    ``H``, ``ph`` (n,), and the Jacobian's steps per ship state (six) at the
+    approach speed ``speed0``."""
+    return (np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n)),
+            np.zeros(n), np.zeros(n), np.array([1e-6 * speed0, 1e-6 * speed0, 1e-8, 1.0, 1.0, 1e-7]))
 
 
 @njit(cache=True, inline="always")
-def propagate_covariance(J, dt, q, P, F, FP):
+def propagate_covariance(J, dt, q, P, F, FP, decay):
     """``P <- F P F^T + Q`` in place, ``F = I + J dt + (J dt)^2 / 2`` from the
     Jacobian ``J`` of the continuous dynamics (its position columns zeroed:
     positions do not enter the dynamics), ``Q = diag(q) dt`` on the first
     ``len(q)`` states (the three velocities; with six, the track and heading
-    too); ``F`` and ``FP`` are work arrays."""
-    for a in range(N_FILTER):
+    too; with nine, the disturbance states of the coloured process noise,
+    whose transition is ``decay``: their autoregression's coefficient per
+    step); ``F`` and ``FP`` are work arrays. The size of the state is ``P``'s."""
+    n = P.shape[0]
+    for a in range(n):
         J[a, 3] = 0.0
         J[a, 4] = 0.0
-    for a in range(N_FILTER):
-        for b in range(N_FILTER):
+    for a in range(n):
+        for b in range(n):
             acc = 0.0
-            for m in range(N_FILTER):
+            for m in range(n):
                 acc += J[a, m] * J[m, b]
             F[a, b] = J[a, b] * dt + 0.5 * acc * dt * dt
         F[a, a] += 1.0
-    for a in range(N_FILTER):
-        for b in range(N_FILTER):
+    for a in range(N_FILTER, n):
+        F[a, a] = decay
+    for a in range(n):
+        for b in range(n):
             acc = 0.0
-            for m in range(N_FILTER):
+            for m in range(n):
                 acc += F[a, m] * P[m, b]
             FP[a, b] = acc
-    for a in range(N_FILTER):
-        for b in range(a, N_FILTER):
+    for a in range(n):
+        for b in range(a, n):
             acc = 0.0
-            for m in range(N_FILTER):
+            for m in range(n):
                 acc += FP[a, m] * F[b, m]
             P[a, b] = acc
             P[b, a] = acc
@@ -146,7 +165,10 @@ def measurement_update(s, P, z, R, speed0, current_north, current_east, innovati
     place; the over-ground velocities are the state's plus the current's
     earth-fixed components (north, east) [m/s] seen in the body frame. Fills
     ``innovations`` and ``variances`` (6,) and returns the sample's
-    log-likelihood; ``H`` and ``ph`` are work arrays."""
+    log-likelihood; ``H`` and ``ph`` are work arrays. The size of the state
+    is ``P``'s (six, or nine with the coloured process noise's disturbances,
+    which no channel measures)."""
+    n = P.shape[0]
     loglik = 0.0
     for j in range(_CHANNELS):
         y = z[j]
@@ -158,7 +180,7 @@ def measurement_update(s, P, z, R, speed0, current_north, current_east, innovati
         sp_ = math.sin(s[5])
         uc = cp * current_north + sp_ * current_east
         vc = cp * current_east - sp_ * current_north
-        for a in range(N_FILTER):
+        for a in range(n):
             H[a] = 0.0
         if j == 0:
             pred = s[3]
@@ -181,9 +203,9 @@ def measurement_update(s, P, z, R, speed0, current_north, current_east, innovati
             pred = s[2]
             H[2] = 1.0
         S = R[j]
-        for a in range(N_FILTER):
+        for a in range(n):
             acc = 0.0
-            for b in range(N_FILTER):
+            for b in range(n):
                 acc += P[a, b] * H[b]
             ph[a] = acc
             S += H[a] * acc
@@ -191,16 +213,16 @@ def measurement_update(s, P, z, R, speed0, current_north, current_east, innovati
         innovations[j] = e
         variances[j] = S
         loglik += -0.5 * (math.log(2.0 * math.pi * S) + e * e / S)
-        for a in range(N_FILTER):
+        for a in range(n):
             s[a] += ph[a] * e / S
-        for a in range(N_FILTER):
-            for b in range(N_FILTER):
+        for a in range(n):
+            for b in range(n):
                 P[a, b] -= ph[a] * ph[b] / S
     return loglik
 
 
 @njit(cache=True)
-def _filter(cm, k, wp, cmd, ext, dt, z, R, q, s_init, P_init, innovations, variances):
+def _filter(cm, k, wp, cmd, ext, dt, z, R, q, s_init, P_init, innovations, variances, decay):
     """EKF over the samples of ``z`` (n, 6: x0, y0, psi, u, v, r over ground;
     NaN = missing); ``cmd`` (n,) the rudder at the samples, ``ext`` (n - 1, 9)
     or (0, 9) the external forces per step. Fills ``innovations`` and
@@ -208,8 +230,13 @@ def _filter(cm, k, wp, cmd, ext, dt, z, R, q, s_init, P_init, innovations, varia
     variance (NaN where not measured) and returns the log-likelihood; -inf
     when the prediction leaves the physical range.
 
+    With nine states (``s_init``), the last three are disturbance
+    accelerations on ``du, v, r``, held over each step, then multiplied by
+    ``decay`` (``exp(-dt / tau)``) and driven by the process noise ``q[6:9]``:
+    a first-order autoregression per step.
+
     The covariance is propagated with ``F = I + J dt + (J dt)^2 / 2``, ``J``
-    the Jacobian of the continuous dynamics at the step's start (central
+    the Jacobian of the continuous dynamics at the step's start (forward
     differences of the simulator's derivatives; the position and heading
     columns only through the heading)."""
     c = coefficient_tuple(cm)
@@ -219,8 +246,14 @@ def _filter(cm, k, wp, cmd, ext, dt, z, R, q, s_init, P_init, innovations, varia
     limit = 5.0 * k[0]
     s = s_init.copy()
     P = P_init.copy()
-    J, F, FP, H, ph, hstep = work_arrays(k[0])
+    m = s.shape[0]
+    J, F, FP, H, ph, hstep = work_arrays(k[0], m)
+    coloured = m > N_FILTER
+    if coloured:
+        for a in range(3):
+            J[a, N_FILTER + a] = 1.0
     loglik = 0.0
+    f0 = f1 = f2 = 0.0
     e0 = e1 = e2 = e3 = e4 = e5 = g0 = g1 = g2 = 0.0
     for i in range(n):
         if i > 0:
@@ -230,7 +263,9 @@ def _filter(cm, k, wp, cmd, ext, dt, z, R, q, s_init, P_init, innovations, varia
                 g0, g1, g2 = ext[i - 1, 6] * speed0_2, ext[i - 1, 7] * speed0_2, ext[i - 1, 8] * speed0_2
             d0, d1 = cmd[i - 1], cmd[i]
             rate = (d1 - d0) / dt
-            # Jacobian of the continuous dynamics (positions do not enter it)
+            # Jacobian of the continuous dynamics (positions do not enter it): forward differences
+            # from the derivatives at the step's start, which also start its RK4 step
+            base = _rates(s[0], s[1], s[2], s[5], d0, rate, c, k, wp, e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
             for j in (0, 1, 2, 5):
                 h = hstep[j]
                 a0, a1, a2, a5 = s[0], s[1], s[2], s[5]
@@ -243,23 +278,18 @@ def _filter(cm, k, wp, cmd, ext, dt, z, R, q, s_init, P_init, innovations, varia
                 else:
                     a5 += h
                 fp = _rates(a0, a1, a2, a5, d0, rate, c, k, wp, e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
-                b0, b1, b2, b5 = s[0], s[1], s[2], s[5]
-                if j == 0:
-                    b0 -= h
-                elif j == 1:
-                    b1 -= h
-                elif j == 2:
-                    b2 -= h
-                else:
-                    b5 -= h
-                fm = _rates(b0, b1, b2, b5, d0, rate, c, k, wp, e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
                 for a in range(N_FILTER):
-                    J[a, j] = (fp[a] - fm[a]) / (2.0 * h)
+                    J[a, j] = (fp[a] - base[a]) / h
+            if coloured:
+                f0, f1, f2 = s[6], s[7], s[8]
             nxt = _step(s[0], s[1], s[2], s[3], s[4], s[5], d0, d1, dt, c, k, wp,
-                        e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
+                        e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext, f0, f1, f2, base)
             for a in range(N_FILTER):
                 s[a] = nxt[a]
-            propagate_covariance(J, dt, q, P, F, FP)
+            if coloured:
+                for a in range(N_FILTER, m):
+                    s[a] *= decay
+            propagate_covariance(J, dt, q, P, F, FP, decay)
             u = k[0] + s[0]
             if not (u > 0.0 and u < limit and abs(s[1]) < limit and abs(s[2]) < 1.0
                     and math.isfinite(s[3]) and math.isfinite(s[4])):
@@ -291,7 +321,8 @@ def initial_covariance(R: np.ndarray, measured: np.ndarray, speed0: float, lengt
 
 
 def innovation_likelihood(plan, vector: np.ndarray, measured: np.ndarray, R: np.ndarray, q: np.ndarray,
-                          initial: np.ndarray | None = None) -> tuple[float, np.ndarray, np.ndarray]:
+                          initial: np.ndarray | None = None,
+                          tau: float = 0.0) -> tuple[float, np.ndarray, np.ndarray]:
     """Prediction-error log-likelihood of one record replayed by ``plan``.
 
     Parameters
@@ -314,6 +345,13 @@ def innovation_likelihood(plan, vector: np.ndarray, measured: np.ndarray, R: np.
     initial : ndarray (6,), optional
         Initial ``du, v, r, x0, y0, psi`` through the water (default: the
         plan's start, the record's first row).
+    tau : float
+        Correlation time [s] of the process noise on ``du, v, r`` (0: white). With ``tau``, the noise is a disturbance
+        acceleration that wanders as a first-order autoregression (three more
+        states: waves, gusts and a model's own errors push a ship for seconds
+        to minutes, not for one sample), of the same low-frequency spectral
+        density ``q[:3]`` (its variance ``q / (2 tau)``); white is its limit
+        as ``tau`` goes to zero.
 
     Returns
     -------
@@ -321,6 +359,8 @@ def innovation_likelihood(plan, vector: np.ndarray, measured: np.ndarray, R: np.
     """
     if hasattr(plan, "likelihood"):
         # a plan with its own process model (the MMG model: studies.identify.mmg_filter)
+        if tau > 0.0:
+            raise ValueError("the MMG model's filter takes white process noise (tau = 0)")
         return plan.likelihood(vector, measured, R, q, initial)
     inputs = plan.inputs
     if inputs.substeps != 1:
@@ -332,13 +372,36 @@ def innovation_likelihood(plan, vector: np.ndarray, measured: np.ndarray, R: np.
     ext = _ext_rows(inputs.ext, len(inputs.cmd))
     start = plan.initial_state()[:N_FILTER] if initial is None else np.asarray(initial, float)
     R = np.asarray(R, float)
+    q = np.asarray(q, float)
     P0 = initial_covariance(R, measured, inputs.speed0, inputs.length)
+    dt = float(inputs.step)
+    decay = 1.0
+    if tau > 0.0:
+        q, start, P0, decay = _coloured(q, start, P0, dt, float(tau))
     innovations = np.empty((n, _CHANNELS))
     variances = np.empty((n, _CHANNELS))
     loglik = _filter(cm, k, _wind_tuple(inputs.wind), cmd, np.ascontiguousarray(ext[: max(n - 1, 0)]),
-                     float(inputs.step), np.ascontiguousarray(measured, float), R, np.asarray(q, float),
-                     np.ascontiguousarray(start, float), P0, innovations, variances)
+                     dt, np.ascontiguousarray(measured, float), R, np.ascontiguousarray(q),
+                     np.ascontiguousarray(start, float), np.ascontiguousarray(P0), innovations, variances, decay)
     return float(loglik), innovations, variances
+
+
+def _coloured(q: np.ndarray, start: np.ndarray, P0: np.ndarray, dt: float, tau: float) -> tuple:
+    """The filter's process noise, start and initial covariance with three
+    disturbance states of correlation time ``tau`` [s] on ``du, v, r``
+    (:func:`innovation_likelihood`): ``(q (9,), start (9,), P0 (9, 9),
+    decay per step exp(-dt / tau))``. Their stationary variance is ``q[:3] /
+    (2 tau)``, the variance they start with, kept by the noise per step;
+    at ``tau = dt / 2`` their effect per step is nearly the white noise's."""
+    decay = float(np.exp(-dt / tau))
+    variance = q[:3] / (2.0 * tau)
+    out = np.zeros(N_FILTER + 3)
+    out[3:len(q)] = q[3:]
+    out[N_FILTER:] = variance * (1.0 - decay ** 2) / dt
+    P = np.zeros((N_FILTER + 3, N_FILTER + 3))
+    P[:N_FILTER, :N_FILTER] = P0
+    P[N_FILTER:, N_FILTER:] = np.diag(variance)
+    return out, np.concatenate([np.asarray(start, float)[:N_FILTER], np.zeros(3)]), P, decay
 
 
 class PredictionError:
@@ -349,19 +412,22 @@ class PredictionError:
     ``measured`` their measured channels (:func:`innovation_likelihood`), ``R``
     the measurement-noise variances, ``q0`` the shape of the process noise
     (spectral densities on ``du``, ``v``, ``r``): the filter uses ``q0 *
-    10**a`` and :meth:`fit` finds the ``a`` that maximises the likelihood.
+    10**a`` and :meth:`fit` finds the ``a`` that maximises the likelihood;
+    ``tau`` the correlation time [s] of the noise on ``du, v, r`` (0: white;
+    :func:`innovation_likelihood`).
     """
 
-    def __init__(self, plans: list, measured: list, R: np.ndarray, q0: np.ndarray):
+    def __init__(self, plans: list, measured: list, R: np.ndarray, q0: np.ndarray, tau: float = 0.0):
         self.plans, self.measured = plans, measured
         self.R, self.q0 = np.asarray(R, float), np.asarray(q0, float)
+        self.tau = float(tau)
 
     def loglik(self, vector: np.ndarray, log_scale: float) -> float:
         """Summed log-likelihood of the records at process-noise scale ``10**log_scale``."""
         q = self.q0 * 10.0 ** float(log_scale)
         total = 0.0
         for plan, z in zip(self.plans, self.measured):
-            ll, _, _ = innovation_likelihood(plan, vector, z, self.R, q)
+            ll, _, _ = innovation_likelihood(plan, vector, z, self.R, q, tau=self.tau)
             if not np.isfinite(ll):
                 return -np.inf
             total += ll
@@ -376,7 +442,7 @@ class PredictionError:
         q = self.q0 * 10.0 ** float(log_scale)
         parts = []
         for plan, z in zip(self.plans, self.measured):
-            ll, e, S = innovation_likelihood(plan, vector, z, self.R, q)
+            ll, e, S = innovation_likelihood(plan, vector, z, self.R, q, tau=self.tau)
             if not np.isfinite(ll):
                 parts.append(np.full(z.size, 1e3))
                 continue

@@ -69,7 +69,7 @@ def _mmg_filter(c, k, a, g, delta, rps, ext, cn, ce, speed0, dt, z, R, q, s_init
     limit = 5.0 * speed0
     s = s_init.copy()
     P = P_init.copy()
-    J, F, FP, H, ph, hstep = work_arrays(speed0)
+    J, F, FP, H, ph, hstep = work_arrays(speed0, N_FILTER)
     loglik = 0.0
     e0 = e1 = e2 = 0.0
     half = 0.5 * dt
@@ -113,7 +113,7 @@ def _mmg_filter(c, k, a, g, delta, rps, ext, cn, ce, speed0, dt, z, R, q, s_init
             w = dt / 6.0
             for b in range(N_FILTER):
                 s[b] += w * (k1[b] + 2.0 * (k2[b] + k3[b]) + k4[b])
-            propagate_covariance(J, dt, q, P, F, FP)
+            propagate_covariance(J, dt, q, P, F, FP, 1.0)
             u = speed0 + s[0]
             if not (u > 0.0 and u < limit and abs(s[1]) < limit and abs(s[2]) < 1.0
                     and math.isfinite(s[3]) and math.isfinite(s[4])):

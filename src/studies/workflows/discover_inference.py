@@ -130,6 +130,13 @@ def execute_inference(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict,
                      f"named; probability of beating none: "
                      + ", ".join(f"{k} {v:.3f}" for k, v in sorted(result.beats_none.items(),
                                                                    key=lambda kv: -kv[1])))
+        reading = result.filter_reading
+        notes.append(f"the filter steps {reading['step_s']:.2f} s, the velocities "
+                     + ("measured" if reading["velocities_measured"] else "inferred from the track")
+                     + "; its process noise is "
+                     + (f"coloured: disturbances that last {reading['correlation_time_s']:.0f} s (correlation "
+                        "time, by maximum likelihood; white was less likely)" if reading["process_noise"] == "coloured"
+                        else "white (a correlated disturbance was not more likely)"))
     else:
         notes.append(f"{len(result.variants)} single-cause variants compared on {len(raw)} records cut into "
                      f"{result.n_blocks} blocks of {result.block_seconds:.0f} s, each block predicted by models "
