@@ -9,8 +9,10 @@ replay towards one record's drift (a current, a wind) over the one that is
 right. Here every refined fit is scored instead by the likelihood of its
 one-sample-ahead predictions, from an extended Kalman filter whose process
 model is the simulator with the cause's wind, current, external forces and
-rudder, and whose white process noise absorbs the drift
-(:mod:`studies.identify.filter_error`). When the model is right its
+rudder, and whose process noise absorbs the drift
+(:mod:`studies.identify.filter_error`): white, or coloured (disturbance
+accelerations with a correlation time) where the records' likelihood
+prefers it (:meth:`FilterScores.estimate_shape`). When the model is right its
 innovations are white, so the score is a plain BIC::
 
     score = -2 ln L + k ln(n) + penalty
@@ -45,7 +47,8 @@ __all__ = ["FilterScores", "REPLAY_GUARD"]
 
 log = logging.getLogger(__name__)
 
-NOISE_SEARCH = "powell"
+#: the noises' search stops when -ln L changes by less than this share of it (1e-5: about one
+#: unit of log-likelihood on records of 10^5; the causes are compared under the noises held)
 NOISE_FTOL = 1e-5
 #: the coloured process noise's search starts at this many filter steps of correlation time
 COLOURED_START = 10.0
@@ -221,14 +224,10 @@ class FilterScores:
         def search(x, bounds, rounds):
             x = np.clip(x, [b[0] for b in bounds], [b[1] for b in bounds])
             for _ in range(rounds):
-                if NOISE_SEARCH == "lbfgs":
-                    res = minimize(cost, x, method="L-BFGS-B", bounds=bounds,
-                                   options={"eps": 1e-3, "maxiter": 40, "ftol": 1e-9, "gtol": 1e-3})
-                else:
-                    res = minimize(cost, x, method="Powell", bounds=bounds,
-                                   options={"xtol": 0.05, "ftol": NOISE_FTOL, "maxfev": 150 * len(x)})
+                res = minimize(cost, x, method="Powell", bounds=bounds,
+                               options={"xtol": 0.05, "ftol": NOISE_FTOL, "maxfev": 150 * len(x)})
                 x = res.x
-                log.info("noises: %d evaluations, -ln L %.2f", res.nfev, res.fun)
+                log.debug("noises: %d evaluations, -ln L %.2f", res.nfev, res.fun)
             return x, float(cost(x))
 
         x = np.concatenate([np.full(nq, a), np.zeros(nr)])

@@ -6,7 +6,11 @@ baseline's one-step-ahead predictions of the measured records.
    baseline's coefficients and the filter's process and measurement noise
    are fitted to the tracks first (the filter-error method,
    :func:`.innovations.baseline_on_tracks`: the smoothed records'
-   regression only starts it). Every cause's columns (how it would change
+   regression only starts it). The process noise is white or coloured
+   (disturbances with a correlation time), whichever the tracks' likelihood
+   prefers (:meth:`.prediction_error.FilterScores.estimate_shape`): a push
+   that lasts tens of seconds, read as white, is credited to a constant
+   force or a missing term. Every cause's columns (how it would change
    the standardised innovations at no effect) choose its variant and start
    its fit.
 2. **Every model fitted to the tracks.** ``none``, every single cause and
