@@ -131,26 +131,37 @@ def propagate_covariance(J, dt, q, P, F, FP, decay):
     for a in range(n):
         J[a, 3] = 0.0
         J[a, 4] = 0.0
+    # F = I + J dt + (J dt)^2 / 2, over J's nonzero entries (most are zero: positions do not enter
+    # the dynamics, the heading only through the kinematics and a wind or current)
     for a in range(n):
         for b in range(n):
-            acc = 0.0
-            for m in range(n):
-                acc += J[a, m] * J[m, b]
-            F[a, b] = J[a, b] * dt + 0.5 * acc * dt * dt
+            F[a, b] = J[a, b] * dt
+    for a in range(n):
+        for m in range(n):
+            w = J[a, m]
+            if w != 0.0:
+                w *= 0.5 * dt * dt
+                for b in range(n):
+                    F[a, b] += w * J[m, b]
         F[a, a] += 1.0
     for a in range(N_FILTER, n):
         F[a, a] = decay
+    # FP = F P, then P = FP F^T (symmetric), over F's nonzero entries
     for a in range(n):
         for b in range(n):
-            acc = 0.0
-            for m in range(n):
-                acc += F[a, m] * P[m, b]
-            FP[a, b] = acc
+            FP[a, b] = 0.0
+        for m in range(n):
+            w = F[a, m]
+            if w != 0.0:
+                for b in range(n):
+                    FP[a, b] += w * P[m, b]
     for a in range(n):
         for b in range(a, n):
             acc = 0.0
             for m in range(n):
-                acc += FP[a, m] * F[b, m]
+                w = F[b, m]
+                if w != 0.0:
+                    acc += FP[a, m] * w
             P[a, b] = acc
             P[b, a] = acc
     for a in range(q.shape[0]):
@@ -180,35 +191,40 @@ def measurement_update(s, P, z, R, speed0, current_north, current_east, innovati
         sp_ = math.sin(s[5])
         uc = cp * current_north + sp_ * current_east
         vc = cp * current_east - sp_ * current_north
-        for a in range(n):
-            H[a] = 0.0
+        # the channel's row of the measurement matrix: 1 on its state, and for an over-ground
+        # velocity the current's turn with the heading
+        hc = 0.0
         if j == 0:
             pred = s[3]
-            H[3] = 1.0
+            main = 3
         elif j == 1:
             pred = s[4]
-            H[4] = 1.0
+            main = 4
         elif j == 2:
             pred = s[5]
-            H[5] = 1.0
+            main = 5
         elif j == 3:
             pred = speed0 + s[0] + uc
-            H[0] = 1.0
-            H[5] = vc
+            main = 0
+            hc = vc
         elif j == 4:
             pred = s[1] + vc
-            H[1] = 1.0
-            H[5] = -uc
+            main = 1
+            hc = -uc
         else:
             pred = s[2]
-            H[2] = 1.0
-        S = R[j]
+            main = 2
         for a in range(n):
-            acc = 0.0
-            for b in range(n):
-                acc += P[a, b] * H[b]
-            ph[a] = acc
-            S += H[a] * acc
+            H[a] = 0.0
+        H[main] = 1.0
+        if hc != 0.0:
+            H[5] = hc
+            for a in range(n):
+                ph[a] = P[a, main] + hc * P[a, 5]
+        else:
+            for a in range(n):
+                ph[a] = P[a, main]
+        S = R[j] + ph[main] + hc * ph[5]
         e = y - pred
         innovations[j] = e
         variances[j] = S
