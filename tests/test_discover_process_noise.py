@@ -11,18 +11,14 @@ does not. The effects whose truth is exact are injected into the records
 (:mod:`studies.scenarios.injected`).
 """
 
-from pathlib import Path
-
 import numpy as np
 import pandas as pd
 import pytest
 import reference_mariner as ref
-from hydra import initialize_config_module
+from test_discover_independent import _discover
 
-from studies.config import compose_settings
 from studies.scenarios.hidden import parameters_match
 from studies.scenarios.injected import Injection, inject
-from studies.workflows.kinds import execute_discover, prepare_discover
 
 pytestmark = pytest.mark.slow
 
@@ -69,19 +65,6 @@ def pushed_runs():
             ref.zigzag_record(20.0, 20.0, duration=900.0, dt=0.5, disturbance=_disturbance(22)),
             ref.zigzag_record(10.0, 10.0, duration=600.0, dt=0.5, disturbance=_disturbance(23))]
     return [_measured(r, rng, name) for r, name in zip(runs, ("turning_35", "zigzag_20", "zigzag_10"))]
-
-
-def _discover(tmp_path: Path, records: list) -> dict:
-    paths = []
-    for rec in records:
-        path = tmp_path / f"{rec.attrs['name']}.csv"
-        rec.to_csv(path, index=False)
-        paths.append(path)
-    with initialize_config_module("studies.conf", version_base="1.3"):
-        cfg = compose_settings("discover", overrides=[f"data.path=[{paths[0]},{paths[1]}]",
-                                                      f"validate.path=[{paths[2]}]", "vessel=mariner"])
-    d, _ = execute_discover(prepare_discover(cfg, tmp_path), tmp_path / "out")
-    return d
 
 
 def test_the_disturbance_is_not_a_cause(tmp_path, pushed_runs):
