@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import reference_mariner as ref
-from test_discover_independent import _discover
+from test_discover_independent import _discover, _noisy
 
 from studies.scenarios.hidden import parameters_match
 from studies.scenarios.injected import Injection, inject
@@ -43,15 +43,9 @@ def _disturbance(seed: int):
 
 
 def _measured(record: dict, rng, name: str) -> pd.DataFrame:
-    """White sensor noise: 0.1 m on positions, 0.1 deg on heading and rudder,
-    1 % of each velocity's largest excursion."""
-    out = pd.DataFrame(record)
-    for c, sd in (("x0", 0.1), ("y0", 0.1), ("psi", np.deg2rad(0.1)), ("delta", np.deg2rad(0.1))):
-        out[c] = out[c] + sd * rng.standard_normal(len(out))
-    for c in ("u", "v", "r"):
-        x = out[c].to_numpy(float)
-        span = np.max(np.abs(x - ref.U0)) if c == "u" else np.max(np.abs(x))
-        out[c] = x + 0.01 * span * rng.standard_normal(len(out))
+    """The independent simulator's tests' white sensor noise at 1 % of each
+    velocity's excursion, the record named."""
+    out = _noisy(record, rng, 0.01)
     out.attrs["name"] = name
     return out
 
