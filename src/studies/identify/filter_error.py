@@ -176,7 +176,9 @@ def measurement_update(s, P, z, R, speed0, current_north, current_east, innovati
     place; the over-ground velocities are the state's plus the current's
     earth-fixed components (north, east) [m/s] seen in the body frame. Fills
     ``innovations`` and ``variances`` (6,) and returns the sample's
-    log-likelihood; ``H`` and ``ph`` are work arrays. The size of the state
+    log-likelihood; ``ph`` is a work array (``H``, unused, is kept for the
+    callers' work arrays: each channel's row is one state, and for an
+    over-ground velocity the heading). The size of the state
     is ``P``'s (six, or nine with the coloured process noise's disturbances,
     which no channel measures)."""
     n = P.shape[0]
@@ -214,11 +216,7 @@ def measurement_update(s, P, z, R, speed0, current_north, current_east, innovati
         else:
             pred = s[2]
             main = 2
-        for a in range(n):
-            H[a] = 0.0
-        H[main] = 1.0
         if hc != 0.0:
-            H[5] = hc
             for a in range(n):
                 ph[a] = P[a, main] + hc * P[a, 5]
         else:
