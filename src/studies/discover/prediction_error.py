@@ -123,7 +123,7 @@ class FilterScores:
         #: correlation time [s] of the process noise on du, v, r (0: white); estimated with the
         #: noises when ``coloured`` (estimate_shape)
         self.tau = 0.0
-        self.coloured = bool(coloured) and ctx.dynamics is None
+        self.coloured = bool(coloured)
         self._tau_tried = 0.0
         self._plain = {}
         self._bare = replace(ctx, train=[])

@@ -373,9 +373,7 @@ def innovation_likelihood(plan, vector: np.ndarray, measured: np.ndarray, R: np.
     """
     if hasattr(plan, "likelihood"):
         # a plan with its own process model (the MMG model: studies.identify.mmg_filter)
-        if tau > 0.0:
-            raise ValueError("the MMG model's filter takes white process noise (tau = 0)")
-        return plan.likelihood(vector, measured, R, q, initial)
+        return plan.likelihood(vector, measured, R, q, initial, tau)
     inputs = plan.inputs
     if inputs.substeps != 1:
         raise ValueError("the prediction-error filter takes one integration step per sample")
@@ -391,7 +389,7 @@ def innovation_likelihood(plan, vector: np.ndarray, measured: np.ndarray, R: np.
     dt = float(inputs.step)
     decay = 1.0
     if tau > 0.0:
-        q, start, P0, decay = _coloured(q, start, P0, dt, float(tau))
+        q, start, P0, decay = coloured_noise(q, start, P0, dt, float(tau))
     innovations = np.empty((n, _CHANNELS))
     variances = np.empty((n, _CHANNELS))
     loglik = _filter(cm, k, _wind_tuple(inputs.wind), cmd, np.ascontiguousarray(ext[: max(n - 1, 0)]),
@@ -400,7 +398,7 @@ def innovation_likelihood(plan, vector: np.ndarray, measured: np.ndarray, R: np.
     return float(loglik), innovations, variances
 
 
-def _coloured(q: np.ndarray, start: np.ndarray, P0: np.ndarray, dt: float, tau: float) -> tuple:
+def coloured_noise(q: np.ndarray, start: np.ndarray, P0: np.ndarray, dt: float, tau: float) -> tuple:
     """The filter's process noise, start and initial covariance with three
     disturbance states of correlation time ``tau`` [s] on ``du, v, r``
     (:func:`innovation_likelihood`): ``(q (9,), start (9,), P0 (9, 9),

@@ -36,7 +36,8 @@ from numba import njit
 
 from ..models.mmg import HULL_TERMS
 from ..simulate.mmg import _derivatives, _module_accelerations, mmg_inputs
-from .filter_error import N_FILTER, initial_covariance, measurement_update, propagate_covariance, work_arrays
+from .filter_error import (N_FILTER, coloured_noise, initial_covariance, measurement_update, propagate_covariance,
+                           work_arrays)
 
 __all__ = ["MMGFilterPlan"]
 
@@ -57,26 +58,42 @@ def _rates(s0, s1, s2, s5, d, rate, n, c, k, a, g, e0, e1, e2, cn, ce, speed0):
 
 @njit(cache=True)
 def _mmg_filter(c, k, a, g, delta, rps, ext, cn, ce, speed0, dt, z, R, q, s_init, P_init,
-                innovations, variances):
+                innovations, variances, decay):
     """EKF over the samples of ``z`` (n, 6: x0, y0, psi, u, v, r over ground;
     NaN = missing) with the MMG model; ``delta``, ``rps`` (n,) at the samples,
     ``ext`` (n - 1, 3) or (0, 3) accelerations per step. Fills ``innovations``
     and ``variances`` (n, 6) and returns the log-likelihood; -inf when the
     prediction leaves the physical range (``0 < u < 5 U0``, ``|v| < 5 U0``,
-    ``|r| < 1 rad/s``)."""
+    ``|r| < 1 rad/s``).
+
+    With nine states (``s_init``), the last three are disturbance
+    accelerations [m/s^2, m/s^2, rad/s^2] on ``du, v, r``, held over each
+    step beside ``ext``, then multiplied by ``decay`` (``exp(-dt / tau)``)
+    and driven by the process noise ``q[6:9]``: the coloured process noise
+    of :func:`studies.identify.filter_error.innovation_likelihood`."""
     n = z.shape[0]
     has_ext = ext.shape[0] > 0
     limit = 5.0 * speed0
     s = s_init.copy()
     P = P_init.copy()
-    J, F, FP, H, ph, hstep = work_arrays(speed0, N_FILTER)
+    m_states = s.shape[0]
+    J, F, FP, H, ph, hstep = work_arrays(speed0, m_states)
+    coloured = m_states > N_FILTER
+    if coloured:
+        for b in range(3):
+            J[b, N_FILTER + b] = 1.0
     loglik = 0.0
     e0 = e1 = e2 = 0.0
     half = 0.5 * dt
     for i in range(n):
         if i > 0:
+            e0 = e1 = e2 = 0.0
             if has_ext:
                 e0, e1, e2 = ext[i - 1, 0], ext[i - 1, 1], ext[i - 1, 2]
+            if coloured:
+                e0 += s[6]
+                e1 += s[7]
+                e2 += s[8]
             d0, d1 = delta[i - 1], delta[i]
             n0, n1 = rps[i - 1], rps[i]
             rate = (d1 - d0) / dt
@@ -113,7 +130,10 @@ def _mmg_filter(c, k, a, g, delta, rps, ext, cn, ce, speed0, dt, z, R, q, s_init
             w = dt / 6.0
             for b in range(N_FILTER):
                 s[b] += w * (k1[b] + 2.0 * (k2[b] + k3[b]) + k4[b])
-            propagate_covariance(J, dt, q, P, F, FP, 1.0)
+            if coloured:
+                for b in range(N_FILTER, m_states):
+                    s[b] *= decay
+            propagate_covariance(J, dt, q, P, F, FP, decay)
             u = speed0 + s[0]
             if not (u > 0.0 and u < limit and abs(s[1]) < limit and abs(s[2]) < 1.0
                     and math.isfinite(s[3]) and math.isfinite(s[4])):
@@ -186,22 +206,29 @@ class MMGFilterPlan:
         return np.ascontiguousarray(sum(parts[1:], parts[0]))
 
     def likelihood(self, vector: np.ndarray, measured: np.ndarray, R: np.ndarray, q: np.ndarray,
-                   initial: np.ndarray | None = None) -> tuple[float, np.ndarray, np.ndarray]:
+                   initial: np.ndarray | None = None, tau: float = 0.0) -> tuple[float, np.ndarray, np.ndarray]:
         """``(loglik, innovations (n, 6), variances (n, 6))`` of the record's
         measured channels (``x0, y0, psi, u, v, r`` over ground) under the
         coefficients ``vector`` (prime, ``model.names`` order), measurement
-        variances ``R`` and process-noise densities ``q``."""
+        variances ``R`` and process-noise densities ``q``; ``tau`` [s] the
+        correlation time of the process noise on ``du, v, r`` (0: white;
+        :func:`studies.identify.filter_error.innovation_likelihood`)."""
         vector = np.asarray(vector, float)
         n = len(measured)
         hull = tuple(float(vector[i]) if i >= 0 else 0.0 for i in self.hull_index)
         start = self.start if initial is None else np.asarray(initial, float)
         R = np.asarray(R, float)
         P0 = initial_covariance(R, measured, self.speed0, self.length)
+        q = np.asarray(q, float)
+        decay = 1.0
+        if tau > 0.0:
+            q, start, P0, decay = coloured_noise(q, start, P0, self.step, float(tau))
         innovations = np.empty((n, 6))
         variances = np.empty((n, 6))
         cn, ce = self.current
         loglik = _mmg_filter(hull, self.k, self.a, self.g, self.delta[:n], self.rps[:n],
                              self.accelerations(vector, n), cn, ce, self.speed0, self.step,
-                             np.ascontiguousarray(measured, float), R, np.asarray(q, float),
-                             np.ascontiguousarray(start, float), P0, innovations, variances)
+                             np.ascontiguousarray(measured, float), R, np.ascontiguousarray(q),
+                             np.ascontiguousarray(start, float), np.ascontiguousarray(P0), innovations,
+                             variances, decay)
         return float(loglik), innovations, variances
