@@ -260,7 +260,10 @@ def _baseline_setup(ctx: Context) -> Setup:
 
 
 def _with_dynamics(ctx: Context, setup: Setup) -> Setup:
-    setup.dynamics = ctx.dynamics
+    """The setup on the baseline's process model (the MMG model of an MMG
+    baseline), unless its cause replaces it (``propulsion``: its own)."""
+    if not (setup.cause is not None and setup.cause.replaces_dynamics):
+        setup.dynamics = ctx.dynamics
     return setup
 
 
@@ -871,8 +874,8 @@ def intervals(inference: Inference, level: float = 0.9, draws: int = 2000, seed:
     draws are centred on the refined estimate (the nonlinear refinement moves
     the value, not the spread). Directions are taken about the estimate, on
     the circle."""
-    if not inference.named or inference.fit is None:
-        return {}
+    if not inference.named or inference.fit is None or inference.fit.cause.replaces_dynamics:
+        return {}          # a replaced process model: its coefficients come from its own regression
     cov = np.asarray(inference.covariance, float)
     coef = np.asarray(inference.coefficients, float)
     if cov.shape != (len(coef), len(coef)) or not np.all(np.isfinite(cov)):

@@ -73,13 +73,14 @@ from scipy.optimize import least_squares
 
 from .causes import Combined, MissingTerm, NoCause, manoeuvring_causes
 from .causes.base import Cause
+from .causes.propulsion import Propulsion
 from .fitting import CauseFit, Context, calibrate
-from .inference import (Inference, _by_cause, _catalogue_order, _model_cause, _model_theta, _pair_id,
+from .inference import (Inference, Variant, _by_cause, _catalogue_order, _model_cause, _model_theta, _pair_id,
                         baseline_fit, fit_at)
 from .innovations import (BLOCK_SECONDS, TERM_STEP, InnovationDesign, beside, cause_steps, cause_variants,
                           innovation_design, judge, own_columns, robust_wald)
 
-__all__ = ["infer_on_tracks", "refine_on_tracks", "fit_at", "MAX_EVALUATIONS"]
+__all__ = ["infer_on_tracks", "refine_on_tracks", "propulsion_on_tracks", "fit_at", "MAX_EVALUATIONS"]
 
 log = logging.getLogger(__name__)
 
@@ -153,12 +154,28 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
                                 if fit.cause.acts(fit.theta) else 0.0, variants[i].n_params, design.n, len(idx))
     evidence = {cid: scores[cid] for cid in singles}
     seconds["comparison"] = time.perf_counter() - t2
+    propulsion = [c for c in causes if c.replaces_dynamics] if ctx.dynamics is None else []
+    if propulsion:
+        t4 = time.perf_counter()
+        judged = propulsion_on_tracks(ctx, propulsion[0], smoothed, measured, design, none)
+        if judged is not None:
+            score, fit = judged
+            variants = variants + [Variant(fit.cause, fit.cause.id, np.zeros((len(design.residual), 0)),
+                                           lambda b: np.zeros(0), fit.cause.n_params())]
+            i = len(variants) - 1
+            singles[fit.cause.id] = [i]
+            fits[(i,)], best[fit.cause.id] = fit, i
+            scores[fit.cause.id] = evidence[fit.cause.id] = score
+        seconds["propulsion"] = time.perf_counter() - t4
 
     # 2. a second cause beside the most probable single one, the two refined together
     first = max(singles, key=lambda c: scores[c], default=None)
     named = (best[first],) if first is not None and scores[first] > 0.0 else ()
     pair_fits, pair_variants = {}, {}
-    if named:
+    if named and variants[best[first]].cause.replaces_dynamics:
+        # another process model: a second cause is judged on it as the baseline (model=mmg)
+        pairs = False
+    elif named:
         t3 = time.perf_counter()
         fit1 = fits[(best[first],)]
         terms1 = _terms_of(fit1)
@@ -210,7 +227,8 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
         variants = variants + [pair_variants[top]]
         named = (best[first], len(variants) - 1)
         fits[named] = pair_fits[next(c for c in pair_fits if _pair_id(first, c) == top)]
-    named_judgement = judge(design, np.hstack([variants[i].columns for i in named])) if named else None
+    named_judgement = (judge(design, np.hstack([variants[i].columns for i in named]))
+                       if named and not variants[named[0]].cause.replaces_dynamics else None)
 
     top_score = max(scores.values())
     weights = {k: float(np.exp(0.5 * (s - top_score))) for k, s in scores.items()}
@@ -223,8 +241,9 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
                 inclusion[cid] = inclusion.get(cid, 0.0) + p
     beats_none = {cid: float(1.0 / (1.0 + np.exp(-0.5 * scores[cid]))) for cid in singles}
     out = Inference(variants, tuple(named), inclusion, verdicts,
-                    named_judgement.coefficients if named else np.zeros(0),
-                    named_judgement.covariance if named else np.zeros((0, 0)), int(design.n), seconds,
+                    named_judgement.coefficients if named_judgement is not None else np.zeros(0),
+                    named_judgement.covariance if named_judgement is not None else np.zeros((0, 0)),
+                    int(design.n), seconds,
                     gains={k: 0.5 * s for k, s in scores.items()}, beats_none=beats_none, threshold=0.0,
                     evidence=evidence, second_threshold=0.0 if pair_variants else float("nan"),
                     n_blocks=design.n_blocks, block_seconds=float(BLOCK_SECONDS), probability_floor=1e-300)
@@ -239,6 +258,46 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
     log.info("discovery on the tracks: %s (scores %s)", out.verdict_of(out.named),
              ", ".join(f"{k} {v:.1f}" for k, v in sorted(scores.items(), key=lambda kv: -kv[1])[:6]))
     return out
+
+
+def propulsion_on_tracks(ctx: Context, cause: Cause, smoothed: list, measured: list, design: InnovationDesign,
+                         none: CauseFit) -> tuple[float, CauseFit] | None:
+    """``(score, fit)`` of a cause that replaces the baseline's dynamics
+    (``propulsion``: the MMG model, with thrust from the measured rpm and the
+    rudder in the slipstream), or None where it does not apply.
+
+    The replacement is not a column beside the baseline's coefficients: it is
+    another process model in the filter. Its coefficients and its filter's
+    noises are fitted to the same tracks at the same filter step as the
+    baseline's (:func:`.innovations.innovation_design`, then refined as every
+    verdict is, :func:`refine_on_tracks`); it is judged by the same BIC
+    (module docstring) on the two filters' whole log-likelihoods at their
+    own noises (the standardised innovations alone would leave out the
+    innovation variances, which differ between the two filters): ``E = 2
+    (ln L_replacement - ln L_none)``, ``k`` its coefficients less the
+    baseline's (negative when it has fewer), one variant."""
+    every_ctx = Context(ctx.vessel, ctx.model, list(ctx.train) + list(ctx.validation), [], "recorded")
+    if not cause.applicable(every_ctx):
+        return None
+    dynamics = cause.setup(every_ctx, np.zeros(0)).dynamics
+    other = Context(ctx.vessel, dynamics.model, list(smoothed), [], "recorded", dynamics=dynamics)
+    calibrate(other)
+    start = baseline_fit(other)
+    try:
+        replaced = innovation_design(other, measured, start, step=float(design.scorer.step))
+        refined = refine_on_tracks(replaced, other, NoCause(), np.zeros(0), {})
+    except (ValueError, np.linalg.LinAlgError, FloatingPointError) as exc:
+        log.info("%s not judged on the tracks: its filter failed (%s)", cause.id, exc)
+        return None
+    ll_other = replaced.scorer._likelihood(refined).loglik(dynamics.model.vector(refined.params, 0.0),
+                                                          replaced.log_q_scale)
+    ll_none = design.scorer._likelihood(none).loglik(none.setup.model.vector(none.params, 0.0), design.log_q_scale)
+    if not (np.isfinite(ll_other) and np.isfinite(ll_none)):
+        return None
+    score = _score_of(2.0 * (ll_other - ll_none), cause.n_params(), design.n, 1)
+    log.info("%s on the tracks: ln L %.1f against the baseline's %.1f, %+d coefficients: score %.1f",
+             cause.id, ll_other, ll_none, cause.n_params(), score)
+    return score, replace(refined, cause=cause, theta=np.zeros(0))
 
 
 def _evidence_at(design: InnovationDesign, against: np.ndarray, innovations: np.ndarray) -> float:
