@@ -19,7 +19,7 @@ from test_discover_independent import _receiver
 from studies.discover.fitting import Context, calibrate
 from studies.discover.inference import baseline_fit, smooth_with_baseline
 from studies.discover.innovations import innovation_design
-from studies.discover.output_error import noise_floors
+from studies.discover.noise_levels import noise_floors
 from studies.discover.prediction_error import FilterScores
 from studies.models.registry import abkowitz
 from studies.vessels import get_vessel

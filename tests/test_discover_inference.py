@@ -7,7 +7,6 @@ import pytest
 from studies.discover import inference as inf
 from studies.discover.causes import EnvironmentalBias, RudderOffset
 from studies.discover.fitting import Context
-from studies.errors import ConfigError
 from studies.models.abkowitz import abkowitz
 from studies.scenarios.hidden import hidden_records
 
@@ -115,18 +114,3 @@ def test_noise_a_cause_fits_does_not_predict_other_blocks_and_a_real_effect_does
     acting = BlockGains.of(BlockGrams(x, coloured + effect, blocks), {"effect": [[0]], "spurious": [[1]]})
     named = name_per_draw(acting.held, weights, 2.5)
     assert named[0] == 0 and np.mean(named[1:] == 0) > 0.8
-
-
-def test_the_inference_refuses_the_options_of_the_search(tmp_path, vessel_module, clean):
-    from hydra import initialize_config_module
-
-    from studies.config import compose_settings
-    from studies.scenarios.hidden import write_records
-    from studies.workflows.kinds import prepare_discover
-
-    paths = write_records(clean, tmp_path)
-    with initialize_config_module("studies.conf", version_base="1.3"):
-        cfg = compose_settings("discover", overrides=[f"data.path=[{paths[0]},{paths[1]}]",
-                                                      f"validate.path=[{paths[2]}]", "discover.splits=true"])
-    with pytest.raises(ConfigError, match="discover.method=search"):
-        prepare_discover(cfg, tmp_path)

@@ -3,7 +3,7 @@
 """
 
 from dataclasses import dataclass, field
-from typing import Any, Optional
+from typing import Optional
 
 from omegaconf import MISSING
 
@@ -106,35 +106,18 @@ class DiscoverOptions:
         half-cycles, time-blocked), in [0.05, 0.8].
     horizon : float or None
         Prediction windows of the validation error [s]; None: whole records.
-    terms_threshold : float
-        STLSQ threshold (unit-variance columns) of the missing-term search.
-    max_terms : int
-        Most terms added per DOF.
     second_cause : bool
         Try a second cause on top of the best one.
-    posterior_steps : int
-        emcee steps (after 15 of burn-in) for the winner's intervals.
-    output_error : str or bool
-        Refine by simulation (output error) before validating: ``auto``
-        (noisy records), true or false.
-    score : str
-        How refined causes are scored and judged: ``prediction_error`` (the
-        extended Kalman filter's innovation likelihood with process noise,
-        the held-out records' one-step-ahead likelihood deciding) or
-        ``output_error`` (BIC on the replay's residual, the held-out windows'
-        replay error deciding).
     splits : bool
-        Also hold out every record of data.path + validate.path in turn.
+        Also hold out every record of data.path + validate.path in turn: the
+        baseline and the named model identified on the others and judged on
+        it (does the gain hold on every manoeuvre).
     method : str
-        ``inference`` (every cause judged by its gain on time blocks it was
-        not fitted to, one criterion naming the verdict, the share of
-        bootstrap reweightings of the blocks naming it its confidence:
-        :mod:`studies.discover.inference`; any baseline, the MMG model
-        included) or ``search`` (the earlier search: causes fitted one by
-        one, named by rules on training scores and held-out windows;
-        polynomial baselines only; ``terms_threshold``, ``max_terms``,
-        ``posterior_steps``, ``output_error``, ``score`` and ``splits`` are
-        its options).
+        ``inference`` (the only one: every cause and pair of the catalogue
+        judged at once by one criterion, :mod:`studies.discover.track_inference`
+        and :mod:`studies.discover.inference`; any baseline, the MMG model
+        included). The earlier rule-based search (``search``) was retired; the
+        value is refused with a line saying so.
     judge : str
         What ``method=inference`` judges the causes on: ``tracks`` (the
         baseline's prediction-error filter over the measured records, every
@@ -149,27 +132,18 @@ class DiscoverOptions:
 
     holdout: float = 0.3
     horizon: Optional[float] = 120.0
-    terms_threshold: float = 0.1
-    max_terms: int = 3
     second_cause: bool = True
-    posterior_steps: int = 40
-    output_error: Any = "auto"
-    score: str = "prediction_error"
     splits: bool = False
     method: str = "inference"
     judge: str = "auto"
 
     def __post_init__(self):
+        if str(self.method) == "search":
+            raise ConfigError("discover.method=search: the rule-based search was retired; the inference (the "
+                              "default, discover.method=inference) judges the whole catalogue, propulsion "
+                              "included, and keeps discover.splits and simulation.path")
         self.method = _choice("discover.method", self.method, DISCOVERY_METHODS)
         self.judge = _choice("discover.judge", self.judge, DISCOVERY_JUDGES)
-        value = self.output_error
-        if not isinstance(value, bool) and str(value).lower() not in ("auto", "true", "false"):
-            raise ConfigError(f"discover.output_error must be auto, true or false, got {value!r}")
-        # normalised once: "auto", True or False
-        self.output_error = value if isinstance(value, bool) else (
-            "auto" if str(value).lower() == "auto" else str(value).lower() == "true")
-        if self.score not in ("prediction_error", "output_error"):
-            raise ConfigError(f"discover.score must be prediction_error or output_error, got {self.score!r}")
         share = _number("discover.holdout", self.holdout)
         if not 0.05 <= share <= 0.8:
             raise ConfigError(f"discover.holdout must be in [0.05, 0.8], got {share}")

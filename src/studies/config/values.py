@@ -25,7 +25,7 @@ DERIVATIVES = ("auto", "central", "savgol", "forward", "ekf", "ekf_kinematic")
 
 
 #: ``discover.method`` values
-DISCOVERY_METHODS = ("inference", "search")
+DISCOVERY_METHODS = ("inference",)
 #: what the inference judges causes on (``discover.judge``): ``auto`` = tracks for a polynomial
 #: baseline, blocks for the MMG model
 DISCOVERY_JUDGES = ("auto", "tracks", "blocks")

@@ -1,21 +1,20 @@
-"""Fitting and scoring the causes of ``studies discover``.
+"""The pieces every discovery fits with: the context of a discovery, a
+cause's fit, the regression of the baseline (or a cause's setup) on the
+smoothed records and its score, the records' smoothing, and the replays
+that give the validation error.
 
-For a cause with parameters theta, the hydrodynamic coefficients are
-profiled out: for every trial theta the training records are read as the
-cause says (:meth:`Cause.setup`) and the model is identified by least
-squares; the residuals of the three DOFs, each scaled by the baseline's
-residual standard deviation, are minimised over theta with
-``scipy.optimize.least_squares`` from a few starting points.
-
-Score (lower is better): a BIC on the regression with the effective number
-of independent rows ``n_eff = n / tau`` (regression residuals of a time
-series are autocorrelated; ``tau`` is their integrated autocorrelation time,
-measured on the baseline)::
+A cause with parameters theta reads the records as it says
+(:meth:`Cause.setup`) and the model's coefficients are identified on them
+by least squares (:func:`scored_fit`); the residuals of the three DOFs are
+each scaled by the baseline's residual standard deviation. Their score
+(lower is better) is a BIC with the effective number of independent rows
+``n_eff = n / tau`` (regression residuals of a time series are
+autocorrelated; ``tau`` is their integrated autocorrelation time, measured
+on the baseline)::
 
     score = n_eff * sum_dof ln(RSS_dof / n) + k ln(n_eff)
 
-with ``k`` the number of the cause's own parameters. The extended model must
-also predict the records it was not fitted to better than the baseline.
+with ``k`` the number of the cause's own parameters.
 
 References
 ----------
@@ -26,12 +25,10 @@ Schwarz, G. (1978). Estimating the dimension of a model. Annals of Statistics
 from __future__ import annotations
 
 import logging
-import time
 from dataclasses import dataclass, field, replace
 
 import emcee
 import numpy as np
-from scipy.optimize import least_squares
 from scipy.signal import savgol_filter
 
 from ..data.derivatives import choose_window
@@ -39,9 +36,8 @@ from ..identify import LeastSquares, build_problems
 from ..identify.bayes import run_with_progress
 from .causes.base import Cause, Setup
 
-__all__ = ["Context", "CauseFit", "regression_fit", "setup_problems", "scored_fit", "nominal_residuals", "fit_cause",
-           "kinematic_smoothing",
-           "validate", "training_error", "posterior", "sample_intervals"]
+__all__ = ["Context", "CauseFit", "regression_fit", "setup_problems", "scored_fit", "nominal_residuals",
+           "calibrate", "kinematic_smoothing", "validate", "training_error", "sample_intervals"]
 
 log = logging.getLogger(__name__)
 
@@ -79,8 +75,6 @@ class CauseFit:
     #: ``(why, manoeuvre)``: the training records cannot decide for the cause, and which
     #: manoeuvre would (:meth:`Cause.undecidable`; None: they can)
     undecidable: tuple | None = None
-    #: the output-error refinement's solution (:func:`studies.discover.output_error.refine`), if any
-    refined: dict | None = None
     #: :func:`validate` of the whole validation records (one replay each, no windows)
     whole: dict = field(default_factory=dict)
 
@@ -180,72 +174,8 @@ def calibrate(ctx: Context) -> tuple[dict, list]:
     return params, residuals
 
 
-def rescore(ctx: Context, fits: list) -> None:
-    """Re-estimate the residuals' autocorrelation time from the fit that whitens
-    them most, and score every fit again with it.
-
-    The baseline's residual carries whatever effect the baseline lacks: a
-    slowly varying, heading-dependent error makes its autocorrelation time
-    hundreds of rows long, and ``n_eff`` measured on it would hide the very
-    effect that causes it. The residual of the cause that explains the effect
-    shows the correlation of the measurement errors alone.
-    """
-    tau = min([f.tau for f in fits if np.isfinite(f.tau)] + [ctx.tau])
-    if tau < ctx.tau:
-        log.info("residual autocorrelation time %.1f rows (baseline's %.1f)", tau, ctx.tau)
-        ctx.tau = tau
-        ctx.n_eff = max(10.0, ctx.n_rows / tau)
-    for f in fits:
-        f.score = _score(ctx, f.rss, f.cause.n_params())
-
-
 def _score(ctx: Context, rss: np.ndarray, k: int) -> float:
     return float(ctx.n_eff * np.sum(np.log(rss / ctx.n_rows)) + k * np.log(ctx.n_eff))
-
-
-def _vector(ctx: Context, cause: Cause, theta) -> np.ndarray:
-    _, residuals, _ = scored_fit(ctx, cause.setup(ctx, theta))
-    return np.concatenate([r / s for r, s in zip(residuals, ctx.sigma)])
-
-
-def fit_cause(ctx: Context, cause: Cause) -> CauseFit:
-    """Profile least squares over the cause's parameters from its starting points."""
-    t0 = time.perf_counter()
-    if not cause.nl_params:
-        theta = np.zeros(0)
-    else:
-        low, high = cause.bounds(ctx)
-        best = None
-        starts = [np.clip(st, low + 1e-9, high - 1e-9) for st in cause.starts(ctx)]
-        if len(starts) > 2:
-            # a coarse look at every start, then the two most promising are refined
-            costs = []
-            for st in starts:
-                try:
-                    costs.append(float(np.sum(_vector(ctx, cause, st) ** 2)))
-                except (ValueError, np.linalg.LinAlgError):
-                    costs.append(np.inf)
-            starts = [starts[i] for i in np.argsort(costs)[:2]]
-        for start in starts:
-            start = np.clip(start, low + 1e-9, high - 1e-9)
-            try:
-                res = least_squares(lambda th: _vector(ctx, cause, th), start, bounds=(low, high),
-                                    x_scale="jac", max_nfev=60, diff_step=1e-4)
-            except (ValueError, np.linalg.LinAlgError) as exc:
-                log.info("cause %s: start %s failed (%s)", cause.id, start, exc)
-                continue
-            if best is None or res.cost < best.cost:
-                best = res
-        theta = best.x if best is not None else np.zeros(len(cause.nl_params))
-    setup = cause.setup(ctx, theta)
-    params, residuals, _ = scored_fit(ctx, setup)
-    rss = np.array([float(np.sum(r ** 2)) for r in residuals])
-    fit = CauseFit(cause, np.asarray(theta, float), params, rss, setup=setup,
-                   tau=max(integrated_time(r) for r in residuals))
-    fit.score = _score(ctx, rss, cause.n_params())
-    fit.undecidable = cause.undecidable(ctx)
-    fit.seconds = time.perf_counter() - t0
-    return fit
 
 
 def kinematic_smoothing(record, settings=None, rates: bool = False):
@@ -354,31 +284,6 @@ def training_error(ctx: Context, fit: CauseFit) -> float:
     return validate(replace(ctx, validation=ctx.train), replace(fit))["position_rmse"]
 
 
-def posterior(ctx: Context, fit: CauseFit, walkers: int = 6, steps: int = 40, burn: int = 15,
-              seed: int = 0) -> dict:
-    """90 % intervals of the cause's parameters from emcee on the profile likelihood
-    ``-n_eff / 2 sum_dof ln RSS_dof(theta)`` (flat prior within the bounds)."""
-    cause = fit.cause
-    k = len(fit.theta)
-    if k == 0:
-        return _linear_intervals(ctx, fit)
-    low, high = cause.bounds(ctx)
-    scale = np.maximum(np.abs(fit.theta) * 0.05, 1e-6 * (1 + np.abs(fit.theta)))
-
-    def log_prob(theta):
-        if np.any(theta < low) or np.any(theta > high):
-            return -np.inf
-        _, residuals, _ = scored_fit(ctx, cause.setup(ctx, theta))
-        rss = np.array([np.sum(r ** 2) for r in residuals])
-        return -0.5 * ctx.n_eff * float(np.sum(np.log(rss)))
-
-    walkers = max(walkers, 2 * k + 2)
-    rng = np.random.default_rng(seed)
-    start = fit.theta + scale * rng.standard_normal((walkers, k)) * 0.1
-    start = np.clip(start, low + 1e-12, high - 1e-12)
-    return sample_intervals(log_prob, start, burn, steps, seed)
-
-
 def sample_intervals(log_prob, start: np.ndarray, burn: int, steps: int, seed: int) -> dict:
     """emcee from the walkers' ``start`` (walkers, k) for ``burn + steps`` steps,
     its own moves seeded by ``seed`` (so that the intervals do not depend on
@@ -391,27 +296,3 @@ def sample_intervals(log_prob, start: np.ndarray, burn: int, steps: int, seed: i
     q05, q50, q95 = np.percentile(chain, [5, 50, 95], axis=0)
     return {"samples": chain, "q05": q05, "q50": q50, "q95": q95,
             "acceptance_fraction": float(np.mean(sampler.acceptance_fraction))}
-
-
-def _linear_intervals(ctx: Context, fit: CauseFit) -> dict:
-    """90 % intervals of LS-identified added terms (Gaussian posterior of a linear
-    regression, widened by the residual autocorrelation time)."""
-    names = [n for n in fit.cause.params]
-    if not names:
-        return {}
-    _, residuals, problems = regression_fit(ctx, fit.setup)
-    lo, mid, hi = {}, {}, {}
-    for k, dof in enumerate(("X", "Y", "N")):
-        p = problems[dof]
-        mine = [j for j, n in enumerate(p.names) if n in names]
-        if not mine:
-            continue
-        s2 = float(np.sum(residuals[k] ** 2)) / max(1, p.n_rows - p.theta.shape[1]) * ctx.tau
-        cov = s2 * np.linalg.pinv(p.theta.T @ p.theta)
-        for j in mine:
-            c = fit.params[p.names[j]]
-            half = 1.645 * np.sqrt(max(cov[j, j], 0.0))
-            lo[p.names[j]], mid[p.names[j]], hi[p.names[j]] = c - half, c, c + half
-    return {"names": names, "q05": np.array([lo[n] for n in names]),
-            "q50": np.array([mid[n] for n in names]), "q95": np.array([hi[n] for n in names]),
-            "method": "linear"}

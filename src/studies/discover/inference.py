@@ -780,7 +780,7 @@ def named_cause(inference: Inference) -> Cause | None:
 def refine(ctx: Context, cause: Cause, start: np.ndarray, max_nfev: int = 40) -> CauseFit:
     """Profiled nonlinear least squares of ``cause``'s parameters from ``start``
     (the linear solution), the baseline's coefficients re-identified at every
-    trial (:func:`studies.discover.fitting.fit_cause`'s objective)."""
+    trial (the profile least squares of the cause's parameters, the regression inside)."""
     t0 = time.perf_counter()
     theta = np.asarray(start, float)
     if len(cause.nl_params):

@@ -71,7 +71,7 @@ from .causes import Combined, Current, MissingTerm, WindUnmodelled, extended_lib
 from .causes.base import Cause
 from .fitting import CauseFit, Context
 from .kinematics import coloured_velocity_noise, derived_velocities
-from .output_error import noise_levels
+from .noise_levels import noise_levels
 from .prediction_error import FilterScores
 
 __all__ = ["BLOCK_SECONDS", "FILTER_STEP", "InnovationDesign", "Judgement", "innovation_design", "beside", "robust_wald",
@@ -248,7 +248,7 @@ def innovation_design(ctx: Context, records: list, baseline: CauseFit, step: flo
     MMG model when ``ctx.dynamics`` holds it: the filter's process model is
     then the MMG model, :mod:`studies.identify.mmg_filter`); ``baseline`` its
     coefficients. The measurement noise per channel is the records' noise at
-    the filter's step (:func:`studies.discover.output_error.noise_levels`);
+    the filter's step (:func:`studies.discover.noise_levels.noise_levels`);
     the process noise's shape and both noises' levels are then estimated by
     maximum likelihood under the baseline (:meth:`FilterScores.estimate_shape`).
 

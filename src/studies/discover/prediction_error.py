@@ -1,32 +1,21 @@
-"""Scoring the refined causes by their prediction-error likelihood.
+"""The prediction-error filter on the measured records, with its noises
+estimated: how every model of a discovery on the tracks is scored
+(:mod:`.innovations`, :mod:`.track_inference`).
 
-The output-error fit (:mod:`.output_error`) replays windows of the training
-records and takes the model as exact between the windows' starts. Records
-with process noise (waves, gusts, whatever the model does not hold) drift
-off any replay; the replay's residual is then mostly that drift, correlated
-over minutes, and its sum of squares favours an extension that bends the
-replay towards one record's drift (a current, a wind) over the one that is
-right. Here every refined fit is scored instead by the likelihood of its
-one-sample-ahead predictions, from an extended Kalman filter whose process
-model is the simulator with the cause's wind, current, external forces and
-rudder, and whose process noise absorbs the drift
-(:mod:`studies.identify.filter_error`): white, or coloured (disturbance
-accelerations with a correlation time) where the records' likelihood
-prefers it (:meth:`FilterScores.estimate_shape`). When the model is right its
-innovations are white, so the score is a plain BIC::
-
-    score = -2 ln L + k ln(n) + penalty
-
-with ``k`` the cause's own parameters, ``n`` the measured samples (six
-channels per sample of the thinned records) and, for terms chosen from the
-library, the search penalty of the extended BIC
-(:meth:`~studies.discover.causes.base.Cause.search_penalty`). The measurement-noise
-variances are the channels' noise levels at the records' resolution
-(:func:`.output_error.noise_levels`); the process noise's spectral densities
-on ``du``, ``v``, ``r`` are estimated by maximum likelihood on the baseline
-(their shape, three values) and every fit then gets its own overall scale by
-maximum likelihood, so an extension that explains the drift needs less of
-it. Differences are on the 2 ln Bayes-factor scale of the other scores.
+Each record is thinned to the filter's step and run through an extended
+Kalman filter whose process model is the simulator with the cause's wind,
+current, external forces and rudder, or the MMG model
+(:mod:`studies.identify.filter_error`, :mod:`studies.identify.mmg_filter`).
+Its process noise absorbs what the model does not hold (waves, gusts, the
+model's own errors): white, or coloured (disturbance accelerations with a
+correlation time) where the records' likelihood prefers it
+(:meth:`FilterScores.estimate_shape`). The measurement-noise variances
+start from the channels' noise levels at the filter's step
+(:func:`.noise_levels.noise_levels`); the process noise's spectral
+densities on ``du``, ``v``, ``r`` (their shape) and both noises' levels
+are then estimated by maximum likelihood under the baseline, and every
+model is compared at the noises so held, its own overall process-noise
+scale the likeliest for it.
 """
 
 from __future__ import annotations
@@ -40,10 +29,10 @@ from scipy.optimize import minimize
 from ..data.resample import block_means
 from ..identify.filter_error import PredictionError
 from ..simulate.simulator import ReplayPlan
-from .fitting import CauseFit, Context, training_error
-from .output_error import noise_floors
+from .fitting import CauseFit, Context
+from .noise_levels import noise_floors
 
-__all__ = ["FilterScores", "REPLAY_GUARD"]
+__all__ = ["FilterScores"]
 
 log = logging.getLogger(__name__)
 
@@ -52,10 +41,6 @@ log = logging.getLogger(__name__)
 NOISE_FTOL = 1e-5
 #: the coloured process noise's search starts at this many filter steps of correlation time
 COLOURED_START = 10.0
-
-#: a filter-error refinement is refused when its windowed replay of the training
-#: records errs more than this many times its start's
-REPLAY_GUARD = 2.0
 
 
 def _measured(record, velocities: bool = True) -> np.ndarray:
@@ -82,15 +67,13 @@ class FilterScores:
     sigma : ndarray (6,)
         Noise standard deviations of ``x0, y0, psi, u, v, r`` at that sampling.
     records : list of DataFrame, optional
-        The records scored (default the training records; the validation
-        records for :meth:`held_out`).
+        The records scored (default the training records).
     drift : bool
         Let the track and heading drift from the integral of the velocities
         (process noise on ``x0, y0, psi`` as well, by maximum likelihood in
         :meth:`estimate_shape`): what measured records need, whose sensors
         disagree by small biases and scale factors (the discovery on the
-        tracks). False: process noise on the velocities only (the earlier
-        search, ``discover.method=search``).
+        tracks). False: process noise on the velocities only.
     velocities : bool
         Measure ``u, v, r`` as well as the track and heading. False for
         velocities derived from the track (their noise is the track's, which
@@ -101,8 +84,9 @@ class FilterScores:
         noises (:meth:`estimate_shape`; white is its limit). Waves, gusts and
         a model's own errors push a ship for seconds to minutes; taken as
         white, such a push looks like a constant force or a missing term to
-        the filter, and is credited to a cause. The polynomial baseline's
-        filter only (:mod:`studies.identify.filter_error`).
+        the filter, and is credited to a cause (the polynomial models' filter,
+        :mod:`studies.identify.filter_error`, and the MMG model's,
+        :mod:`studies.identify.mmg_filter`).
     """
 
     def __init__(self, ctx: Context, step: float, sigma: np.ndarray, records: list | None = None,
@@ -182,7 +166,7 @@ class FilterScores:
         scales: the track's two process densities and its two noise levels
         each share one, a channel not measured has none); the process noise
         is kept as the shape every fit is scaled from. The measurement noise
-        starts from the levels given (:func:`.output_error.noise_levels`),
+        starts from the levels given (:func:`.noise_levels.noise_levels`),
         which a smoothing of the records misjudges when the noise is coloured
         or the signal sharp, and a heading's when its rate is derived from
         it; the process noise and a white measurement noise are told apart by
@@ -284,165 +268,3 @@ class FilterScores:
             measured |= np.isfinite(z).any(axis=0)
         groups = [[0, 1], [2]] + [[j] for j in (3, 4, 5)]
         return [g for g in groups if measured[g].all()]
-
-    def held_out(self, fits: list, training: "FilterScores") -> None:
-        """Keep in ``refined["filter"]["held_out_loglik"]`` the log-likelihood of
-        this scorer's records (the held-out ones) under every fit scored by
-        ``training``: how well each model predicts records it was not fitted
-        to, one sample ahead, whatever drift the process noise gives them.
-        The process noise has the shape estimated on the training records and
-        its scale, for every fit, the likeliest on these records: a scale
-        carried over from the training records would make a model that fits
-        them closely overconfident on a manoeuvre it extrapolates to, and
-        favour a poorer model that needed more process noise. -inf when a
-        prediction leaves the physical range."""
-        self.q_shape, self.tau = training.q_shape, training.tau
-        for f in fits:
-            info = (f.refined or {}).get("filter")
-            if info is None:
-                continue
-            ll, a = self._likelihood(f).fit(f.setup.model.vector(f.params, 0.0))
-            info["held_out_loglik"], info["held_out_log_q_scale"] = ll, a
-
-    def score(self, fits: list) -> None:
-        """Set ``score`` (``-2 ln L + k ln n``) of every refined fit, and keep
-        ``refined["filter"]``: the log-likelihood and the process noise's log10 scale."""
-        for f in fits:
-            if f.refined is None or f.setup.dynamics is not None:
-                continue
-            if self.q_shape is None:
-                self.estimate_shape(f)
-            ll, a = self._likelihood(f).fit(f.setup.model.vector(f.params, 0.0))
-            f.refined["filter"] = {"loglik": ll, "log_q_scale": a}
-            f.score = -2.0 * ll + f.cause.n_params() * np.log(self.n) + f.cause.search_penalty(self.ctx)
-
-    def refine(self, fit: CauseFit, max_nfev: int = 20, rounds: int = 2) -> CauseFit:
-        """``fit`` refined by the filter-error method: its coefficients and the
-        cause's parameters fitted to the training records' innovations (their
-        sum of squares, each over its standard deviation; the weak prior of
-        :mod:`.output_error` on the coefficients' relative changes), with the
-        process noise's scale held at the likeliest for the fit as it stands
-        and estimated again between ``rounds`` (``max_nfev`` evaluations in
-        all), then scored (:meth:`score`). The coefficients change where the
-        replay's drift had bent them."""
-        start = fit
-        for _ in range(rounds):
-            fit = self._refine_once(fit, max(2, max_nfev // rounds))
-        before, after = training_error(self.ctx, start), training_error(self.ctx, fit)
-        if not after <= REPLAY_GUARD * before:
-            # coloured sensor noise taken for process noise lets the filter follow a model
-            # that no longer predicts: keep the start
-            log.info("cause %-18s filter error refused: its replay of the training records errs %.4g m "
-                     "against %.4g m", fit.cause.id, after, before)
-            fit = start
-        self.score([fit])
-        return fit
-
-    def _refine_once(self, fit: CauseFit, max_nfev: int) -> CauseFit:
-        from scipy.optimize import least_squares
-
-        if self.q_shape is None:
-            self.estimate_shape(fit)
-        cause, model = fit.cause, fit.setup.model
-        names = [t.name for t in model.terms]
-        beta0 = model.vector(fit.params, 0.0)
-        beta_scale = np.maximum(np.abs(beta0), 1e-6)
-        theta0 = np.asarray(fit.theta, float)
-        nb, nt = len(beta0), len(theta0)
-        low, high = cause.bounds(self.ctx) if nt else (np.zeros(0), np.zeros(0))
-        theta_scale = np.maximum(np.abs(theta0), cause.scales(self.ctx)) if nt else np.zeros(0)
-        _, a = self._likelihood(fit).fit(beta0)
-        cache = {}
-
-        def like(theta):
-            key = tuple(np.round(theta, 15))
-            if key not in cache:
-                if len(cache) > 16:
-                    cache.clear()
-                cache[key] = self._likelihood(replace(fit, theta=np.asarray(theta, float)))
-            return cache[key]
-
-        def residuals(x):
-            beta = beta0 + x[:nb] * beta_scale
-            theta = theta0 + x[nb:] * theta_scale
-            return np.concatenate([like(theta).residuals(beta, a), x[:nb]])
-
-        lo = np.full(nb + nt, -np.inf)
-        hi = np.full(nb + nt, np.inf)
-        if nt:
-            lo[nb:] = (low - theta0) / theta_scale
-            hi[nb:] = (high - theta0) / theta_scale
-        x0 = np.clip(np.zeros(nb + nt), lo, hi)
-        res = least_squares(residuals, x0, bounds=(lo, hi), method="trf", x_scale=1.0, diff_step=1e-4,
-                            max_nfev=max_nfev, ftol=1e-4, xtol=1e-6)
-        beta = beta0 + res.x[:nb] * beta_scale
-        theta = theta0 + res.x[nb:] * theta_scale
-        out = replace(fit, theta=theta, params={**fit.params, **dict(zip(names, beta.tolist()))},
-                      setup=cause.setup(self.ctx, theta), validation={}, refined=dict(fit.refined or {}))
-        log.info("cause %-18s filter error: %d evaluations at process-noise scale 10^%.2f", cause.id, res.nfev, a)
-        return out
-
-    def initial_loglik(self, fit: CauseFit, log_scale: float) -> float:
-        """Log-likelihood of ``fit`` as it stands at a given process-noise scale (one filter pass)."""
-        return self._likelihood(fit).loglik(fit.setup.model.vector(fit.params, 0.0), log_scale)
-
-    def posterior(self, fit: CauseFit, walkers: int = 6, steps: int = 40, burn: int = 15, seed: int = 0) -> dict:
-        """90 % intervals of the cause's parameters from the prediction-error
-        likelihood, the coefficients profiled out.
-
-        The standardised innovations are linearised in the coefficients at
-        the solution (a finite-difference Jacobian), so that for any trial of
-        the cause's parameters the coefficients are profiled out by one
-        projection; with the process noise at the fit's scale the innovations
-        are of unit variance, and the log-likelihood is ``-1/2`` their
-        projected sum of squares. emcee samples it (flat prior within the
-        bounds). Added terms (``missing_term``) have no nonlinear parameter:
-        their intervals are the Gaussian (Laplace) ones of the linearised fit.
-        """
-        from .fitting import sample_intervals
-
-        cause, model = fit.cause, fit.setup.model
-        beta = model.vector(fit.params, 0.0)
-        theta = np.asarray(fit.theta, float)
-        a = fit.refined["filter"]["log_q_scale"]
-        like = self._likelihood(fit)
-        r0 = like.residuals(beta, a)
-        scale = np.maximum(np.abs(beta), 1e-6)
-        columns = []
-        for j in range(len(beta)):
-            b = beta.copy()
-            b[j] += 1e-4 * scale[j]
-            columns.append((like.residuals(b, a) - r0) / 1e-4)
-        jb = np.column_stack(columns)
-        if not len(theta):
-            names = list(cause.params)
-            idx = [[t.name for t in model.terms].index(n) for n in names]
-            cov = np.linalg.pinv(jb.T @ jb)
-            half = 1.645 * np.sqrt(np.maximum(np.diag(cov)[idx], 0.0)) * scale[idx]
-            mid = beta[idx]
-            return {"names": names, "q05": mid - half, "q50": mid, "q95": mid + half, "method": "linear"}
-        q, _ = np.linalg.qr(jb)
-        low, high = cause.bounds(self.ctx)
-
-        def log_prob(th):
-            if np.any(th < low) or np.any(th > high):
-                return -np.inf
-            r = self._likelihood(replace(fit, theta=np.asarray(th, float))).residuals(beta, a)
-            r = r - q @ (q.T @ r)
-            return -0.5 * float(r @ r)
-
-        # the walkers start within the Laplace approximation's spread of the parameters
-        t_scale = np.maximum(np.abs(theta), 1e-6)
-        cols = []
-        for j in range(len(theta)):
-            th = theta.copy()
-            th[j] += 1e-4 * t_scale[j]
-            cols.append((self._likelihood(replace(fit, theta=th)).residuals(beta, a) - r0) / (1e-4 * t_scale[j]))
-        jt = np.column_stack(cols)
-        jt = jt - q @ (q.T @ jt)
-        sd = np.sqrt(np.maximum(np.diag(np.linalg.pinv(jt.T @ jt)), 1e-30))
-        walkers = max(walkers, 2 * len(theta) + 2)
-        rng = np.random.default_rng(seed)
-        start = theta + 0.5 * sd * rng.standard_normal((walkers, len(theta)))
-        start = np.clip(start, low + 1e-12, high - 1e-12)
-        return sample_intervals(log_prob, start, burn, steps, seed)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-from collections import Counter
 from html import escape
 from pathlib import Path
 
@@ -207,36 +206,19 @@ def write_report(out_dir: Path, discovery: dict, explanation: str, sections: lis
         verdict.append(f"\nThese records cannot decide between **{d['cause']}** and {rivals}: "
                        f"{d['next_manoeuvre']} would.")
     if d.get("splits"):
-        named = Counter(row["cause"] for row in d["splits"])
-        agree = named.get(d["cause"], 0)
-        verdict.append(f"\nHolding out each of the {len(d['splits'])} records in turn names "
-                       + ", ".join(f"**{c}** {k} time{'s' if k > 1 else ''}" for c, k in named.items())
-                       + f": the same cause as above in {agree} of {len(d['splits'])}"
-                       + (" splits." if agree == len(d["splits"]) else
-                          " splits, so the verdict depends on which manoeuvre is held out."))
-        unexplained = [row["held_out"] for row in d["splits"] if not row.get("explains_validation", True)]
+        rows = d["splits"]
+        if d["cause"] != "none":
+            better = sum(1 for r in rows if r["extended_validation_rmse"] < r["baseline_validation_rmse"])
+            verdict.append(f"\nHolding out each of the {len(rows)} records in turn (the baseline and "
+                           f"**{d['cause']}** identified on the others): the named model predicts it better in "
+                           f"{better} of {len(rows)}"
+                           + ("." if better == len(rows) else
+                              ", so its gain depends on which manoeuvre is held out."))
+        unexplained = [row["held_out"] for row in rows if not row.get("explains_validation", True)]
         if unexplained:
-            verdict.append(f"The model each split names does not explain {len(unexplained)} of the "
-                           f"{len(d['splits'])} held-out records ({', '.join(unexplained)}): its error there "
-                           "is many times that on the records it was fitted to.")
-        split_notes = [f"- holding out {row['held_out']}: {note}" for row in d["splits"]
-                       for note in row.get("notes", [])]
-        if split_notes:
-            verdict += ["", "Notes on the splits:"] + split_notes
-    if d.get("fit"):
-        how = ("replays of the training records (output error)" if d["fit"] == "output error"
-               else "the regression residual (equation error)")
-        if d.get("score") == "prediction error":
-            verdict.append(f"\nCauses fitted to {how}, then refined and ranked by the prediction-error "
-                           "likelihood (an extended Kalman filter with process noise; extended BIC), "
-                           "judged on the held-out records' one-step-ahead likelihood.")
-        else:
-            verdict.append(f"\nCauses fitted and ranked by BIC on {how}.")
-    if d.get("second_cause"):
-        verdict.append(f"\nA second cause still gains: **{d['second_cause']['cause']}** "
-                       f"(validation {d['second_cause']['validation_rmse']:.4g}).")
-    elif d["cause"] != "none":
-        verdict.append("\nNo second cause gains on top of it.")
+            verdict.append(f"The {'named' if d['cause'] != 'none' else 'identified'} model does not explain "
+                           f"{len(unexplained)} of the {len(rows)} held-out records ({', '.join(unexplained)}): "
+                           "its error there is many times that on the records it was fitted to.")
     if d.get("notes"):
         verdict += ["", "Notes:"] + [f"- {note}" for note in d["notes"]]
     md = "\n".join(verdict) + "\n"

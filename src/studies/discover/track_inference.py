@@ -73,7 +73,6 @@ from scipy.optimize import least_squares
 
 from .causes import Combined, MissingTerm, NoCause, manoeuvring_causes
 from .causes.base import Cause
-from .causes.propulsion import Propulsion
 from .fitting import CauseFit, Context, calibrate
 from .inference import (Inference, Variant, _by_cause, _catalogue_order, _model_cause, _model_theta, _pair_id,
                         baseline_fit, fit_at)

@@ -84,6 +84,16 @@ class Discovery:
         margin is (on the tracks, the BIC score over ``none``; with block
         cross-validation, the held-out gain over its standard error), and
         ``threshold``/``second_threshold``: the margin naming needs.
+    departures : list of dict
+        Where the whole replays (baseline, extended, another simulator's run
+        given by ``simulation.path``) depart most from the held-out records:
+        per model its largest departures by phase and state.
+    splits : list of dict
+        With ``discover.splits``: every record held out in turn, the baseline
+        and the named model identified on the others (``held_out``,
+        ``parameters``, ``baseline_validation_rmse``,
+        ``extended_validation_rmse``, ``gain_pct``, ``training_rmse``,
+        ``explains_validation``, ``diverges``).
     """
 
     cause: str
@@ -112,6 +122,8 @@ class Discovery:
     candidates: dict = field(default_factory=dict)
     evidence: dict = field(default_factory=dict)
     candidates_beside: dict = field(default_factory=dict)
+    #: every record held out in turn (``discover.splits``): the named model's gain on each
+    splits: list = field(default_factory=list)
 
     def to_dict(self) -> dict:
         """The value written to ``discovery.json``."""

@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 from ..discover import diagnostics as dg
-from ..discover.causes import NoCause, manoeuvring_causes
+from ..discover.causes import NoCause, compact_parameters, manoeuvring_causes
 from ..discover.causes.propulsion import MMGDynamics
 from ..discover.confidence import separating_manoeuvre
 from ..discover.fitting import Context, calibrate, training_error, validate
@@ -30,6 +30,7 @@ from ..discover.track_inference import infer_on_tracks
 from ..discover.report import plot_evidence, plot_predictions, write_discovery, write_report
 from ..discover.verdict import Discovery
 from ..vessels import has_mmg_particulars, mmg_vessel_at_speed
+from .discover import DEPARTURES, departures, on_record_time
 from .protocol import PreparedDiscovery, gain_pct
 
 __all__ = ["execute_inference", "baseline_dynamics", "UNDECIDED_BELOW"]
@@ -148,6 +149,17 @@ def execute_inference(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict,
         notes.append(f"{cid} is not compared: the training records cannot decide it ({manoeuvre} would)")
     if best is not baseline and best.validation.get("diverged"):
         notes.append(f"the named model's replay diverges on {', '.join(best.validation['diverged'])}")
+    other = [on_record_time(prepared.simulation, rec) if prepared.simulation is not None else None
+             for rec in ctx.validation]
+    if prepared.simulation is not None and all(o is None for o in other):
+        notes.append(f"simulation.path ({prepared.simulation.attrs.get('name')}) not judged: its time span or "
+                     "rudder matches no validation record")
+    models = {"baseline": whole_base["predictions"]}
+    if best is not baseline:
+        models[f"extended ({named})"] = whole_best["predictions"]
+    if any(o is not None for o in other):
+        models["other simulator"] = other
+    departed = departures(ctx.validation, models, prepared.vessel)
     gain = gain_pct(b_rmse, e_rmse)
     if best is not baseline and gain < 0:
         notes.append(f"the extension predicts the held-out records {-gain:.1f} % worse than the baseline: "
@@ -185,10 +197,16 @@ def execute_inference(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict,
                   "threshold": float(result.threshold),
                   "second_threshold": (float(result.second_threshold) if np.isfinite(result.second_threshold)
                                        else None)},
+        departures=(departed.groupby("model", sort=False).head(DEPARTURES).to_dict("records")
+                    if not departed.empty else []),
         seconds={"smoothing": t_smooth, "inference": t_infer, **{k: float(v) for k, v in result.seconds.items()},
                  "total": time.perf_counter() - t0})
+    if opts.splits:
+        discovery.splits = held_out_in_turn(prepared, smoothed, raw, model, dynamics,
+                                            result.fit if result.named else None, named)
     out = discovery.to_dict()
-    sections, figures = _sections(ctx, result, whole_base, whole_best, named, out_dir, on_tracks)
+    sections, figures = _sections(ctx, result, whole_base, whole_best, named, out_dir, on_tracks, other, departed,
+                                  discovery.splits)
     write_discovery(out_dir / "discovery.json", out)
     write_report(out_dir, out, out["explanation"], sections, figures)
     metrics = {"discover/gain_pct": gain, "discover/confidence": confidence,
@@ -202,6 +220,37 @@ def execute_inference(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict,
         if "+" not in cid:
             metrics[f"discover/evidence/{cid}"] = float(t)
     return out, metrics
+
+
+def held_out_in_turn(prepared: PreparedDiscovery, smoothed: list, raw: list, model, dynamics, named_fit,
+                     named: str) -> list[dict]:
+    """Every record held out in turn (``discover.splits``): the baseline and
+    the named model (its cause refined again from the verdict's parameters)
+    identified on the other records and replayed on the held-out one. Shows
+    whether the named model's gain holds on every manoeuvre, or on the one
+    that happened to be held out (the verdict itself comes from every
+    record). ``smoothed``/``raw``: every record smoothed and as measured, in
+    the same order."""
+    rows = []
+    for k, held in enumerate(raw):
+        others = [r for j, r in enumerate(smoothed) if j != k]
+        split = Context(prepared.vessel, model, others, [held], "recorded", dynamics=dynamics)
+        split.horizon = prepared.cfg.discover.horizon or None
+        calibrate(split)
+        base = baseline_fit(split)
+        ext = refine(split, named_fit.cause, named_fit.theta) if named_fit is not None else base
+        validate(split, base)
+        if ext is not base:
+            validate(split, ext)
+        b, e = base.validation_rmse, ext.validation_rmse
+        own = training_error(split, ext)
+        rows.append({"held_out": str(held.attrs.get("name", f"record {k + 1}")), "cause": named,
+                     "parameters": ext.cause.parameters(ext.theta, ext.params) if ext is not base else {},
+                     "baseline_validation_rmse": b, "extended_validation_rmse": e, "gain_pct": gain_pct(b, e),
+                     "training_rmse": own, "explains_validation": bool(dg.explains(e, own, prepared.vessel.length)),
+                     "diverges": list(ext.validation.get("diverged") or [])})
+        log.info("holding out %s: %s gains %.1f %%", rows[-1]["held_out"], named, rows[-1]["gain_pct"])
+    return rows
 
 
 def _measure(on_tracks: bool) -> str:
@@ -218,9 +267,14 @@ def _copy(fit):
 
 
 def _sections(ctx, result, whole_base: dict, whole_best: dict, named: str, out_dir: Path,
-              on_tracks: bool = False):
+              on_tracks: bool = False, other: list | None = None, departed: pd.DataFrame | None = None,
+              splits: list | None = None):
     """The report's tables and figures: verdicts, inclusion probabilities,
-    predictions of every held-out record."""
+    where the replays depart most from the held-out records, every record
+    held out in turn, predictions of every held-out record (with another
+    simulator's run of it, ``other``), their phase errors and manoeuvre
+    characteristics."""
+    other = other or [None] * len(ctx.validation)
     ranking = pd.DataFrame(result.ranking()[:12]).set_index("cause")
     inclusion = pd.DataFrame({"probability": result.inclusion}).sort_values("probability", ascending=False)
     inclusion.index.name = "cause"
@@ -234,21 +288,38 @@ def _sections(ctx, result, whole_base: dict, whole_best: dict, named: str, out_d
                      "name it; gain: held-out log-likelihood gain over none, summed over the blocks; score: -2 ln "
                      "of the probability relative to the most probable)", ranking),
                     ("Share of the bootstrap reweightings naming each cause (alone or in a pair)", inclusion)]
-    figures, phase_tables = [], []
-    for rec, pb, pe in zip(ctx.validation, whole_base["predictions"], whole_best["predictions"]):
+    if departed is not None and not departed.empty:
+        sections.append(("Where the simulation departs most from the held-out records (whole replays; u, v in "
+                         "m/s, r in deg/s; ranked by the prime RMSE)", departed.set_index("model")))
+    if splits:
+        table = pd.DataFrame(splits).set_index("held_out")
+        table["parameters"] = [compact_parameters(p) for p in table["parameters"]]
+        table["diverges"] = [", ".join(d) for d in table["diverges"]]
+        sections.append(("Every record held out in turn (the baseline and the named model identified on the "
+                         "others; validation: windowed position RMSE, m)", table))
+    figures, phase_tables, char_tables = [], [], []
+    for rec, pb, pe, sim in zip(ctx.validation, whole_base["predictions"], whole_best["predictions"], other):
         name = str(rec.attrs.get("name", "record"))
         preds = {"baseline": pb}
         if named != "none":
             preds[f"extended ({named})"] = pe
+        if sim is not None:
+            preds["other simulator"] = sim
         fig = f"prediction_{name}.png"
         plot_predictions(rec, preds, f"{name}: measured vs predicted", out_dir / fig)
         figures.append(fig)
         phase_tables.append(dg.phase_errors(rec, pb, name).assign(model="baseline"))
         if named != "none":
             phase_tables.append(dg.phase_errors(rec, pe, name).assign(model="extended"))
+        if sim is not None:
+            phase_tables.append(dg.phase_errors(rec, sim, name).assign(model="other simulator"))
+        char_tables.append(dg.characteristic_table(rec, preds, name))
     if phase_tables:
         sections.append(("Prediction error per manoeuvre phase (u, v in m/s, r in deg/s)",
                          pd.concat(phase_tables, ignore_index=True)))
+    for table in char_tables:
+        if not table.empty:
+            sections.append((f"Manoeuvre characteristics: {table.index.name}", table))
     plot_evidence(result.evidence, result.threshold, result.second_threshold, named, out_dir / "ranking.png",
                   _measure(on_tracks))
     figures.append("ranking.png")

@@ -49,12 +49,6 @@ class ManoeuvringKind:
 
     def prepare_discovery(self, cfg: DiscoverConfig, root: Path,
                           record: Recorder | None = None) -> PreparedDiscovery:
-        if _mmg.is_mmg(cfg) and cfg.discover.method == "search":
-            raise ConfigError("model=mmg: discover.method=search judges a polynomial baseline (model=abkowitz "
-                              "or symmetric); discover.method=inference takes the MMG model as baseline")
-        if cfg.discover.method == "inference" and (cfg.discover.splits or cfg.simulation.path):
-            raise ConfigError("discover.splits and simulation.path are options of discover.method=search; "
-                              "the inference compares the causes on every record at once")
         prepared = _discover.prepare_discovery(cfg, root, self, record)
         paths = as_path_list(cfg.data.path) + as_path_list(cfg.validate.path)
         contexts = ["training"] * len(as_path_list(cfg.data.path)) + ["validation"] * len(paths)
@@ -64,9 +58,7 @@ class ManoeuvringKind:
         return prepared
 
     def discover(self, prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
-        if prepared.cfg.discover.method == "inference":
-            return _inference.execute_inference(prepared, out_dir)
-        return _discover.execute_discovery(prepared, out_dir)
+        return _inference.execute_inference(prepared, out_dir)
 
 
 class RollDecayKind:

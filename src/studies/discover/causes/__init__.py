@@ -18,7 +18,7 @@ Adding a cause
 1. Write its module here: a subclass of :class:`Cause` with ``id``,
    ``params``, ``no_effect`` and ``explanation``, overriding only the hooks
    for what it changes (and ``starts``/``bounds`` for its fit).
-2. Add the class to ``CATALOGUE`` below and, when the search is to try it,
+2. Add the class to ``CATALOGUE`` below and, when discovery is to judge it,
    to :func:`manoeuvring_causes`; its id to DESIGN.md's table.
 ``tests/test_discover_causes.py`` then checks that it declares the protocol
 and that its no-effect values leave a record unchanged.

@@ -128,15 +128,16 @@ class Cause:
         is the baseline.
     replaces_dynamics : bool
         The extension is another model, not the baseline extended
-        (``propulsion``); such a cause is judged on held-out records
-        (:func:`studies.discover.search._gains`).
+        (``propulsion``); on the tracks it is judged as another process
+        model in the filter
+        (:func:`studies.discover.track_inference.propulsion_on_tracks`).
     explanation : str
         What the cause is physically, in words the report prints when the
         cause is named.
 
     Notes
     -----
-    The hooks, in the order the search uses them:
+    The hooks, in the order a discovery uses them:
 
     Applicability
         :meth:`applicable` says whether the cause can be fitted to the
@@ -163,10 +164,11 @@ class Cause:
         cause's docstring) and :meth:`n_params` counts them for the
         complexity penalty of the score.
     How it is fitted
-        :func:`studies.discover.fitting.fit_cause` profiles the baseline's
-        hydrodynamic coefficients out by LS for every trial ``theta``,
-        starting from :meth:`starts` (the two best of a coarse grid where
-        the fit is not convex) within :meth:`bounds`.
+        :func:`studies.discover.inference.refine` profiles the baseline's
+        hydrodynamic coefficients out by LS for every trial ``theta``
+        within :meth:`bounds`, from the linear solution of its signature;
+        on the tracks, :func:`studies.discover.track_inference.refine_on_tracks`
+        fits them to the filter's innovations.
     """
 
     id: str

@@ -15,9 +15,11 @@ __all__ = ["MissingTerm", "extended_library"]
 class MissingTerm(Cause):
     """Terms of the extended candidate library that the baseline lacks.
 
-    The terms are chosen by sparse regression (:func:`studies.discover.search.select_missing_terms`)
-    before the fit; the extended model is then identified by LS, so the
-    terms' coefficients come out of the regression (no outer search).
+    One term of the extended library is a variant of the cause: the
+    inference compares every variant (:func:`studies.discover.innovations.cause_variants`,
+    :func:`studies.discover.inference.infer`) and charges the number of
+    variants in its score; the extended model is then identified by LS, so
+    the terms' coefficients come out of the regression (no outer search).
 
     Parameters
     ----------
@@ -25,9 +27,6 @@ class MissingTerm(Cause):
         The added terms; their prime coefficients [-] are written under
         ``terms`` by name. No effect without terms (the cause is then not
         applicable); changes only :meth:`model`.
-
-    The terms are chosen from the whole library, so the score charges
-    :meth:`search_penalty` on top of each term's BIC price.
     """
 
     id = "missing_term"
@@ -35,8 +34,8 @@ class MissingTerm(Cause):
     units = {"terms": "-, prime coefficients of the added terms (thesis eq. 3.6 units)"}
     explanation = ("A hydrodynamic effect the model's polynomial does not contain (e.g. a cubic yaw "
                    "damping Nrrr in tight turns): the monomials of u', v', r', delta up to third order "
-                   "are searched for the terms the records need (sparse regression on the force "
-                   "residual; on noisy records, score tests on the replayed records).")
+                   "are compared one by one for the term the records need (its gain in the filter's "
+                   "predictions of the tracks, or in held-out blocks of the force residual).")
 
     def __init__(self, terms=()):
         self.terms = list(terms)
