@@ -70,6 +70,7 @@ from dataclasses import replace
 
 import numpy as np
 from scipy.optimize import least_squares
+from scipy.special import expit
 
 from .causes import Combined, MissingTerm, NoCause, manoeuvring_causes
 from .causes.base import Cause
@@ -238,7 +239,7 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
         for cid in k.split("+"):
             if cid != "none":
                 inclusion[cid] = inclusion.get(cid, 0.0) + p
-    beats_none = {cid: float(1.0 / (1.0 + np.exp(-0.5 * scores[cid]))) for cid in singles}
+    beats_none = {cid: float(expit(0.5 * scores[cid])) for cid in singles}
     out = Inference(variants, tuple(named), inclusion, verdicts,
                     named_judgement.coefficients if named_judgement is not None else np.zeros(0),
                     named_judgement.covariance if named_judgement is not None else np.zeros((0, 0)),
@@ -283,7 +284,9 @@ def propulsion_on_tracks(ctx: Context, cause: Cause, smoothed: list, measured: l
     calibrate(other)
     start = baseline_fit(other)
     try:
-        replaced = innovation_design(other, measured, start, step=float(design.scorer.step))
+        # its process noise white or coloured by likelihood, as the polynomial baseline's
+        replaced = innovation_design(other, measured, start, step=float(design.scorer.step),
+                                     coloured=design.scorer.coloured)
         refined = refine_on_tracks(replaced, other, NoCause(), np.zeros(0), {})
     except (ValueError, np.linalg.LinAlgError, FloatingPointError) as exc:
         log.info("%s not judged on the tracks: its filter failed (%s)", cause.id, exc)
