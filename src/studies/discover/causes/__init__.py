@@ -17,7 +17,7 @@ Adding a cause
 --------------
 1. Write its module here: a subclass of :class:`Cause` with ``id``,
    ``params``, ``no_effect`` and ``explanation``, overriding only the hooks
-   for what it changes (and ``starts``/``bounds`` for its fit).
+   for what it changes (and ``bounds``/``scales`` for its fit).
 2. Add the class to ``CATALOGUE`` below and, when discovery is to judge it,
    to :func:`manoeuvring_causes`; its id to DESIGN.md's table.
 ``tests/test_discover_causes.py`` then checks that it declares the protocol

@@ -188,10 +188,6 @@ class Cause:
         cause is fitted and reported, but not named."""
         return None
 
-    def starts(self, ctx) -> list[np.ndarray]:
-        """Initial guesses (a coarse grid where the fit is not convex)."""
-        return [np.zeros(len(self.nl_params))]
-
     def bounds(self, ctx):
         """Lower and upper bounds of :attr:`nl_params` (arrays; unbounded by default)."""
         return (np.full(len(self.nl_params), -np.inf), np.full(len(self.nl_params), np.inf))
@@ -204,14 +200,6 @@ class Cause:
     def fixed_parameters(self) -> dict:
         """Values the extension uses but does not fit (published ones), by name; none by default."""
         return {}
-
-    def nudges(self, ctx) -> list[np.ndarray]:
-        """Small effects of either sign from which the output-error refinement
-        also starts, beside no effect (none by default). For a cause the
-        baseline's coefficients can partly absorb, the refinement started at
-        no effect from them may stay in their valley; started a little away,
-        it leaves it. Which start ends lower is told only after refining."""
-        return []
 
     def scales(self, ctx) -> np.ndarray:
         """The unit in which the output-error and filter-error refinements move
@@ -265,10 +253,3 @@ class Cause:
     def n_params(self) -> int:
         """Number of parameters the cause adds (for the complexity penalty)."""
         return len(self.params)
-
-    def search_penalty(self, ctx) -> float:
-        """Extra score a cause chosen from many candidates pays (0 for a cause
-        given in advance): ``2 ln`` of the number of ways it could have been
-        chosen, the extended BIC of Chen & Chen (2008) with gamma 1, so that
-        the best of many candidate terms does not pass for evidence."""
-        return 0.0

@@ -21,7 +21,7 @@ class Combined(Cause):
     and the explanation are the two causes', by id.
     """
 
-    def __init__(self, first: Cause, second: Cause, starts=None):
+    def __init__(self, first: Cause, second: Cause):
         self.first, self.second = first, second
         self.id = f"{first.id}+{second.id}"
         self.params = tuple(first.params) + tuple(second.params)
@@ -29,7 +29,6 @@ class Combined(Cause):
         self.explanation = first.explanation + " " + second.explanation
         self.units = {first.id: dict(first.units), second.id: dict(second.units)}
         self._n = len(first.nl_params)
-        self._starts = starts
 
     def acts(self, theta):
         a, b = self._split(theta)
@@ -42,11 +41,6 @@ class Combined(Cause):
     def _split(self, theta):
         theta = np.asarray(theta, float)
         return theta[: self._n], theta[self._n:]
-
-    def starts(self, ctx):
-        if self._starts is not None:
-            return self._starts
-        return [np.concatenate([a, b]) for a in self.first.starts(ctx)[:4] for b in self.second.starts(ctx)[:4]]
 
     def bounds(self, ctx):
         (l1, h1), (l2, h2) = self.first.bounds(ctx), self.second.bounds(ctx)
@@ -100,6 +94,3 @@ class Combined(Cause):
     def fixed_parameters(self):
         fixed = {self.first.id: self.first.fixed_parameters(), self.second.id: self.second.fixed_parameters()}
         return {k: v for k, v in fixed.items() if v}
-
-    def search_penalty(self, ctx):
-        return self.first.search_penalty(ctx) + self.second.search_penalty(ctx)

@@ -42,9 +42,6 @@ class Current(Cause):
                    "ground, while the hydrodynamic forces depend on the velocities through the water, "
                    "so a heading-dependent error appears and the track drifts downstream.")
 
-    def starts(self, ctx):
-        return [np.array([s, d]) for s in (0.3, 0.8) for d in np.linspace(-np.pi, np.pi, 8, endpoint=False)]
-
     def bounds(self, ctx):
         return (np.array([0.0, -4 * np.pi]), np.array([5.0, 4 * np.pi]))
 

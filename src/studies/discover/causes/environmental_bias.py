@@ -48,9 +48,6 @@ class EnvironmentalBias(Cause):
     def nl_params(self):
         return ("bx", "by", "bn") if self.fit_moment else ("bx", "by")
 
-    def starts(self, ctx):
-        return [np.zeros(len(self.nl_params))]
-
     def setup(self, ctx, theta):
         s = super().setup(ctx, theta)
         theta = np.asarray(theta, float)

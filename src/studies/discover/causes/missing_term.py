@@ -51,14 +51,6 @@ class MissingTerm(Cause):
     def model(self, ctx, theta):
         return ctx.model.extended(self.terms, f"{ctx.model.name}+" + "+".join(self.params))
 
-    def search_penalty(self, ctx) -> float:
-        """``2 ln C(m, k)``: its ``k`` terms are the best of the ``m`` terms of
-        the extended library (:func:`extended_library`; Chen & Chen 2008)."""
-        from math import comb, log
-
-        m = len(extended_library(ctx.model, 3))
-        return 2.0 * log(comb(max(m, len(self.terms)), len(self.terms))) if self.terms else 0.0
-
     def parameters(self, theta, fitted=None):
         fitted = fitted or {}
         return {"terms": {name: float(fitted.get(name, np.nan)) for name in self.params}}

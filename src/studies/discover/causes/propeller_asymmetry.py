@@ -78,13 +78,6 @@ class PropellerAsymmetry(Cause):
                    "terms as the ship slows in a turn, so the ship turns tighter to one side than to the "
                    "other, more than a rudder offset would make it.")
 
-    def nudges(self, ctx):
-        """A small side force to either side at the propeller (``Np0 = -0.5 Yp0``):
-        refined from the symmetric baseline's coefficients at no effect, the fit
-        stays in their valley, the turns to both sides fitted as a compromise."""
-        y = 3.0 * self.typical["Yp0"]
-        return [np.array([y, -0.5 * y]), np.array([-y, 0.5 * y])]
-
     def setup(self, ctx, theta):
         s = super().setup(ctx, theta)
         theta = np.asarray(theta, float)

@@ -35,12 +35,6 @@ class RudderOffset(Cause):
     def bounds(self, ctx):
         return (np.array([-np.deg2rad(10.0)]), np.array([np.deg2rad(10.0)]))
 
-    def nudges(self, ctx):
-        """One degree to either side: the baseline's asymmetric terms (Y0, N0 and
-        their speed terms) absorb much of an offset, and refined from them at
-        no offset the fit may stay there."""
-        return [np.array([np.deg2rad(1.0)]), np.array([-np.deg2rad(1.0)])]
-
     def transform(self, record, theta):
         out = record.copy()
         out["delta"] = record["delta"] - theta[0]

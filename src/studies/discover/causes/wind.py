@@ -44,9 +44,6 @@ class WindUnmodelled(Cause):
     def applicable(self, ctx):
         return ctx.vessel.wind is not None and not any("wind_speed" in r for r in ctx.train)
 
-    def starts(self, ctx):
-        return [np.array([s, d]) for s in (8.0, 16.0) for d in np.linspace(-np.pi, np.pi, 8, endpoint=False)]
-
     def bounds(self, ctx):
         return (np.array([0.0, -4 * np.pi]), np.array([40.0, 4 * np.pi]))
 
