@@ -145,6 +145,10 @@ def execute_inference(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict,
                      f"{result.threshold:.2f} standard errors; probability of beating none: "
                      + ", ".join(f"{k} {v:.3f}" for k, v in sorted(result.beats_none.items(),
                                                                    key=lambda kv: -kv[1])))
+    if best is not baseline and best.cause.replaces_dynamics:
+        notes.append(f"{named} replaces the baseline's process model (the MMG model: thrust from the measured rpm, "
+                     "the rudder in the slipstream), so no second cause is judged beside it: run the discovery "
+                     "with model=mmg to judge the catalogue on that model")
     for cid, manoeuvre in undecidable:
         notes.append(f"{cid} is not compared: the training records cannot decide it ({manoeuvre} would)")
     if best is not baseline and best.validation.get("diverged"):
