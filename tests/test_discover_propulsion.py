@@ -47,6 +47,8 @@ def test_a_polynomial_baseline_of_the_measured_tanker_is_missing_its_propeller(t
     assert d["explains_validation"], d["extended"]
     report = (tmp_path / "out" / "report.md").read_text()
     assert "# Discovery: **propulsion**" in report
+    # the fitted value with its unit, the published factors apart
+    assert "- `R0` = " in report and "MMG prime" in report and "used as published, not fitted: `tP` = 0.22" in report
     # what to run next: the catalogue judged on the MMG model
     assert any("run the discovery with model=mmg" in n for n in d["notes"]), d["notes"]
 

@@ -171,24 +171,39 @@ def _explained(d: dict) -> list[str]:
     return lines
 
 
+def _parameter_lines(params: dict, units, uncertainty, depth: int = 0) -> list[str]:
+    """One line per estimated value (a pair's causes and a missing term's
+    terms nested), with its 90 % interval and its unit: ``units`` and
+    ``uncertainty`` are shaped as ``params``, a unit given above nested
+    values applying to each (a missing term's terms)."""
+    lines = []
+    for name, value in params.items():
+        unit = units.get(name) if isinstance(units, dict) else units
+        interval = uncertainty.get(name) if isinstance(uncertainty, dict) else None
+        if isinstance(value, dict):
+            lines += _parameter_lines(value, unit if unit is not None else {}, interval or {}, depth + 1)
+            continue
+        if value is None:
+            continue
+        iv = f" [{interval[0]:.4g}, {interval[1]:.4g}]" if isinstance(interval, (list, tuple)) else ""
+        shown = f"{value:.4g}" if isinstance(value, float) else str(value)
+        text = f" ({unit})" if isinstance(unit, str) and unit else ""
+        lines.append(f"- `{name}` = {shown}{iv}{text}")
+    return lines
+
+
 def write_report(out_dir: Path, discovery: dict, explanation: str, sections: list, figures: list) -> None:
     """report.md and report.html: verdict first, then evidence."""
     out_dir = Path(out_dir)
     d = discovery
     verdict = [f"# Discovery: **{d['cause']}**", "", explanation, ""]
     if d.get("parameters"):
-        verdict.append("Estimated parameters (90 % interval):")
+        verdict.append("Estimated parameters (90 % interval; unit and convention):")
         verdict.append("")
-        unc = d.get("uncertainty") or {}
-        def line(name, value, interval):
-            iv = f" [{interval[0]:.4g}, {interval[1]:.4g}]" if isinstance(interval, (list, tuple)) else ""
-            return f"- `{name}` = {value if not isinstance(value, float) else f'{value:.4g}'}{iv}"
-
-        for k, v in d["parameters"].items():
-            if isinstance(v, dict):     # added terms: one line per term
-                verdict += [line(name, value, (unc.get(k) or {}).get(name)) for name, value in v.items()]
-            else:
-                verdict.append(line(k, v, unc.get(k)))
+        verdict += _parameter_lines(d["parameters"], d.get("parameter_units") or {}, d.get("uncertainty") or {})
+        if d.get("fixed_parameters"):
+            verdict.append("- used as published, not fitted: "
+                           + ", ".join(f"`{k}` = {v:.4g}" for k, v in d["fixed_parameters"].items()))
         verdict.append("")
     b, e = d["baseline"]["validation_rmse"], d["extended"]["validation_rmse"]
     verdict.append(f"Prediction error on data not used for fitting: baseline {b:.4g}, extended {e:.4g} "
