@@ -66,8 +66,6 @@ class FilterScores:
         Sampling [s] the records are thinned to (block means), the filter's step.
     sigma : ndarray (6,)
         Noise standard deviations of ``x0, y0, psi, u, v, r`` at that sampling.
-    records : list of DataFrame, optional
-        The records scored (default the training records).
     drift : bool
         Let the track and heading drift from the integral of the velocities
         (process noise on ``x0, y0, psi`` as well, by maximum likelihood in
@@ -89,13 +87,13 @@ class FilterScores:
         :mod:`studies.identify.mmg_filter`).
     """
 
-    def __init__(self, ctx: Context, step: float, sigma: np.ndarray, records: list | None = None,
+    def __init__(self, ctx: Context, step: float, sigma: np.ndarray,
                  drift: bool = False, velocities: bool = True, coloured: bool = False):
         self.ctx = ctx
         self.drift = bool(drift)
         self.velocities = bool(velocities)
         self.records = []
-        for rec in (ctx.train if records is None else records):
+        for rec in ctx.train:
             thin = block_means(rec, step)
             thin.attrs = dict(rec.attrs)
             self.records.append(thin)

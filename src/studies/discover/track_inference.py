@@ -276,10 +276,9 @@ def propulsion_on_tracks(ctx: Context, cause: Cause, smoothed: list, measured: l
     innovation variances, which differ between the two filters): ``E = 2
     (ln L_replacement - ln L_none)``, ``k`` its coefficients less the
     baseline's (negative when it has fewer), one variant."""
-    every_ctx = Context(ctx.vessel, ctx.model, list(ctx.train) + list(ctx.validation), [], "recorded")
-    if not cause.applicable(every_ctx):
+    if not cause.applicable(ctx):       # every record, training and held out, carries the rpm
         return None
-    dynamics = cause.setup(every_ctx, np.zeros(0)).dynamics
+    dynamics = cause.setup(ctx, np.zeros(0)).dynamics
     other = Context(ctx.vessel, dynamics.model, list(smoothed), [], "recorded", dynamics=dynamics)
     calibrate(other)
     start = baseline_fit(other)

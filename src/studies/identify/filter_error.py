@@ -112,10 +112,10 @@ def _rates(s0, s1, s2, s5, d, rate, c, k, wp, e0, e1, e2, e3, e4, e5, g0, g1, g2
 @njit(cache=True, inline="always")
 def work_arrays(speed0, n):
     """The filter's work arrays for ``n`` states: ``J``, ``F``, ``FP`` (n, n),
-    ``H``, ``ph`` (n,), and the Jacobian's steps per ship state (six) at the
+    ``ph`` (n,), and the Jacobian's steps per ship state (six) at the
     approach speed ``speed0``."""
     return (np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n)),
-            np.zeros(n), np.zeros(n), np.array([1e-6 * speed0, 1e-6 * speed0, 1e-8, 1.0, 1.0, 1e-7]))
+            np.zeros(n), np.array([1e-6 * speed0, 1e-6 * speed0, 1e-8, 1.0, 1.0, 1e-7]))
 
 
 @njit(cache=True, inline="always")
@@ -169,16 +169,14 @@ def propagate_covariance(J, dt, q, P, F, FP, decay):
 
 
 @njit(cache=True, inline="always")
-def measurement_update(s, P, z, R, speed0, current_north, current_east, innovations, variances, H, ph):
+def measurement_update(s, P, z, R, speed0, current_north, current_east, innovations, variances, ph):
     """The six channels of one sample ``z`` (x0, y0, psi, u, v, r; NaN = not
     measured) processed one at a time into the state ``s`` (du, v, r through
     the water, x0, y0, psi; ``u = speed0 + du``) and its covariance ``P``, in
     place; the over-ground velocities are the state's plus the current's
     earth-fixed components (north, east) [m/s] seen in the body frame. Fills
     ``innovations`` and ``variances`` (6,) and returns the sample's
-    log-likelihood; ``ph`` is a work array (``H``, unused, is kept for the
-    callers' work arrays: each channel's row is one state, and for an
-    over-ground velocity the heading). The size of the state
+    log-likelihood; ``ph`` is a work array. The size of the state
     is ``P``'s (six, or nine with the coloured process noise's disturbances,
     which no channel measures)."""
     n = P.shape[0]
@@ -261,7 +259,7 @@ def _filter(cm, k, wp, cmd, ext, dt, z, R, q, s_init, P_init, innovations, varia
     s = s_init.copy()
     P = P_init.copy()
     m = s.shape[0]
-    J, F, FP, H, ph, hstep = work_arrays(k[0], m)
+    J, F, FP, ph, hstep = work_arrays(k[0], m)
     coloured = m > N_FILTER
     if coloured:
         for a in range(3):
@@ -308,7 +306,7 @@ def _filter(cm, k, wp, cmd, ext, dt, z, R, q, s_init, P_init, innovations, varia
             if not (u > 0.0 and u < limit and abs(s[1]) < limit and abs(s[2]) < 1.0
                     and math.isfinite(s[3]) and math.isfinite(s[4])):
                 return -np.inf
-        loglik += measurement_update(s, P, z[i], R, k[0], k[11], k[12], innovations[i], variances[i], H, ph)
+        loglik += measurement_update(s, P, z[i], R, k[0], k[11], k[12], innovations[i], variances[i], ph)
     return loglik
 
 

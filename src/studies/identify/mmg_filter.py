@@ -77,13 +77,12 @@ def _mmg_filter(c, k, a, g, delta, rps, ext, cn, ce, speed0, dt, z, R, q, s_init
     s = s_init.copy()
     P = P_init.copy()
     m_states = s.shape[0]
-    J, F, FP, H, ph, hstep = work_arrays(speed0, m_states)
+    J, F, FP, ph, hstep = work_arrays(speed0, m_states)
     coloured = m_states > N_FILTER
     if coloured:
         for b in range(3):
             J[b, N_FILTER + b] = 1.0
     loglik = 0.0
-    e0 = e1 = e2 = 0.0
     half = 0.5 * dt
     for i in range(n):
         if i > 0:
@@ -138,7 +137,7 @@ def _mmg_filter(c, k, a, g, delta, rps, ext, cn, ce, speed0, dt, z, R, q, s_init
             if not (u > 0.0 and u < limit and abs(s[1]) < limit and abs(s[2]) < 1.0
                     and math.isfinite(s[3]) and math.isfinite(s[4])):
                 return -np.inf
-        loglik += measurement_update(s, P, z[i], R, speed0, cn, ce, innovations[i], variances[i], H, ph)
+        loglik += measurement_update(s, P, z[i], R, speed0, cn, ce, innovations[i], variances[i], ph)
     return loglik
 
 
