@@ -21,6 +21,7 @@ import pytest
 from conftest import SHARED_DATA, marin_file, mlflow_runs, run_studies
 
 from studies.errors import ConfigError, DataError
+from studies.models.mmg import KVLCC2_HULL
 
 
 def _metrics(run_dir) -> dict:
@@ -136,6 +137,8 @@ def test_propulsion_is_named_for_a_ship_with_a_propeller_at_constant_rpm(tmp_pat
     assert proc.returncode == 0, proc.stderr[-3000:]
     d = json.loads((out / "discovery.json").read_text())
     assert d["cause"] == "propulsion", (d["ranking"], d["notes"])
+    # the hull's resistance of the records' MMG model (the published KVLCC2 hull) within 20 %
+    assert d["parameters"]["R0"] == pytest.approx(KVLCC2_HULL["R0"], rel=0.2), d["parameters"]
     assert d["gain_pct"] > 50.0 and d["explains_validation"], d["extended"]
 
 
