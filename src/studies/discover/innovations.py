@@ -245,7 +245,8 @@ def _alone(design: InnovationDesign, cause: Cause, theta: np.ndarray, terms: dic
 
 
 def innovation_design(ctx: Context, records: list, baseline: CauseFit, step: float | None = None,
-                      block_seconds: float = BLOCK_SECONDS, coloured: bool | None = None) -> InnovationDesign:
+                      block_seconds: float = BLOCK_SECONDS, coloured: bool | None = None,
+                      noises: FilterScores | None = None) -> InnovationDesign:
     """The baseline's filter on ``records`` (measured, not smoothed).
 
     ``ctx`` gives the vessel and the baseline (the polynomial model, or the
@@ -266,6 +267,13 @@ def innovation_design(ctx: Context, records: list, baseline: CauseFit, step: flo
     ``coloured``: whether the process noise may be coloured (white or
     coloured by likelihood); default :data:`COLOURED_PROCESS_NOISE` on a
     polynomial baseline, white on the MMG baseline (:data:`MMG_COLOURED`).
+
+    ``noises``: another filter of the same records whose estimated noises
+    (measurement variances, process-noise densities, correlation time) start
+    this one's search instead of the records' noise levels (the likelihood
+    over the noises has more than one maximum; two filters compared on the
+    same records are each taken at their best from both starts,
+    :func:`.track_inference.propulsion_on_tracks`).
     """
     if coloured is None:
         coloured = COLOURED_PROCESS_NOISE and (ctx.dynamics is None or MMG_COLOURED)
@@ -275,7 +283,7 @@ def innovation_design(ctx: Context, records: list, baseline: CauseFit, step: flo
         step = FILTER_STEP
         if coloured_velocity_noise(records):
             step = filter_setting(ctx, records, step, _plain_innovations(rctx, records, baseline, step, velocities))
-    scorer, fit, like, log_q, r0 = _baseline_filtered(rctx, records, baseline, step, velocities, coloured)
+    scorer, fit, like, log_q, r0 = _baseline_filtered(rctx, records, baseline, step, velocities, coloured, noises)
     log.info("innovations: filter step %.2f s, velocities %s", scorer.step,
              "measured" if velocities else "derived from the track, not measured")
     return _design_of(rctx, fit, scorer, like, log_q, r0, block_seconds)
@@ -323,14 +331,20 @@ def filter_setting(ctx: Context, records: list, step: float, residual: np.ndarra
 
 
 def _baseline_filtered(rctx: Context, records: list, baseline: CauseFit, step: float,
-                       velocities: bool, coloured: bool = COLOURED_PROCESS_NOISE) -> tuple:
+                       velocities: bool, coloured: bool = COLOURED_PROCESS_NOISE,
+                       noises: FilterScores | None = None) -> tuple:
     """The baseline's filter on the records at ``step``, its coefficients
     fitted to the tracks (:func:`baseline_on_tracks`): ``(scorer, fit,
-    likelihood, log10 process-noise scale, standardised innovations)``."""
+    likelihood, log10 process-noise scale, standardised innovations)``;
+    ``noises`` another filter whose estimated noises start the search
+    (:func:`innovation_design`)."""
     # the track's drift from the integral of the velocities is a disagreement between two sensors:
     # with the velocities not measured there is none (it would take the place of the dynamics)
     scorer = FilterScores(rctx, step, noise_levels(rctx, records, step), drift=velocities, velocities=velocities,
                           coloured=coloured)
+    if noises is not None and noises.q_shape is not None:
+        scorer.R, scorer.q_shape = noises.R.copy(), noises.q_shape.copy()
+        scorer.tau = noises.tau if coloured else 0.0
     fit = baseline_on_tracks(scorer, baseline)
     # white or coloured process noise decided again under the coefficients fitted to the tracks
     scorer.estimate_shape(fit, rounds=1, decide=True)

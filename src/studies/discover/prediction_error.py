@@ -36,9 +36,13 @@ __all__ = ["FilterScores"]
 
 log = logging.getLogger(__name__)
 
-#: the noises' search stops when -ln L changes by less than this share of it (1e-5: about one
-#: unit of log-likelihood on records of 10^5; the causes are compared under the noises held)
-NOISE_FTOL = 1e-5
+#: the noises' search stops when -ln L changes by less than this share of it in an iteration
+#: (1e-7: about 0.01 unit of log-likelihood on records of 10^5; the causes are compared under the
+#: noises held)
+NOISE_FTOL = 1e-7
+#: step [log10 units] of the finite differences that give the noises' search its gradient
+NOISE_STEP = 1e-3
+_SEARCH = {"eps": NOISE_STEP, "ftol": NOISE_FTOL, "gtol": 1e-2}
 #: the coloured process noise's search starts at this many filter steps of correlation time
 COLOURED_START = 10.0
 
@@ -160,7 +164,7 @@ class FilterScores:
     def estimate_shape(self, fit: CauseFit, rounds: int = 2, decide: bool = False) -> np.ndarray:
         """The process noise's spectral densities (three, six with ``drift``)
         and the measurement-noise variances by maximum likelihood on ``fit``
-        (the baseline), jointly (SciPy's Powell search over their log10
+        (the baseline), jointly (SciPy's L-BFGS-B search over their log10
         scales: the track's two process densities and its two noise levels
         each share one, a channel not measured has none); the process noise
         is kept as the shape every fit is scaled from. The measurement noise
@@ -206,8 +210,7 @@ class FilterScores:
         def search(x, bounds, rounds):
             x = np.clip(x, [b[0] for b in bounds], [b[1] for b in bounds])
             for _ in range(rounds):
-                res = minimize(cost, x, method="Powell", bounds=bounds,
-                               options={"xtol": 0.05, "ftol": NOISE_FTOL, "maxfev": 150 * len(x)})
+                res = minimize(cost, x, method="L-BFGS-B", bounds=bounds, options=_SEARCH | {"maxfun": 150 * len(x)})
                 x = res.x
                 log.debug("noises: %d evaluations, -ln L %.2f", res.nfev, res.fun)
             return x, float(cost(x))
@@ -254,8 +257,8 @@ class FilterScores:
 
         y0 = [0.0] if log_tau is None else [0.0, float(np.clip(log_tau, *tau_bounds))]
         bounds = [(-3.0, 3.0)] + ([] if log_tau is None else [tau_bounds])
-        res = minimize(lambda y: cost(full(y)), y0, method="Powell", bounds=bounds,
-                       options={"xtol": 0.05, "ftol": 1e-6, "maxfev": 60 * len(y0)})
+        res = minimize(lambda y: cost(full(y)), y0, method="L-BFGS-B", bounds=bounds,
+                       options=_SEARCH | {"maxfun": 60 * len(y0)})
         return full(res.x), float(res.fun)
 
     def _noise_groups(self) -> list:

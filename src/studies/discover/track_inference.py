@@ -282,19 +282,27 @@ def propulsion_on_tracks(ctx: Context, cause: Cause, smoothed: list, measured: l
     other = Context(ctx.vessel, dynamics.model, list(smoothed), [], "recorded", dynamics=dynamics)
     calibrate(other)
     start = baseline_fit(other)
-    try:
-        # its process noise white or coloured by likelihood, as the polynomial baseline's
-        replaced = innovation_design(other, measured, start, step=float(design.scorer.step),
-                                     coloured=design.scorer.coloured)
-        refined = refine_on_tracks(replaced, other, NoCause(), np.zeros(0), {})
-    except (ValueError, np.linalg.LinAlgError, FloatingPointError) as exc:
-        log.info("%s not judged on the tracks: its filter failed (%s)", cause.id, exc)
-        return None
-    ll_other = replaced.scorer._likelihood(refined).loglik(dynamics.model.vector(refined.params, 0.0),
-                                                          replaced.log_q_scale)
     ll_none = design.scorer._likelihood(none).loglik(none.setup.model.vector(none.params, 0.0), design.log_q_scale)
-    if not (np.isfinite(ll_other) and np.isfinite(ll_none)):
+    best = None
+    # the noises' likelihood has more than one maximum: the replacement's filter is searched from
+    # the records' noise levels and from the baseline's estimate, the likelier kept
+    for noises in (None, design.scorer):
+        try:
+            # its process noise white or coloured by likelihood, as the polynomial baseline's
+            replaced = innovation_design(other, measured, start, step=float(design.scorer.step),
+                                         coloured=design.scorer.coloured, noises=noises)
+            refined = refine_on_tracks(replaced, other, NoCause(), np.zeros(0), {})
+        except (ValueError, np.linalg.LinAlgError, FloatingPointError) as exc:
+            log.info("%s not judged on the tracks from %s: its filter failed (%s)", cause.id,
+                     "the baseline's noises" if noises is not None else "the records' noise levels", exc)
+            continue
+        ll = replaced.scorer._likelihood(refined).loglik(dynamics.model.vector(refined.params, 0.0),
+                                                         replaced.log_q_scale)
+        if np.isfinite(ll) and (best is None or ll > best[0]):
+            best = (ll, refined)
+    if best is None or not np.isfinite(ll_none):
         return None
+    ll_other, refined = best
     score = _score_of(2.0 * (ll_other - ll_none), cause.n_params(), design.n, 1)
     log.info("%s on the tracks: ln L %.1f against the baseline's %.1f, %+d coefficients: score %.1f",
              cause.id, ll_other, ll_none, cause.n_params(), score)
