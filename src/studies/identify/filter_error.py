@@ -53,8 +53,6 @@ process noise by a shaping filter: the augmented state).
 from __future__ import annotations
 
 import math
-import os
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from numba import njit
@@ -235,7 +233,7 @@ def measurement_update(s, P, z, R, speed0, current_north, current_east, innovati
     return loglik
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True)
 def _filter(cm, k, wp, cmd, ext, dt, z, R, q, s_init, P_init, innovations, variances, decay):
     """EKF over the samples of ``z`` (n, 6: x0, y0, psi, u, v, r over ground;
     NaN = missing); ``cmd`` (n,) the rudder at the samples, ``ext`` (n - 1, 9)
@@ -416,24 +414,6 @@ def coloured_noise(q: np.ndarray, start: np.ndarray, P0: np.ndarray, dt: float, 
     return out, np.concatenate([np.asarray(start, float)[:N_FILTER], np.zeros(3)]), P, decay
 
 
-#: threads the records of one likelihood run on (the machine's cores, at most 4): each record's
-#: filter is independent and releases the GIL
-RECORD_THREADS = max(1, min(4, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
-                         else (os.cpu_count() or 1)))
-_POOL = (None, 0)
-
-
-def _pool() -> ThreadPoolExecutor:
-    """The threads the records' filters run on (created at first use in each
-    process, shared by its likelihoods; a forked child makes its own)."""
-    global _POOL
-    pool, pid = _POOL
-    if pool is None or pid != os.getpid():
-        pool = ThreadPoolExecutor(max_workers=RECORD_THREADS, thread_name_prefix="filter")
-        _POOL = (pool, os.getpid())
-    return pool
-
-
 class PredictionError:
     """The prediction-error likelihood of several records under one model and
     cause, with the process-noise intensity estimated.
@@ -454,8 +434,10 @@ class PredictionError:
 
     def loglik(self, vector: np.ndarray, log_scale: float) -> float:
         """Summed log-likelihood of the records at process-noise scale ``10**log_scale``."""
+        q = self.q0 * 10.0 ** float(log_scale)
         total = 0.0
-        for ll, _, _ in self._each_record(vector, log_scale):
+        for plan, z in zip(self.plans, self.measured):
+            ll, _, _ = innovation_likelihood(plan, vector, z, self.R, q, tau=self.tau)
             if not np.isfinite(ll):
                 return -np.inf
             total += ll
@@ -467,27 +449,16 @@ class PredictionError:
         physical range): the sum of their squares is ``-2 ln L`` less the
         ``ln(2 pi S)`` terms, what a least-squares fit of the model to the
         filter minimises (the filter-error method's Gauss-Newton form)."""
+        q = self.q0 * 10.0 ** float(log_scale)
         parts = []
-        for z, (ll, e, S) in zip(self.measured, self._each_record(vector, log_scale)):
+        for plan, z in zip(self.plans, self.measured):
+            ll, e, S = innovation_likelihood(plan, vector, z, self.R, q, tau=self.tau)
             if not np.isfinite(ll):
                 parts.append(np.full(z.size, 1e3))
                 continue
             w = e / np.sqrt(S)
             parts.append(np.nan_to_num(w.ravel(), nan=0.0))
         return np.concatenate(parts)
-
-    def _each_record(self, vector: np.ndarray, log_scale: float) -> list:
-        """:func:`innovation_likelihood` of every record at process-noise scale
-        ``10**log_scale``, in record order; the records run side by side on
-        :data:`RECORD_THREADS` threads (the filters release the GIL)."""
-        q = self.q0 * 10.0 ** float(log_scale)
-
-        def one(i):
-            return innovation_likelihood(self.plans[i], vector, self.measured[i], self.R, q, tau=self.tau)
-
-        if len(self.plans) < 2 or RECORD_THREADS < 2:
-            return [one(i) for i in range(len(self.plans))]
-        return list(_pool().map(one, range(len(self.plans))))
 
     def fit(self, vector: np.ndarray, bounds=(-4.0, 3.0)) -> tuple[float, float]:
         """``(log-likelihood, log10 scale)`` at the process-noise scale that
