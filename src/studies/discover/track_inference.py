@@ -270,7 +270,10 @@ def propulsion_on_tracks(ctx: Context, cause: Cause, smoothed: list, measured: l
     another process model in the filter. Its coefficients and its filter's
     noises are fitted to the same tracks at the same filter step as the
     baseline's (:func:`.innovations.innovation_design`, then refined as every
-    verdict is, :func:`refine_on_tracks`); it is judged by the same BIC
+    verdict is, :func:`refine_on_tracks`), the noises searched from the
+    records' noise levels and from the baseline's estimate and the likelier
+    kept (the likelihood over the noises has more than one maximum); it is
+    judged by the same BIC
     (module docstring) on the two filters' whole log-likelihoods at their
     own noises (the standardised innovations alone would leave out the
     innovation variances, which differ between the two filters): ``E = 2
