@@ -84,7 +84,6 @@ def test_no_measurement_noise_is_fitted_below_a_sensors_resolution(design):
     assert np.all(np.sqrt(fitted.scorer.R[measured]) >= 0.999 * floors[measured])
 
 
-
 @pytest.fixture(scope="module")
 def generated_design():
     """The baseline's filter on records with a current, process noise and

@@ -140,6 +140,14 @@ def test_propulsion_is_named_for_a_ship_with_a_propeller_at_constant_rpm(tmp_pat
     # the hull's resistance of the records' MMG model (the published KVLCC2 hull) within 20 %
     assert d["parameters"]["R0"] == pytest.approx(KVLCC2_HULL["R0"], rel=0.2), d["parameters"]
     assert d["gain_pct"] > 50.0 and d["explains_validation"], d["extended"]
+    assert d["fixed_parameters"]["wP0"] == pytest.approx(0.40) and "R0" in d["parameter_units"]
+    assert d["uncertainty"] == {}
+    report = (out / "report.md").read_text()
+    assert "# Discovery: **propulsion**" in report
+    # the fitted value with its unit, the published factors apart
+    assert "- `R0` = " in report and "MMG prime" in report and "used as published, not fitted: `tP` = 0.22" in report
+    # what to run next: the catalogue judged on the MMG model
+    assert any("run the discovery with model=mmg" in n for n in d["notes"]), d["notes"]
 
 
 def test_a_record_without_the_propeller_rate_is_refused(tmp_path):

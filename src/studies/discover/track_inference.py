@@ -290,17 +290,18 @@ def propulsion_on_tracks(ctx: Context, cause: Cause, smoothed: list, measured: l
     # the noises' likelihood has more than one maximum: the replacement's filter is searched from
     # the records' noise levels and from the baseline's estimate, the likelier kept
     for noises in (None, design.scorer):
+        origin = "the baseline's noises" if noises is not None else "the records' noise levels"
         try:
             # its process noise white or coloured by likelihood, as the polynomial baseline's
             replaced = innovation_design(other, measured, start, step=float(design.scorer.step),
                                          coloured=design.scorer.coloured, noises=noises)
             refined = refine_on_tracks(replaced, other, NoCause(), np.zeros(0), {})
         except (ValueError, np.linalg.LinAlgError, FloatingPointError) as exc:
-            log.info("%s not judged on the tracks from %s: its filter failed (%s)", cause.id,
-                     "the baseline's noises" if noises is not None else "the records' noise levels", exc)
+            log.info("%s not judged on the tracks from %s: its filter failed (%s)", cause.id, origin, exc)
             continue
         ll = replaced.scorer._likelihood(refined).loglik(dynamics.model.vector(refined.params, 0.0),
                                                          replaced.log_q_scale)
+        log.info("%s's filter from %s: ln L %.1f", cause.id, origin, ll)
         if np.isfinite(ll) and (best is None or ll > best[0]):
             best = (ll, refined)
     if best is None or not np.isfinite(ll_none):
