@@ -81,6 +81,27 @@ def test_splits_need_two_records(tmp_path, hidden_none_11):
         prepare_discover(cfg, tmp_path)
 
 
+@pytest.mark.parametrize("stated,message", [
+    ("{rudder_offset:{speed:0.3}}", r"discover.injected.rudder_offset: needs delta0"),
+    ("{rudder_offset:{delta0:0.01,speed:0.3}}", r"discover.injected.rudder_offset: has no parameter speed"),
+    ("{current:{speed:0.3}}", r"discover.injected.current: needs direction"),
+    ("{missing_term:{Nfoo:0.001}}", r"discover.injected.missing_term: Nfoo is not a term the baseline"),
+    ("{propulsion:{R0:0.02}}", r"discover.injected.propulsion: not an injectable cause"),
+    ("{current:{speed:0.3,direction:0.1},rudder_offset:{delta0:0.01},missing_term:{Nrrr:0.001}}",
+     r"discover.injected: one or two causes, got 3"),
+])
+def test_a_stated_effect_that_does_not_fit_is_refused_before_anything_runs(tmp_path, hidden_none_11, stated,
+                                                                            message):
+    records, _ = hidden_none_11
+    paths = write_records(records, tmp_path)
+    with initialize_config_module("studies.conf", version_base="1.3"):
+        with pytest.raises(ConfigError, match=message):
+            cfg = compose_settings("discover", overrides=[f"data.path=[{paths[0]},{paths[1]}]",
+                                                          f"discover.injected={stated}"])
+            prepare_discover(cfg, tmp_path)
+    assert not (tmp_path / "out").exists()
+
+
 def _roll_study(tmp_path, data, validate=None, simulation=None):
     overrides = ["model=roll", f"data.path=[{','.join(map(str, data))}]"]
     if validate:

@@ -72,7 +72,7 @@ def still_water(clean_runs):
     return {level: _measured(clean_runs, level) for level in (0.01, 0.03)}
 
 
-def _discover(tmp_path: Path, records: list) -> dict:
+def _discover(tmp_path: Path, records: list, stated: dict | None = None) -> dict:
     paths = []
     for rec in records:
         path = tmp_path / f"{rec.attrs['name']}.csv"
@@ -80,9 +80,16 @@ def _discover(tmp_path: Path, records: list) -> dict:
         paths.append(path)
     with initialize_config_module("studies.conf", version_base="1.3"):
         cfg = compose_settings("discover", overrides=[f"data.path=[{paths[0]},{paths[1]}]",
-                                                      f"validate.path=[{paths[2]}]", "vessel=mariner"])
+                                                      f"validate.path=[{paths[2]}]", "vessel=mariner",
+                                                      *([_stated(stated)] if stated else [])])
     d, _ = execute_discover(prepare_discover(cfg, tmp_path), tmp_path / "out")
     return d
+
+
+def _stated(stated: dict) -> str:
+    """``discover.injected`` stating ``{cause: {parameter: value}}``."""
+    return "discover.injected={" + ",".join(
+        f"{c}:{{" + ",".join(f"{k}:{float(v)!r}" for k, v in p.items()) + "}" for c, p in stated.items()) + "}"
 
 
 @pytest.mark.parametrize("level", [0.01, 0.03])
@@ -111,11 +118,37 @@ def test_nothing_injected_names_nothing(tmp_path, still_water, level):
     (0.03, Injection(current_speed=0.2, current_direction=np.deg2rad(300.0))),
 ], ids=lambda x: x.label if isinstance(x, Injection) else f"{100 * x:.0f}pct")
 def test_an_injected_effect_is_named_with_its_parameters(tmp_path, still_water, level, injection):
-    d = _discover(tmp_path, [inject(r, injection) for r in still_water[level]])
+    d = _discover(tmp_path, [inject(r, injection) for r in still_water[level]], stated=injection.truth())
     (cause, truth), = injection.truth().items()
     assert d["cause"] == cause, (d["cause"], d["parameters"], d["ranking"][:3])
     assert parameters_match(cause, d["parameters"], truth), (d["parameters"], truth)
     assert d["evidence"]["margin"][cause] > d["evidence"]["threshold"], d["evidence"]
+    # the injected effect, scored at its true parameters, is one the records show
+    assert d["injected"]["causes"] == cause and d["injected"]["shown"], d["injected"]
+    assert d["injected"]["score"] > 0.0 and any("the records can show it" in n for n in d["notes"]), d["notes"]
+
+
+def test_a_stated_effect_is_scored_at_its_stated_value(tmp_path, still_water):
+    """A 1 deg rudder offset injected at 3 % noise: stated with the wrong sign,
+    the stated model predicts the tracks worse than none (score below 0, not
+    shown), and the verdict is the same as when it is stated right."""
+    injection = Injection(rudder_offset=np.deg2rad(1.0))
+    wrong = {"rudder_offset": {"delta0": -np.deg2rad(1.0)}}
+    d = _discover(tmp_path, [inject(r, injection) for r in still_water[0.03]], stated=wrong)
+    assert d["cause"] == "rudder_offset", (d["cause"], d["ranking"][:3])
+    assert parameters_match("rudder_offset", d["parameters"], injection.truth()["rudder_offset"]), d["parameters"]
+    assert d["injected"]["evidence"] < 0.0 and not d["injected"]["shown"], d["injected"]
+    assert any("does not beat none" in n for n in d["notes"]), d["notes"]
+
+
+def test_an_effect_too_small_for_the_records_is_not_shown(tmp_path, still_water):
+    """A rudder offset of 0.02 deg at 3 % noise: exactly as injected it does not
+    beat none by the criterion's penalty, and none is named."""
+    injection = Injection(rudder_offset=np.deg2rad(0.02))
+    d = _discover(tmp_path, [inject(r, injection) for r in still_water[0.03]], stated=injection.truth())
+    assert d["cause"] == "none", (d["cause"], d["ranking"][:3])
+    stated = d["injected"]
+    assert not stated["shown"] and stated["score"] < 0.0 < stated["penalty"], stated
 
 
 @pytest.mark.parametrize("level,injection", [
@@ -123,10 +156,14 @@ def test_an_injected_effect_is_named_with_its_parameters(tmp_path, still_water, 
     (0.03, Injection(current_speed=0.5, current_direction=np.deg2rad(45.0), rudder_offset=np.deg2rad(-2.0))),
 ], ids=lambda x: x.label if isinstance(x, Injection) else f"{100 * x:.0f}pct")
 def test_a_current_and_a_rudder_offset_together_are_named_as_a_pair(tmp_path, still_water, level, injection):
-    d = _discover(tmp_path, [inject(r, injection) for r in still_water[level]])
+    d = _discover(tmp_path, [inject(r, injection) for r in still_water[level]], stated=injection.truth())
     assert d["cause"] == "rudder_offset+current", (d["cause"], d["parameters"], d["ranking"][:3])
     for cause, truth in injection.truth().items():
         assert parameters_match(cause, d["parameters"][cause], truth), (cause, d["parameters"], truth)
+    # the pair as injected is shown, and each of the two beside the other
+    stated = d["injected"]
+    assert stated["causes"] == "rudder_offset+current" and stated["shown"], stated
+    assert all(m["score"] > 0.0 for m in stated["members"].values()), stated["members"]
 
 
 # ---------------------------------------------------------------- sensors the filter must read right

@@ -43,6 +43,15 @@ measured once); ``seed_base`` defaults to
 9000. A seed read to fix a case is development data from then on: measure
 on seeds no one has looked at (docs/discovery.md keeps the list).
 
+What the records can show: every simulated case states its hidden effect at
+its true parameters (``discover.injected``, :mod:`studies.discover.stated_effect`),
+so each case's line carries the effect's own score on its records
+(``injected_score``; ``injected_shown`` when above 0, for a pair each cause
+beside the other too). A miss whose effect is not shown is one no verdict
+of the criterion can name on those records; the summary gives the hit rates
+among the shown effects and divides the misses (not shown; the right causes
+with a parameter outside 20 %; other causes named).
+
 Output: a JSON object of rates (``rate``, ``low``, ``high``: Wilson 90 %),
 the confusion matrices, the reliability table of the stated confidence
 (``reliability``: right = causes and parameters; ``reliability_causes``:
@@ -166,10 +175,13 @@ def _single_or_pair(hidden: str, d: dict, truth: dict, elapsed: float, kind: str
         parameters_match(hidden, params, truth) if "+" not in hidden
         else parameters_match(named, params, {k: truth[k] for k in named.split("+")}))))
     first_right = hidden != "none" and "+" not in hidden and hidden in named.split("+")
+    stated = d.get("injected") or {}
     return {"kind": kind, "hidden": hidden, "named": named, "right": right,
             "cause_right": bool(same), "spurious_second": bool(first_right and "+" in named),
             "confidence": d.get("confidence"), "parameters": params, "truth": truth,
-            "gain_pct": d.get("gain_pct"), "elapsed": elapsed, **extra}
+            "gain_pct": d.get("gain_pct"), "elapsed": elapsed,
+            "injected_score": stated.get("score"), "injected_shown": stated.get("shown"),
+            "injected_members": stated.get("members"), **extra}
 
 
 def _clean(x):
@@ -206,12 +218,33 @@ def simulated_case(hidden: str, family: str, seed: int, noise: float, kind: str)
     records, truth = hidden_records(get_vessel("mariner"), hidden, seed=seed, noise=noise,
                                     noise_family=family, missing="any", scenario=scenario)
     model = ["model=symmetric"] if "propeller_asymmetry" in hidden.split("+") else []
+    injected = injected_override(hidden, truth)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         paths = write_records(records, tmp)
-        d, elapsed = _discover(paths[:-1], paths[-1:], [f"seed={seed}", *model], tmp)
+        d, elapsed = _discover(paths[:-1], paths[-1:], [f"seed={seed}", *model, *injected], tmp)
     return _clean(_single_or_pair(hidden, d, truth, elapsed, kind, family=family, seed=seed,
                                   scenario=repr(scenario)))
+
+
+def injected_override(hidden: str, truth: dict) -> list[str]:
+    """The ``discover.injected`` setting that states the hidden effect at its
+    true parameters (those of the cause's own parameters; a missing term by
+    its coefficient), so that its own score on the records is written beside
+    the verdict; none for ``none``."""
+    from .discover.causes import CATALOGUE
+
+    if hidden == "none":
+        return []
+    causes = hidden.split("+")
+    by_cause = truth if len(causes) > 1 else {hidden: truth}
+    stated = []
+    for cid in causes:
+        values = by_cause[cid]
+        if cid != "missing_term":
+            values = {k: v for k, v in values.items() if k in CATALOGUE[cid].params and v is not None}
+        stated.append(f"{cid}:{{" + ",".join(f"{k}:{float(v)!r}" for k, v in values.items()) + "}")
+    return ["discover.injected={" + ",".join(stated) + "}"]
 
 
 #: the real-record sets: (training files, held-out files)
@@ -305,6 +338,7 @@ def _summary(results: list) -> dict:
         out["spurious_second"] = rate([r["spurious_second"] for r in causes
                                        if r["hidden"] in r["named"].split("+")])
         out["confusion_singles"] = confusion(singles)
+        out.update(_shown(causes, "singles"))
     pairs = [r for r in results if r["kind"] == "pair"]
     if pairs:
         out["pairs_by_family"] = {f: rate([r["right"] for r in pairs if r["family"] == f])
@@ -312,6 +346,7 @@ def _summary(results: list) -> dict:
         out["pairs"] = rate([r["right"] for r in pairs])
         out["pairs_by_pair"] = {p: rate([r["right"] for r in pairs if r["hidden"] == p])
                                 for p in dict.fromkeys(r["hidden"] for r in pairs)}
+        out.update(_shown(pairs, "pairs"))
     real = [r for r in results if r["kind"] == "real"]
     if real:
         injected = [r for r in real if r["hidden"] != "none"]
@@ -335,6 +370,31 @@ def _summary(results: list) -> dict:
         if times:
             out[key] = float(np.median(times))
     return out
+
+
+def _shown(cases: list, kind: str) -> dict:
+    """What the records could show (``discover.injected``: the hidden effect's
+    own score at its true parameters above 0) and how the misses divide:
+    ``{kind}_shown`` the share of effects the records show; ``{kind}_right_when_shown``
+    (and per family and per cause) the hit rate among them; ``{kind}_misses``
+    the misses by what went wrong (not shown by the records; the right causes
+    named with a parameter outside 20 %; other causes named)."""
+    scored = [r for r in cases if r.get("injected_shown") is not None]
+    if not scored:
+        return {}
+    shown = [r for r in scored if r["injected_shown"]]
+    missed = [r for r in scored if not r["right"]]
+    return {f"{kind}_shown": rate([r["injected_shown"] for r in scored]),
+            f"{kind}_right_when_shown": rate([r["right"] for r in shown]),
+            f"{kind}_by_family_when_shown": {f: rate([r["right"] for r in shown if r["family"] == f])
+                                            for f in dict.fromkeys(r["family"] for r in scored)},
+            f"{kind}_by_cause_when_shown": {c: rate([r["right"] for r in shown if r["hidden"] == c])
+                                           for c in dict.fromkeys(r["hidden"] for r in scored)},
+            f"{kind}_misses": {"not_shown_by_the_records": sum(not r["injected_shown"] for r in missed),
+                               "shown_causes_right_parameter_off": sum(r["injected_shown"] and r["cause_right"]
+                                                                       for r in missed),
+                               "shown_other_causes_named": sum(r["injected_shown"] and not r["cause_right"]
+                                                               for r in missed)}}
 
 
 def run_discovery_bench(settings: DiscoveryBench) -> dict:

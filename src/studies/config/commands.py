@@ -3,7 +3,7 @@
 """
 
 from dataclasses import dataclass, field
-from typing import Optional
+from typing import Dict, Optional
 
 from omegaconf import MISSING
 
@@ -118,6 +118,16 @@ class DiscoverOptions:
         and :mod:`studies.discover.inference`; any baseline, the MMG model
         included). The earlier rule-based search (``search``) was retired; the
         value is refused with a line saying so.
+    injected : dict
+        An effect whose truth is known (injected into the records, or hidden
+        in a simulation): ``{cause id: {parameter: value}}``, one or two
+        causes, the catalogue's parameters in its units (prime coefficients,
+        m/s, rad; a missing term by its coefficient, ``{missing_term: {Nrrr:
+        -0.002}}``). Scored on the tracks at those values by the verdict's
+        own criterion (:mod:`studies.discover.stated_effect`): whether the
+        records can show it at all, written as ``injected`` in
+        ``discovery.json`` and the report. It changes nothing of the verdict.
+        Empty (the default): nothing stated.
     judge : str
         What ``method=inference`` judges the causes on: ``tracks`` (the
         baseline's prediction-error filter over the measured records, every
@@ -136,6 +146,7 @@ class DiscoverOptions:
     splits: bool = False
     method: str = "inference"
     judge: str = "auto"
+    injected: Dict[str, Dict[str, float]] = field(default_factory=dict)
 
     def __post_init__(self):
         if str(self.method) == "search":
@@ -149,6 +160,25 @@ class DiscoverOptions:
             raise ConfigError(f"discover.holdout must be in [0.05, 0.8], got {share}")
         self.holdout = share
         self.splits = _flag("discover.splits", self.splits)
+        self.injected = _injected(self.injected) if self.injected else {}
+
+
+def _injected(value) -> dict:
+    """``discover.injected`` checked: one or two causes of the catalogue, each
+    with finite numbers by parameter name (the parameters themselves are
+    checked against the baseline once it is known)."""
+    from ..discover.causes import CATALOGUE
+
+    stated = {str(k): dict(v or {}) for k, v in dict(value).items()}
+    judged = [c for c in CATALOGUE if c not in ("none", "propulsion")]
+    if not 1 <= len(stated) <= 2:
+        raise ConfigError(f"discover.injected: one or two causes, got {len(stated)}")
+    for cid, values in stated.items():
+        if cid not in judged:
+            raise ConfigError(f"discover.injected.{cid}: not an injectable cause ({', '.join(judged)})")
+        for name, x in values.items():
+            values[name] = _number(f"discover.injected.{cid}.{name}", x)
+    return stated
 
 
 @dataclass

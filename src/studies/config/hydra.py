@@ -34,7 +34,14 @@ def _extension(schema: type, base: type):
     with flag_override(node, ["struct", "readonly"], [False, False]):
         for item in fields(base):
             del node[item.name]
+    for key in OPEN_MAPPINGS.get(schema.__name__, ()):
+        # a mapping whose keys the user names (discover.injected={current: {speed: 0.3}}): open to new keys
+        OmegaConf.set_struct(OmegaConf.select(node, key), False)
     return node
+
+
+#: per schema, its settings that are mappings with keys of the user's choosing
+OPEN_MAPPINGS = {"DiscoverConfig": ("discover.injected",)}
 
 
 #: (group, name, schema) stored by :func:`register`; a YAML extends one by

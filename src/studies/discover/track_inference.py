@@ -249,6 +249,9 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
                     n_blocks=design.n_blocks, block_seconds=float(BLOCK_SECONDS), probability_floor=1e-300)
     out.fits = fits
     out.fit = fits.get(tuple(named))
+    # the filter and the records every verdict was judged on (an effect stated beforehand is scored
+    # on them: .stated_effect)
+    out.design, out.context = design, every
     scorer = design.scorer
     out.filter_reading = {"step_s": float(scorer.step), "velocities_measured": bool(scorer.velocities),
                           "process_noise": "coloured" if scorer.tau > 0.0 else "white",

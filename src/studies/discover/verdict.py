@@ -88,6 +88,10 @@ class Discovery:
         Where the whole replays (baseline, extended, another simulator's run
         given by ``simulation.path``) depart most from the held-out records:
         per model its largest departures by phase and state.
+    injected : dict or None
+        With ``discover.injected``: the stated effect's own score on these
+        records at its stated parameters (:mod:`.stated_effect`; ``score``
+        below 0: the records cannot show it to this criterion).
     splits : list of dict
         With ``discover.splits``: every record held out in turn, the baseline
         and the named model identified on the others (``held_out``,
@@ -124,6 +128,8 @@ class Discovery:
     candidates_beside: dict = field(default_factory=dict)
     #: every record held out in turn (``discover.splits``): the named model's gain on each
     splits: list = field(default_factory=list)
+    #: the stated effect's own score (``discover.injected``)
+    injected: dict | None = None
 
     def to_dict(self) -> dict:
         """The value written to ``discovery.json``."""

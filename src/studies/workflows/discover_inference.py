@@ -26,6 +26,7 @@ from ..discover.causes.propulsion import MMGDynamics
 from ..discover.confidence import separating_manoeuvre
 from ..discover.fitting import Context, calibrate, training_error, validate
 from ..discover.inference import baseline_fit, infer, intervals, refine, smooth_with_baseline
+from ..discover.stated_effect import score_stated, stated_causes
 from ..discover.track_inference import infer_on_tracks
 from ..discover.report import plot_evidence, plot_predictions, write_discovery, write_report
 from ..discover.verdict import Discovery
@@ -55,6 +56,15 @@ def baseline_dynamics(prepared: PreparedDiscovery) -> MMGDynamics | None:
     first = prepared.train[0]
     return MMGDynamics(mmg_vessel_at_speed(name, float(np.hypot(first["u"].iloc[0], first["v"].iloc[0]))),
                        asymmetry=bool(getattr(prepared.cfg.model, "asymmetry", False)))
+
+
+def check_injected(prepared: PreparedDiscovery) -> None:
+    """``discover.injected`` refused in one line when a cause or parameter does
+    not fit the baseline and the records (:func:`studies.discover.stated_effect.stated_causes`)."""
+    dynamics = baseline_dynamics(prepared)
+    model = dynamics.model if dynamics is not None else prepared.model
+    stated_causes(Context(prepared.vessel, model, list(prepared.train), list(prepared.validation), "recorded",
+                          dynamics=dynamics), prepared.cfg.discover.injected)
 
 
 def _scale(prepared: PreparedDiscovery, dynamics) -> str:
@@ -104,6 +114,8 @@ def execute_inference(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict,
     else:
         result = infer(ctx, smoothed, pairs=opts.second_cause, seed=prepared.cfg.seed)
     named = result.verdict_of(result.named)
+    stated = getattr(opts, "injected", None)
+    injected = score_stated(result, stated) if stated and on_tracks else None
     # the verdict and its parameters come from every record; the held-out gain from the named
     # model and the baseline refitted on the training records alone
     baseline = baseline_fit(ctx)
@@ -149,6 +161,11 @@ def execute_inference(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict,
         notes.append(f"{named} replaces the baseline's process model (the MMG model: thrust from the measured rpm, "
                      "the rudder in the slipstream), so no second cause is judged beside it: run the discovery "
                      "with model=mmg to judge the catalogue on that model")
+    if stated and injected is None:
+        notes.append("discover.injected is scored on the tracks' criterion only (discover.judge=tracks); "
+                     "it was not scored")
+    elif injected is not None:
+        notes.append(_injected_note(injected))
     for cid, manoeuvre in undecidable:
         notes.append(f"{cid} is not compared: the training records cannot decide it ({manoeuvre} would)")
     if best is not baseline and best.validation.get("diverged"):
@@ -205,6 +222,7 @@ def execute_inference(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict,
                     if not departed.empty else []),
         seconds={"smoothing": t_smooth, "inference": t_infer, **{k: float(v) for k, v in result.seconds.items()},
                  "total": time.perf_counter() - t0})
+    discovery.injected = injected
     if opts.splits:
         discovery.splits = held_out_in_turn(prepared, smoothed, raw, model, dynamics,
                                             result.fit if result.named else None, named)
@@ -255,6 +273,19 @@ def held_out_in_turn(prepared: PreparedDiscovery, smoothed: list, raw: list, mod
                      "diverges": list(ext.validation.get("diverged") or [])})
         log.info("holding out %s: %s gains %.1f %%", rows[-1]["held_out"], named, rows[-1]["gain_pct"])
     return rows
+
+
+def _injected_note(injected: dict) -> str:
+    """The stated effect's score in one sentence (:mod:`studies.discover.stated_effect`)."""
+    what = f"the injected {injected['causes']}"
+    line = (f"{what} scores {injected['score']:+.1f} on these records at its stated parameters (evidence "
+            f"{injected['evidence']:.1f} against a penalty of {injected['penalty']:.1f})")
+    for cid, m in (injected.get("members") or {}).items():
+        line += f"; {cid} beside the other {m['score']:+.1f}"
+    if injected["shown"]:
+        return line + ": the records can show it"
+    return (line + ": even exactly as injected it does not beat none by this criterion, so no verdict of it "
+            "can name it on these records")
 
 
 def _measure(on_tracks: bool) -> str:

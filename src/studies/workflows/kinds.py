@@ -55,6 +55,9 @@ class ManoeuvringKind:
         prepared.inputs = [(p, r, c) for p, r, c in zip(paths, prepared.records, contexts)]
         if prepared.simulation is not None:
             prepared.inputs.append((cfg.simulation.path, prepared.simulation, "simulation"))
+        if cfg.discover.injected:
+            # the stated effect's causes and parameters checked against the baseline before anything runs
+            _inference.check_injected(prepared)
         return prepared
 
     def discover(self, prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
