@@ -207,8 +207,10 @@ def _discover(paths_train, paths_val, overrides, tmp: Path) -> tuple[dict, float
     return d, time.perf_counter() - t0
 
 
-def simulated_case(hidden: str, family: str, seed: int, noise: float, kind: str) -> dict:
-    """One discovery on simulated Mariner records with ``hidden`` in them."""
+def simulated_case(hidden: str, family: str, seed: int, noise: float, kind: str, state: bool = True) -> dict:
+    """One discovery on simulated Mariner records with ``hidden`` in them;
+    with ``state``, the hidden effect stated at its true parameters
+    (``discover.injected``: its own score on the records, beside the verdict)."""
     import numba
 
     numba.set_num_threads(1)
@@ -218,7 +220,7 @@ def simulated_case(hidden: str, family: str, seed: int, noise: float, kind: str)
     records, truth = hidden_records(get_vessel("mariner"), hidden, seed=seed, noise=noise,
                                     noise_family=family, missing="any", scenario=scenario)
     model = ["model=symmetric"] if "propeller_asymmetry" in hidden.split("+") else []
-    injected = injected_override(hidden, truth)
+    injected = injected_override(hidden, truth) if state else []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         paths = write_records(records, tmp)
