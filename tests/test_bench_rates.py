@@ -76,3 +76,37 @@ def test_the_bench_judges_the_confidence_on_the_causes_and_on_the_parameters_apa
     assert out["causes_right_when_confidence_at_least_0.9"]["hits"] == 2
     top = {(row["low"], row["high"]): row for row in out["reliability_causes"]}[(0.9, 1.0)]
     assert top["n"] == 3 and abs(top["share_right"] - 2 / 3) < 1e-12
+
+
+def test_the_bench_divides_the_misses_by_what_the_records_can_show():
+    """Hit rates among the effects the records show (the hidden effect's own
+    score above 0), and the misses counted by kind: not shown, the right cause
+    with a parameter off, another cause named; and the setting that states
+    each hidden effect."""
+    from studies.bench_discovery import _summary, injected_override
+
+    def case(hidden, named, right, cause_right, shown, family="ar1"):
+        return {"kind": "single", "family": family, "hidden": hidden, "named": named, "right": right,
+                "cause_right": cause_right, "spurious_second": False, "confidence": 0.9, "elapsed": 1.0,
+                "injected_shown": shown}
+
+    out = _summary([case("current", "current", True, True, True),
+                    case("missing_term", "none", False, False, False),
+                    case("rudder_offset", "none", False, False, False),
+                    case("rudder_offset", "rudder_offset", False, True, True),
+                    case("current", "environmental_bias", False, False, True, family="gnss"),
+                    case("none", "none", True, True, None)])
+    assert out["singles"]["hits"] == 1 and out["singles"]["n"] == 5
+    assert out["singles_shown"]["hits"] == 3 and out["singles_shown"]["n"] == 5
+    assert out["singles_right_when_shown"]["hits"] == 1 and out["singles_right_when_shown"]["n"] == 3
+    assert out["singles_by_family_when_shown"]["gnss"]["n"] == 1
+    assert out["singles_misses"] == {"not_shown_by_the_records": 2, "shown_causes_right_parameter_off": 1,
+                                     "shown_other_causes_named": 1}
+    # the setting that states a hidden effect: the cause's own parameters, a missing term by its name
+    assert injected_override("wind_speed_bias", {"k": -0.2, "wind_speed": 12.0, "wind_direction": 1.0}) == [
+        "discover.injected={wind_speed_bias:{k:-0.2}}"]
+    assert injected_override("missing_term", {"Nrrr": -0.002}) == ["discover.injected={missing_term:{Nrrr:-0.002}}"]
+    assert injected_override("current+rudder_offset", {"current": {"speed": 0.5, "direction": 1.0},
+                                                        "rudder_offset": {"delta0": 0.02}}) == [
+        "discover.injected={current:{speed:0.5,direction:1.0},rudder_offset:{delta0:0.02}}"]
+    assert injected_override("none", {}) == []
