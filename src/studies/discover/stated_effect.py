@@ -21,11 +21,14 @@ parameters, ``n`` the measured innovations, ``m`` the cause's variants the
 verdict compares. ``s < 0``: the stated effect, exactly as it acts, does not
 beat ``none`` on these records; no verdict of this criterion names it, and a
 criterion that did would name effects in records where none acts. For two
-effects, each is also scored beside the other at its stated values (what the
-second cause of a pair must show).
+effects, each is also scored beside the other at its stated values, as the
+verdict judges a second cause: under the filter whose process noise's scale
+is the likeliest with the other acting, the two against the other alone.
 """
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -33,6 +36,7 @@ from scipy.optimize import least_squares
 from ..errors import ConfigError
 from .causes import Combined, MissingTerm, NoCause, extended_library, manoeuvring_causes
 from .causes.base import Cause
+from .innovations import beside
 
 __all__ = ["stated_causes", "score_stated"]
 
@@ -88,9 +92,9 @@ def _relative(design, params: dict) -> np.ndarray:
                      for n, s in zip(design.coefficient_names, design.coefficient_scale)])
 
 
-def _refit(design, cause: Cause, theta: np.ndarray, terms: dict, starts: list) -> tuple[float, float]:
+def _refit(design, cause: Cause, theta: np.ndarray, terms: dict, starts: list) -> tuple[float, float, dict]:
     """``(squared standardised innovations with cause held at theta, the same
-    without it)``: ``cause`` at ``theta`` (and its added ``terms``), the
+    without it, the coefficients)``: ``cause`` at ``theta`` (and its added ``terms``), the
     baseline's coefficients re-identified beside it (the design's coefficient
     Jacobian, SciPy's trust-region least squares) from the baseline's and
     from each of ``starts`` (coefficients of the verdict's own fits of these
@@ -110,8 +114,9 @@ def _refit(design, cause: Cause, theta: np.ndarray, terms: dict, starts: list) -
         if best is None or res.cost < best.cost:
             best = res
     w = residual(best.x)
-    bare = np.nan_to_num(design.innovations(NoCause(), np.zeros(0), coefficients=design.coefficients_at(best.x)))
-    return float(w @ w), float(bare @ bare)
+    coefficients = design.coefficients_at(best.x)
+    bare = np.nan_to_num(design.innovations(NoCause(), np.zeros(0), coefficients=coefficients))
+    return float(w @ w), float(bare @ bare), coefficients
 
 
 def _starts(inference, ids: set) -> list:
@@ -165,7 +170,8 @@ def score_stated(inference, stated: dict) -> dict:
         (c1, t1, a1, _), (c2, t2, a2, _) = items
         return Combined(c1, c2), np.concatenate([t1, t2]), {**a1, **a2}
 
-    ssq_all, bare = _refit(design, *model(parts), _starts(inference, {p[0].id for p in parts}))
+    ids = {p[0].id for p in parts}
+    ssq_all, bare, _ = _refit(design, *model(parts), _starts(inference, ids))
     pen = sum(penalty(p) for p in parts)
     evidence = min(ssq_none, bare) - ssq_all
     out = {"causes": "+".join(p[0].id for p in parts),
@@ -178,8 +184,14 @@ def score_stated(inference, stated: dict) -> dict:
         out["members"] = {}
         for i, part in enumerate(parts):
             other = parts[1 - i]
-            ssq_other, _ = _refit(design, *model([other]), _starts(inference, {other[0].id}))
-            e = ssq_other - ssq_all
+            # as the verdict judges a second cause: under the filter whose process noise's scale is the
+            # likeliest with the other acting (at its stated values, the coefficients re-identified
+            # beside it), the other alone against the two, each with the coefficients re-identified
+            _, _, coefficients = _refit(design, *model([other]), _starts(inference, {other[0].id}))
+            under = replace(beside(design, other[0], other[1], other[2], coefficients), base=None)
+            ssq_other, _, _ = _refit(under, *model([other]), [coefficients])
+            ssq_pair, _, _ = _refit(under, *model(parts), [coefficients] + _starts(inference, ids))
+            e = ssq_other - ssq_pair
             out["members"][part[0].id] = {"evidence": float(e), "penalty": penalty(part),
                                           "score": float(e - penalty(part))}
             scores.append(e - penalty(part))
