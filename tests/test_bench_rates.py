@@ -85,16 +85,16 @@ def test_the_bench_divides_the_misses_by_what_the_records_can_show():
     each hidden effect."""
     from studies.bench_discovery import _summary, injected_override
 
-    def case(hidden, named, right, cause_right, shown, family="ar1"):
+    def case(hidden, named, right, cause_right, shown, family="ar1", seed=1):
         return {"kind": "single", "family": family, "hidden": hidden, "named": named, "right": right,
                 "cause_right": cause_right, "spurious_second": False, "confidence": 0.9, "elapsed": 1.0,
-                "injected_shown": shown}
+                "injected_shown": shown, "seed": seed}
 
     out = _summary([case("current", "current", True, True, True),
                     case("missing_term", "none", False, False, False),
                     case("rudder_offset", "none", False, False, False),
                     case("rudder_offset", "rudder_offset", False, True, True),
-                    case("current", "environmental_bias", False, False, True, family="gnss"),
+                    case("current", "environmental_bias", False, False, True, family="gnss", seed=2),
                     case("none", "none", True, True, None)])
     assert out["singles"]["hits"] == 1 and out["singles"]["n"] == 5
     assert out["singles_shown"]["hits"] == 3 and out["singles_shown"]["n"] == 5
@@ -102,6 +102,9 @@ def test_the_bench_divides_the_misses_by_what_the_records_can_show():
     assert out["singles_by_family_when_shown"]["gnss"]["n"] == 1
     assert out["singles_misses"] == {"not_shown_by_the_records": 2, "shown_causes_right_parameter_off": 1,
                                      "shown_other_causes_named": 1}
+    # the rates per seed (the cases of one seed share its scenario)
+    assert out["singles_by_seed"]["1"]["n"] == 4 and out["singles_by_seed"]["2"]["hits"] == 0
+    assert out["none_by_seed"]["1"]["hits"] == 1
     # the setting that states a hidden effect: the cause's own parameters, a missing term by its name
     assert injected_override("wind_speed_bias", {"k": -0.2, "wind_speed": 12.0, "wind_direction": 1.0}) == [
         "discover.injected={wind_speed_bias:{k:-0.2}}"]

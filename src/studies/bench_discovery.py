@@ -52,6 +52,11 @@ of the criterion can name on those records; the summary gives the hit rates
 among the shown effects and divides the misses (not shown; the right causes
 with a parameter outside 20 %; other causes named).
 
+Every case of a seed shares its scenario and its process noise's realisation,
+so the cases of one seed are not independent: the Wilson intervals over
+cases are too narrow by as much as the seeds differ, which the rates per
+seed (``singles_by_seed``, ``none_by_seed``, ``pairs_by_seed``) show.
+
 Output: a JSON object of rates (``rate``, ``low``, ``high``: Wilson 90 %),
 the confusion matrices, the reliability table of the stated confidence
 (``reliability``: right = causes and parameters; ``reliability_causes``:
@@ -341,6 +346,8 @@ def _summary(results: list) -> dict:
                                        if r["hidden"] in r["named"].split("+")])
         out["confusion_singles"] = confusion(singles)
         out.update(_shown(causes, "singles"))
+        out["singles_by_seed"] = _by_seed(causes)
+        out["none_by_seed"] = _by_seed([r for r in singles if r["hidden"] == "none"])
     pairs = [r for r in results if r["kind"] == "pair"]
     if pairs:
         out["pairs_by_family"] = {f: rate([r["right"] for r in pairs if r["family"] == f])
@@ -349,6 +356,7 @@ def _summary(results: list) -> dict:
         out["pairs_by_pair"] = {p: rate([r["right"] for r in pairs if r["hidden"] == p])
                                 for p in dict.fromkeys(r["hidden"] for r in pairs)}
         out.update(_shown(pairs, "pairs"))
+        out["pairs_by_seed"] = _by_seed(pairs)
     real = [r for r in results if r["kind"] == "real"]
     if real:
         injected = [r for r in real if r["hidden"] != "none"]
@@ -372,6 +380,15 @@ def _summary(results: list) -> dict:
         if times:
             out[key] = float(np.median(times))
     return out
+
+
+def _by_seed(cases: list) -> dict:
+    """Hit rates per seed. Every case of a seed shares its scenario (manoeuvres,
+    sampling, lengths, the process noise's realisation), so the cases of one
+    seed are not independent draws: the spread between seeds shows what the
+    Wilson intervals over cases, which take them as independent, leave out."""
+    return {str(seed): rate([r["right"] for r in cases if r.get("seed") == seed])
+            for seed in sorted({r.get("seed") for r in cases if r.get("seed") is not None})}
 
 
 def _shown(cases: list, kind: str) -> dict:
