@@ -86,7 +86,8 @@ def test_splits_need_two_records(tmp_path, hidden_none_11):
     ("{rudder_offset:{delta0:0.01,speed:0.3}}", r"discover.injected.rudder_offset: has no parameter speed"),
     ("{current:{speed:0.3}}", r"discover.injected.current: needs direction"),
     ("{missing_term:{Nfoo:0.001}}", r"discover.injected.missing_term: Nfoo is not a term the baseline"),
-    ("{propulsion:{R0:0.02}}", r"discover.injected.propulsion: not an injectable cause"),
+    ("{propulsion:{R0:0.02}}", r"discover.injected.propulsion: not a cause this discovery judges"),
+    ("{none:{}}", r"discover.injected.none: not a cause this discovery judges"),
     ("{current:{speed:0.3,direction:0.1},rudder_offset:{delta0:0.01},missing_term:{Nrrr:0.001}}",
      r"discover.injected: one or two causes, got 3"),
 ])

@@ -164,18 +164,14 @@ class DiscoverOptions:
 
 
 def _injected(value) -> dict:
-    """``discover.injected`` checked: one or two causes of the catalogue, each
-    with finite numbers by parameter name (the parameters themselves are
-    checked against the baseline once it is known)."""
-    from ..discover.causes import CATALOGUE
-
+    """``discover.injected`` checked: one or two causes, each with finite
+    numbers by parameter name (the causes and their parameters are checked
+    against the catalogue, the baseline and the records once they are known,
+    before anything runs: :func:`studies.discover.stated_effect.stated_causes`)."""
     stated = {str(k): dict(v or {}) for k, v in dict(value).items()}
-    judged = [c for c in CATALOGUE if c not in ("none", "propulsion")]
     if not 1 <= len(stated) <= 2:
         raise ConfigError(f"discover.injected: one or two causes, got {len(stated)}")
     for cid, values in stated.items():
-        if cid not in judged:
-            raise ConfigError(f"discover.injected.{cid}: not an injectable cause ({', '.join(judged)})")
         for name, x in values.items():
             values[name] = _number(f"discover.injected.{cid}.{name}", x)
     return stated
