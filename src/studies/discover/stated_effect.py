@@ -108,7 +108,12 @@ def _refit(design, cause: Cause, theta: np.ndarray, terms: dict, starts: list) -
         return np.nan_to_num(design.innovations(cause, theta, terms, coefficients=design.coefficients_at(x)))
 
     best = None
-    for x0 in [np.zeros(nb)] + [_relative(design, p) for p in starts]:
+    tried = [np.zeros(nb)]
+    for p in starts:
+        x0 = _relative(design, p)
+        if not any(np.allclose(x0, t) for t in tried):
+            tried.append(x0)
+    for x0 in tried:
         res = least_squares(residual, x0, jac=lambda x: design.coefficient_jacobian, method="trf",
                             x_scale="jac", max_nfev=MAX_EVALUATIONS)
         if best is None or res.cost < best.cost:
