@@ -86,6 +86,9 @@ __all__ = ["DiscoveryBench", "run_discovery_bench", "judge_real", "HELP"]
 
 HELP = """studies bench discover [key=value ...]: hit rates of studies discover with Wilson 90 % intervals
 
+Each simulated case states its hidden effect at its true parameters (discover.injected): the summary gives
+the rates among the effects the records can show, the misses by kind, and the rates per seed.
+
 keys (defaults):
   seeds=4                 seeds per cell
   seed_base=9000          first seed (development read 100-101, 1000-1001, 2000-2400, 7000-7001, 9600-9601,
