@@ -2,8 +2,9 @@
 ``studies report`` and ``studies simulate``.
 """
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Dict, Optional
+from typing import Any, Dict, Optional
 
 from omegaconf import MISSING
 
@@ -146,7 +147,7 @@ class DiscoverOptions:
     splits: bool = False
     method: str = "inference"
     judge: str = "auto"
-    injected: Dict[str, Dict[str, float]] = field(default_factory=dict)
+    injected: Dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self):
         if str(self.method) == "search":
@@ -168,7 +169,11 @@ def _injected(value) -> dict:
     numbers by parameter name (the causes and their parameters are checked
     against the catalogue, the baseline and the records once they are known,
     before anything runs: :func:`studies.discover.stated_effect.stated_causes`)."""
-    stated = {str(k): dict(v or {}) for k, v in dict(value).items()}
+    stated = {}
+    for cid, values in dict(value).items():
+        if values is not None and not isinstance(values, Mapping):
+            raise ConfigError(f"discover.injected.{cid}: expected {{parameter: value}}, got {values!r}")
+        stated[str(cid)] = {str(k): v for k, v in dict(values or {}).items()}
     if not 1 <= len(stated) <= 2:
         raise ConfigError(f"discover.injected: one or two causes, got {len(stated)}")
     for cid, values in stated.items():
