@@ -88,6 +88,8 @@ def test_splits_need_two_records(tmp_path, hidden_none_11):
     ("{missing_term:{Nfoo:0.001}}", r"discover.injected.missing_term: Nfoo is not a term the baseline"),
     ("{propulsion:{R0:0.02}}", r"discover.injected.propulsion: not a cause this discovery judges"),
     ("{none:{}}", r"discover.injected.none: not a cause this discovery judges"),
+    ("{rudder_offset:3}", r"discover.injected.rudder_offset: expected \{parameter: value\}, got 3"),
+    ("{rudder_offset:{delta0:fast}}", r"discover.injected.rudder_offset.delta0 must be a number, got 'fast'"),
     ("{current:{speed:0.3,direction:0.1},rudder_offset:{delta0:0.01},missing_term:{Nrrr:0.001}}",
      r"discover.injected: one or two causes, got 3"),
 ])
@@ -101,6 +103,17 @@ def test_a_stated_effect_that_does_not_fit_is_refused_before_anything_runs(tmp_p
                                                           f"discover.injected={stated}"])
             prepare_discover(cfg, tmp_path)
     assert not (tmp_path / "out").exists()
+
+
+def test_a_stated_effect_in_whole_numbers_is_taken(tmp_path, hidden_none_11):
+    """``delta0:0`` and ``speed:1`` are numbers like any other."""
+    records, _ = hidden_none_11
+    paths = write_records(records, tmp_path)
+    with initialize_config_module("studies.conf", version_base="1.3"):
+        cfg = compose_settings("discover", overrides=[f"data.path=[{paths[0]},{paths[1]}]",
+                                                      "discover.injected={current:{speed:1,direction:0}}"])
+    prepare_discover(cfg, tmp_path)
+    assert cfg.discover.injected == {"current": {"speed": 1.0, "direction": 0.0}}
 
 
 def _roll_study(tmp_path, data, validate=None, simulation=None):
