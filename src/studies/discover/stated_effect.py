@@ -37,6 +37,7 @@ from ..errors import ConfigError
 from .causes import Combined, MissingTerm, NoCause, extended_library, manoeuvring_causes
 from .causes.base import Cause
 from .innovations import beside
+from .track_inference import _innovations_of
 
 __all__ = ["stated_causes", "score_stated"]
 
@@ -92,16 +93,13 @@ def _relative(design, params: dict) -> np.ndarray:
                      for n, s in zip(design.coefficient_names, design.coefficient_scale)])
 
 
-def _refit(design, cause: Cause, theta: np.ndarray, terms: dict, starts: list) -> tuple[float, float, dict]:
-    """``(squared standardised innovations with cause held at theta, the same
-    without it, the coefficients)``: ``cause`` at ``theta`` (and its added ``terms``), the
-    baseline's coefficients re-identified beside it (the design's coefficient
-    Jacobian, SciPy's trust-region least squares) from the baseline's and
-    from each of ``starts`` (coefficients of the verdict's own fits of these
-    causes: a large effect moves them far), the best kept; then the baseline
-    alone at those coefficients, the nested model at the larger one's fit
-    (the verdict's nesting: only what the stated parameters add is
-    credited)."""
+def _refit(design, cause: Cause, theta: np.ndarray, terms: dict, starts: list) -> tuple[float, dict]:
+    """``(squared standardised innovations, coefficients)`` with ``cause`` held
+    at ``theta`` (and its added ``terms``), the baseline's coefficients
+    re-identified beside it (the design's coefficient Jacobian, SciPy's
+    trust-region least squares) from the baseline's and from each of
+    ``starts`` (coefficients of the verdict's own fits of these causes: a
+    large effect moves them far), the best kept."""
     nb = design.coefficient_jacobian.shape[1]
 
     def residual(x):
@@ -119,9 +117,12 @@ def _refit(design, cause: Cause, theta: np.ndarray, terms: dict, starts: list) -
         if best is None or res.cost < best.cost:
             best = res
     w = residual(best.x)
-    coefficients = design.coefficients_at(best.x)
-    bare = np.nan_to_num(design.innovations(NoCause(), np.zeros(0), coefficients=coefficients))
-    return float(w @ w), float(bare @ bare), coefficients
+    return float(w @ w), design.coefficients_at(best.x)
+
+
+def _ssq(w: np.ndarray) -> float:
+    w = np.nan_to_num(w)
+    return float(w @ w)
 
 
 def _starts(inference, ids: set) -> list:
@@ -161,9 +162,7 @@ def score_stated(inference, stated: dict) -> dict:
     if not 1 <= len(parts) <= 2:
         raise ConfigError(f"discover.injected: one or two causes, got {len(parts)}")
     n = float(inference.n_rows)
-    none = inference.fits[()]
-    w0 = np.nan_to_num(design.innovations(NoCause(), np.zeros(0), coefficients=none.params))
-    ssq_none = float(w0 @ w0)
+    ssq_none = _ssq(_innovations_of(design, inference.fits[()]))
 
     def penalty(part):
         cause, _, _, k = part
@@ -176,7 +175,10 @@ def score_stated(inference, stated: dict) -> dict:
         return Combined(c1, c2), np.concatenate([t1, t2]), {**a1, **a2}
 
     ids = {p[0].id for p in parts}
-    ssq_all, bare, _ = _refit(design, *model(parts), _starts(inference, ids))
+    ssq_all, coefficients = _refit(design, *model(parts), _starts(inference, ids))
+    # the baseline alone at those coefficients, the nested model at the larger one's fit (the verdict's
+    # nesting: only what the stated parameters add is credited)
+    bare = _ssq(design.innovations(NoCause(), np.zeros(0), coefficients=coefficients))
     pen = sum(penalty(p) for p in parts)
     evidence = min(ssq_none, bare) - ssq_all
     out = {"causes": "+".join(p[0].id for p in parts),
@@ -192,10 +194,10 @@ def score_stated(inference, stated: dict) -> dict:
             # as the verdict judges a second cause: under the filter whose process noise's scale is the
             # likeliest with the other acting (at its stated values, the coefficients re-identified
             # beside it), the other alone against the two, each with the coefficients re-identified
-            _, _, coefficients = _refit(design, *model([other]), _starts(inference, {other[0].id}))
+            _, coefficients = _refit(design, *model([other]), _starts(inference, {other[0].id}))
             under = replace(beside(design, other[0], other[1], other[2], coefficients), base=None)
-            ssq_other, _, _ = _refit(under, *model([other]), [coefficients])
-            ssq_pair, _, _ = _refit(under, *model(parts), [coefficients] + _starts(inference, ids))
+            ssq_other, _ = _refit(under, *model([other]), [coefficients])
+            ssq_pair, _ = _refit(under, *model(parts), [coefficients] + _starts(inference, ids))
             e = ssq_other - ssq_pair
             out["members"][part[0].id] = {"evidence": float(e), "penalty": penalty(part),
                                           "score": float(e - penalty(part))}

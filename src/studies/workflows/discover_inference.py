@@ -114,7 +114,7 @@ def execute_inference(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict,
     else:
         result = infer(ctx, smoothed, pairs=opts.second_cause, seed=prepared.cfg.seed)
     named = result.verdict_of(result.named)
-    stated = getattr(opts, "injected", None)
+    stated = opts.injected
     injected = score_stated(result, stated) if stated and on_tracks else None
     # the verdict and its parameters come from every record; the held-out gain from the named
     # model and the baseline refitted on the training records alone
