@@ -8,11 +8,21 @@ process noise on ``du, v, r`` (its shape and scale by maximum likelihood)
 absorbs what no model holds. The baseline's coefficients, the process
 noise and the measurement noise are fitted to the tracks
 (:func:`baseline_on_tracks`, :meth:`FilterScores.estimate_shape`). The
-standardised innovations ``w`` (innovation over its standard deviation, six
-channels ``x0, y0, psi, u, v, r`` per sample) are white and of unit variance
-when the model is right, and ``-2 ln L = |w|^2`` up to terms that hardly
-depend on the model: a cause is judged on the tracks themselves, where a
-0.1 m position carries what a noisy acceleration does not. A cause with
+standardised innovations (innovation ``e`` over its standard deviation
+``sqrt(S)``, six channels ``x0, y0, psi, u, v, r`` per sample) are white
+and of unit variance when the model is right. The residuals ``w`` every
+model is fitted and judged by are those and, per channel, ``sqrt(ln(S /
+R))`` (:meth:`~studies.identify.filter_error.PredictionError.deviance_residuals`):
+``|w|^2`` is the whole ``-2 ln L`` less a constant of the filter. The
+variances ``S`` depend on the model (its damping propagates the state's
+covariance); without their ``ln S`` a model that predicts no better but
+lets the filter expect larger errors lowers the squared standardised
+innovations, and on records with a process noise correlated over seconds
+a missing term that weakens the yaw damping in the turn (``Nuur``) was
+named with nothing hidden, its likelihood ratio 29 on the standardised
+innovations, 8 on the whole likelihood. A cause is judged on the tracks
+themselves, where a 0.1 m position carries what a noisy acceleration does
+not. A cause with
 parameters ``theta`` changes them by ``J theta`` to first order; the
 baseline's coefficients ``beta`` by ``J_beta d_beta``. The linear
 regression of ``w`` on those columns, the coefficients' columns projected
@@ -110,8 +120,10 @@ class InnovationDesign:
     Attributes
     ----------
     residual : ndarray (N,)
-        Standardised innovations of the baseline (records one after the other,
-        six channels per sample; zero where a channel is not measured).
+        The baseline's deviance residuals (records one after the other, per
+        sample six standardised innovations then six ``sqrt(ln(S / R))``;
+        zero where a channel is not measured): ``|residual|^2`` is ``-2 ln
+        L`` less a constant of the filter.
     basis : ndarray (N, p)
         Orthonormal basis of their Jacobian with respect to the baseline's coefficients.
     projected : ndarray (N,)
@@ -184,7 +196,7 @@ class InnovationDesign:
         fit = replace(self.fit, cause=cause, theta=theta, setup=setup)
         params = dict(self.fit.params if coefficients is None else coefficients)
         params.update(extra or {})
-        return self.scorer._likelihood(fit).residuals(setup.model.vector(params, 0.0), self.log_q_scale)
+        return self.scorer._likelihood(fit).deviance_residuals(setup.model.vector(params, 0.0), self.log_q_scale)
 
 
 def beside(design: InnovationDesign, cause: Cause, theta: np.ndarray, terms: dict,
@@ -205,7 +217,7 @@ def beside(design: InnovationDesign, cause: Cause, theta: np.ndarray, terms: dic
     like = design.scorer._likelihood(acting)
     beta = setup.model.vector({**fit.params, **terms}, 0.0)
     _, out.log_q_scale = like.fit(beta)
-    r = like.residuals(beta, out.log_q_scale)
+    r = like.deviance_residuals(beta, out.log_q_scale)
     # the coefficients' directions under this filter (its process noise is not the baseline's): the
     # baseline's coefficients' columns of the acting model's Jacobian
     idx = [setup.model.names.index(n) for n in design.coefficient_names]
@@ -351,20 +363,20 @@ def _baseline_filtered(rctx: Context, records: list, baseline: CauseFit, step: f
     beta0 = fit.setup.model.vector(fit.params, 0.0)
     like = scorer._likelihood(fit)
     _, log_q = like.fit(beta0)
-    return scorer, fit, like, log_q, like.residuals(beta0, log_q)
+    return scorer, fit, like, log_q, like.deviance_residuals(beta0, log_q)
 
 
 def coefficient_jacobian(like, beta: np.ndarray, log_q: float, r0: np.ndarray | None = None) -> np.ndarray:
-    """d (standardised innovations) / d (relative change of each coefficient)
+    """d (deviance residuals) / d (relative change of each coefficient)
     at ``beta`` (forward differences of :data:`COEFFICIENT_STEP`; ``r0`` the
     innovations at ``beta`` if known)."""
-    r0 = like.residuals(beta, log_q) if r0 is None else r0
+    r0 = like.deviance_residuals(beta, log_q) if r0 is None else r0
     scale = np.maximum(np.abs(beta), 1e-6)
     jac = np.empty((len(r0), len(beta)))
     for j in range(len(beta)):
         b = beta.copy()
         b[j] += COEFFICIENT_STEP * scale[j]
-        jac[:, j] = (like.residuals(b, log_q) - r0) / COEFFICIENT_STEP
+        jac[:, j] = (like.deviance_residuals(b, log_q) - r0) / COEFFICIENT_STEP
     return jac
 
 
@@ -372,7 +384,7 @@ def baseline_on_tracks(scorer: FilterScores, baseline: CauseFit, rounds: int = B
                        max_nfev: int = BASELINE_EVALUATIONS) -> CauseFit:
     """The baseline's coefficients fitted to the measured tracks: the
     filter-error method (Jategaonkar 2015, ch. 5), SciPy's trust-region least
-    squares of the filter's standardised innovations with the process and
+    squares of the filter's deviance residuals (``-2 ln L``) with the process and
     measurement noise held, then both noises estimated again
     (:meth:`FilterScores.estimate_shape`), ``rounds`` times.
 
@@ -394,7 +406,7 @@ def baseline_on_tracks(scorer: FilterScores, baseline: CauseFit, rounds: int = B
         scale = np.maximum(np.abs(beta0), 1e-6)
 
         def residuals(x):
-            return like.residuals(beta0 + x * scale, log_q)
+            return like.deviance_residuals(beta0 + x * scale, log_q)
 
         def jacobian(x):
             beta = beta0 + x * scale
@@ -420,7 +432,8 @@ def _design_of(rctx: Context, baseline: CauseFit, scorer: FilterScores, like, lo
     per = max(1, int(round(block_seconds / scorer.step)))
     blocks, first = [], 0
     for z in scorer.measured:
-        idx = np.repeat(np.arange(len(z)) // per, z.shape[1]) + first
+        # two residuals per channel and sample (.identify.filter_error.PredictionError.deviance_residuals)
+        idx = np.repeat(np.arange(len(z)) // per, 2 * z.shape[1]) + first
         blocks.append(idx)
         first = int(idx.max()) + 1
     fit = replace(baseline, setup=baseline.setup)
@@ -511,7 +524,7 @@ class Judgement:
     covariance : ndarray
         Their covariance, robust to correlation within blocks.
     likelihood_ratio : float
-        Fall in the sum of squared standardised innovations over the model judged against.
+        Fall in the sum of squared deviance residuals (``-2 ln L``) over the model judged against.
     wald : float
         Wald statistic of the tested columns with the robust covariance.
     """

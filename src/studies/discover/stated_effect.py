@@ -13,7 +13,7 @@ the verdict scores every model (:mod:`.track_inference`)::
 
     s = E - k ln(n) - 2 ln(m)
 
-``E`` the fall in the squared standardised innovations against the
+``E`` the fall in ``-2 ln L`` (the squared deviance residuals, :mod:`.innovations`) against the
 verdict's ``none`` (a likelihood ratio: the verdict credits a cause with
 this or the block-robust Wald statistic, whichever is smaller, so ``E`` is
 the most the criterion could credit the truth with), ``k`` the effect's
@@ -94,7 +94,7 @@ def _relative(design, params: dict) -> np.ndarray:
 
 
 def _refit(design, cause: Cause, theta: np.ndarray, terms: dict, starts: list) -> tuple[float, dict]:
-    """``(squared standardised innovations, coefficients)`` with ``cause`` held
+    """``(-2 ln L less a constant, coefficients)`` with ``cause`` held
     at ``theta`` (and its added ``terms``), the baseline's coefficients
     re-identified beside it (the design's coefficient Jacobian, SciPy's
     trust-region least squares) from the baseline's and from each of

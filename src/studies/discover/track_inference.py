@@ -15,7 +15,8 @@ baseline's one-step-ahead predictions of the measured records.
    its fit.
 2. **Every model fitted to the tracks.** ``none``, every single cause and
    every pair judged are fitted by least squares of the filter's
-   standardised innovations, the cause's parameters and the model's
+   deviance residuals (standardised innovations and the log of their
+   variances: ``-2 ln L``, :mod:`.innovations`), the cause's parameters and the model's
    coefficients together (:func:`refine_on_tracks`), so that every verdict
    is compared at its own optimum under one filter: a cause is credited
    only with what its parameters add to coefficients that are re-identified
@@ -31,7 +32,7 @@ baseline's one-step-ahead predictions of the measured records.
        s = E - k ln(n) - 2 ln(m)
 
    ``E`` the evidence of its model over the model without it (the fall in
-   the squared standardised innovations, a likelihood ratio, or the Wald
+   ``-2 ln L``, a likelihood ratio, or the Wald
    statistic of that change with a variance robust to innovations
    correlated within :data:`~.innovations.BLOCK_SECONDS` stretches where
    smaller: :func:`_evidence_at`), ``k`` its parameters, ``n`` the
@@ -319,7 +320,7 @@ def propulsion_on_tracks(ctx: Context, cause: Cause, smoothed: list, measured: l
 def _evidence_at(design: InnovationDesign, against: np.ndarray, innovations: np.ndarray) -> float:
     """Evidence of a refined model over the refined model whose innovations
     are ``against`` (both with their coefficients fitted to the tracks): the
-    fall in their sum of squares (a likelihood ratio), or, where smaller, the
+    fall in their sum of squared deviance residuals (``-2 ln L``, a likelihood ratio), or, where smaller, the
     Wald statistic of the change it makes with the covariance robust to
     innovations correlated within the design's blocks."""
     after = np.nan_to_num(innovations)
@@ -399,7 +400,7 @@ def refine_on_tracks(design: InnovationDesign, ctx: Context, cause: Cause, theta
     """``cause``'s parameters ``theta``, its added terms' coefficients
     ``terms`` and the model's coefficients fitted together to the tracks from
     the values given and the design's coefficients (the filter-error method:
-    SciPy's trust-region least squares of the standardised innovations at the
+    SciPy's trust-region least squares of the deviance residuals (``-2 ln L``) at the
     design's process and measurement noise). The Jacobian's columns of the
     coefficients are the design's, taken once at its coefficients; the
     cause's by central differences of :func:`cause_steps`. Returned as a

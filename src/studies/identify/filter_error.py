@@ -460,6 +460,30 @@ class PredictionError:
             parts.append(np.nan_to_num(w.ravel(), nan=0.0))
         return np.concatenate(parts)
 
+    def deviance_residuals(self, vector: np.ndarray, log_scale: float) -> np.ndarray:
+        """Residuals whose sum of squares is the records' whole ``-2 ln L`` less a
+        constant of the filter (``sum ln(2 pi R)``): per sample, the six
+        standardised innovations ``e / sqrt(S)`` (:meth:`residuals`), then the
+        six ``sqrt(ln(S / R))`` (``S >= R``: the prediction's variance adds to
+        the measurement noise's; zero where a channel is not measured; 1e3
+        everywhere when a prediction leaves the physical range).
+
+        The standardised innovations alone leave out ``sum ln S``: a model
+        that predicts the tracks no better but is less damped (its state
+        covariance, hence ``S``, grows) lowers their sum of squares, and a
+        least-squares fit or a likelihood ratio on them alone credits it."""
+        q = self.q0 * 10.0 ** float(log_scale)
+        parts = []
+        for plan, z in zip(self.plans, self.measured):
+            ll, e, S = innovation_likelihood(plan, vector, z, self.R, q, tau=self.tau)
+            if not np.isfinite(ll):
+                parts.append(np.full(2 * z.size, 1e3))
+                continue
+            w = np.nan_to_num(e / np.sqrt(S), nan=0.0)
+            spread = np.sqrt(np.maximum(np.nan_to_num(np.log(S / self.R), nan=0.0), 0.0))
+            parts.append(np.hstack([w, spread]).ravel())
+        return np.concatenate(parts)
+
     def fit(self, vector: np.ndarray, bounds=(-4.0, 3.0)) -> tuple[float, float]:
         """``(log-likelihood, log10 scale)`` at the process-noise scale that
         maximises the likelihood (scipy's bounded scalar search)."""
