@@ -1,0 +1,64 @@
+"""The prediction-error filter's deviance residuals
+(:meth:`studies.identify.filter_error.PredictionError.deviance_residuals`):
+their sum of squares is the whole ``-2 ln L`` less a constant of the filter,
+so a fit or a likelihood ratio on them counts the innovations' variances,
+which the standardised innovations alone leave out."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from studies.data.resample import block_means
+from studies.discover.prediction_error import _measured
+from studies.identify.filter_error import PredictionError
+from studies.models import abkowitz
+from studies.simulate import simulate, zigzag
+from studies.simulate.simulator import ReplayPlan
+from studies.vessels import get_vessel
+
+#: measurement noise of the thinned record: x0, y0 [m], psi [rad], u, v [m/s], r [rad/s]
+SD = np.array([0.1, 0.1, 3e-3, 0.02, 0.02, 3e-4])
+
+
+@pytest.fixture(scope="module")
+def filtered():
+    ship = get_vessel("mariner")
+    model = abkowitz()
+    rec = block_means(simulate(model, ship.coefficients, ship, zigzag(20.0, duration=300.0, dt=0.1)), 1.0)
+    z = _measured(rec) + np.random.default_rng(11).standard_normal((len(rec), 6)) * SD
+    plan = ReplayPlan(model, ship, rec, max_step=1.0 + 1e-6)
+    q = np.array([1e-6, 1e-6, 1e-10])
+    return model, ship, PredictionError([plan], [z], SD ** 2, q, tau=20.0), z
+
+
+def _minus_two_ln_l_less_constant(like, vector, z, log_scale=0.0):
+    return -2.0 * like.loglik(vector, log_scale) - float(np.sum(np.isfinite(z) * np.log(2.0 * np.pi * SD ** 2)))
+
+
+def test_the_deviance_residuals_square_to_the_whole_likelihood(filtered):
+    model, ship, like, z = filtered
+    right = model.vector(ship.coefficients)
+    # a yaw damping 40 % weaker: the filter's state covariance, hence its innovations' variances, grow
+    weak = model.vector(dict(ship.coefficients, Nr=0.6 * ship.coefficients["Nr"]))
+    for vector in (right, weak):
+        d = like.deviance_residuals(vector, 0.0)
+        assert d.shape == (2 * z.size,)
+        assert float(d @ d) == pytest.approx(_minus_two_ln_l_less_constant(like, vector, z), rel=1e-9)
+    # the likelihood ratio of the two models is the fall in the squared deviance residuals; the
+    # standardised innovations alone give another number (their variances differ between the models)
+    ratio = _minus_two_ln_l_less_constant(like, weak, z) - _minus_two_ln_l_less_constant(like, right, z)
+    dw, dr = like.deviance_residuals(weak, 0.0), like.deviance_residuals(right, 0.0)
+    assert float(dw @ dw - dr @ dr) == pytest.approx(ratio, rel=1e-9)
+    sw, sr = like.residuals(weak, 0.0), like.residuals(right, 0.0)
+    assert abs(float(sw @ sw - sr @ sr) - ratio) > 1.0
+
+
+def test_the_deviance_residuals_carry_the_standardised_innovations_first(filtered):
+    model, ship, like, z = filtered
+    vector = model.vector(ship.coefficients)
+    d = like.deviance_residuals(vector, 0.0).reshape(len(z), 12)
+    w = like.residuals(vector, 0.0).reshape(len(z), 6)
+    np.testing.assert_allclose(d[:, :6], w)
+    # sqrt(ln(S / R)) of each channel: S >= R, nothing negative, and the first sample's above nothing
+    assert np.all(d[:, 6:] >= 0.0) and np.all(d[0, 6:] > 0.0)
