@@ -447,8 +447,9 @@ class PredictionError:
         """The records' innovations over their standard deviations (zero where a
         channel is not measured; 1e3 everywhere when a prediction leaves the
         physical range): the sum of their squares is ``-2 ln L`` less the
-        ``ln(2 pi S)`` terms, what a least-squares fit of the model to the
-        filter minimises (the filter-error method's Gauss-Newton form)."""
+        ``ln(2 pi S)`` terms: what the filter-error method's Gauss-Newton
+        form minimises with ``S`` held; where ``S`` changes with the model,
+        :meth:`deviance_residuals` carries those terms too."""
         q = self.q0 * 10.0 ** float(log_scale)
         parts = []
         for plan, z in zip(self.plans, self.measured):
