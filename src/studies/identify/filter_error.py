@@ -443,6 +443,15 @@ class PredictionError:
             total += ll
         return total
 
+    def _filtered(self, vector: np.ndarray, log_scale: float):
+        """Per record ``(z, innovations, variances)`` at process-noise scale
+        ``10**log_scale``; ``None`` for the innovations and variances of a
+        record whose prediction leaves the physical range."""
+        q = self.q0 * 10.0 ** float(log_scale)
+        for plan, z in zip(self.plans, self.measured):
+            ll, e, S = innovation_likelihood(plan, vector, z, self.R, q, tau=self.tau)
+            yield (z, e, S) if np.isfinite(ll) else (z, None, None)
+
     def residuals(self, vector: np.ndarray, log_scale: float) -> np.ndarray:
         """The records' innovations over their standard deviations (zero where a
         channel is not measured; 1e3 everywhere when a prediction leaves the
@@ -450,16 +459,8 @@ class PredictionError:
         ``ln(2 pi S)`` terms: what the filter-error method's Gauss-Newton
         form minimises with ``S`` held; where ``S`` changes with the model,
         :meth:`deviance_residuals` carries those terms too."""
-        q = self.q0 * 10.0 ** float(log_scale)
-        parts = []
-        for plan, z in zip(self.plans, self.measured):
-            ll, e, S = innovation_likelihood(plan, vector, z, self.R, q, tau=self.tau)
-            if not np.isfinite(ll):
-                parts.append(np.full(z.size, 1e3))
-                continue
-            w = e / np.sqrt(S)
-            parts.append(np.nan_to_num(w.ravel(), nan=0.0))
-        return np.concatenate(parts)
+        return np.concatenate([np.full(z.size, 1e3) if e is None else np.nan_to_num((e / np.sqrt(S)).ravel(), nan=0.0)
+                               for z, e, S in self._filtered(vector, log_scale)])
 
     def deviance_residuals(self, vector: np.ndarray, log_scale: float) -> np.ndarray:
         """Residuals whose sum of squares is the records' whole ``-2 ln L`` less a
@@ -473,11 +474,9 @@ class PredictionError:
         that predicts the tracks no better but is less damped (its state
         covariance, hence ``S``, grows) lowers their sum of squares, and a
         least-squares fit or a likelihood ratio on them alone credits it."""
-        q = self.q0 * 10.0 ** float(log_scale)
         parts = []
-        for plan, z in zip(self.plans, self.measured):
-            ll, e, S = innovation_likelihood(plan, vector, z, self.R, q, tau=self.tau)
-            if not np.isfinite(ll):
+        for z, e, S in self._filtered(vector, log_scale):
+            if e is None:
                 parts.append(np.full(2 * z.size, 1e3))
                 continue
             w = np.nan_to_num(e / np.sqrt(S), nan=0.0)
