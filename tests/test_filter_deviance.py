@@ -62,3 +62,28 @@ def test_the_deviance_residuals_carry_the_standardised_innovations_first(filtere
     np.testing.assert_allclose(d[:, :6], w)
     # sqrt(ln(S / R)) of each channel: S >= R, nothing negative, and the first sample's above nothing
     assert np.all(d[:, 6:] >= 0.0) and np.all(d[0, 6:] > 0.0)
+
+
+def test_records_filtered_side_by_side_keep_their_order(filtered, monkeypatch):
+    """Three records of different lengths and noise filtered on threads give
+    each record's own innovations, in the records' order, as one by one."""
+    import studies.identify.filter_error as filter_error
+
+    model, ship, one, z = filtered
+    plans, measured = [], []
+    for i, (angle, duration) in enumerate(((10.0, 200.0), (20.0, 300.0), (30.0, 250.0))):
+        rec = block_means(simulate(model, ship.coefficients, ship, zigzag(angle, duration=duration, dt=0.1)), 1.0)
+        measured.append(_measured(rec) + np.random.default_rng(20 + i).standard_normal((len(rec), 6)) * SD * (1 + i))
+        plans.append(ReplayPlan(model, ship, rec, max_step=1.0 + 1e-6))
+    like = PredictionError(plans, measured, SD ** 2, np.array([1e-6, 1e-6, 1e-10]), tau=20.0)
+    vector = model.vector(ship.coefficients)
+    monkeypatch.setattr(filter_error, "FILTER_THREADS", 1)
+    serial, ll_serial = like.deviance_residuals(vector, 0.0), like.loglik(vector, 0.0)
+    monkeypatch.setattr(filter_error, "FILTER_THREADS", 2)
+    threaded, ll_threaded = like.deviance_residuals(vector, 0.0), like.loglik(vector, 0.0)
+    np.testing.assert_array_equal(threaded, serial)
+    assert ll_threaded == ll_serial
+    # each record's block of residuals is its own: the second record alone gives the second block
+    alone = PredictionError(plans[1:2], measured[1:2], SD ** 2, np.array([1e-6, 1e-6, 1e-10]), tau=20.0)
+    start = 2 * measured[0].size
+    np.testing.assert_array_equal(threaded[start:start + 2 * measured[1].size], alone.deviance_residuals(vector, 0.0))

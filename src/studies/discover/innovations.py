@@ -192,7 +192,9 @@ class InnovationDesign:
             else:
                 cause = Combined(first, cause)
                 theta = np.concatenate([np.asarray(first_theta, float), theta])
-        setup = cause.setup(self.ctx, theta)
+        # the filter replays the thinned records itself (FilterScores._plans): the cause's model is
+        # all it needs here, not the training records transformed
+        setup = cause.setup(self.scorer.bare, theta)
         fit = replace(self.fit, cause=cause, theta=theta, setup=setup)
         params = dict(self.fit.params if coefficients is None else coefficients)
         params.update(extra or {})
@@ -212,7 +214,7 @@ def beside(design: InnovationDesign, cause: Cause, theta: np.ndarray, terms: dic
     # the process noise's scale the likeliest with the cause acting: the baseline's took up the
     # cause's effect as drift and would let the filter follow a second cause's too
     theta = np.asarray(theta, float)
-    setup = cause.setup(design.ctx, theta)
+    setup = cause.setup(design.scorer.bare, theta)
     acting = replace(fit, cause=cause, theta=theta, setup=setup)
     like = design.scorer._likelihood(acting)
     beta = setup.model.vector({**fit.params, **terms}, 0.0)

@@ -112,11 +112,12 @@ class FilterScores:
         self.coloured = bool(coloured)
         self._tau_tried = 0.0
         self._plain = {}
-        self._bare = replace(ctx, train=[])
+        #: the context without its records: what a cause's model and forces need (a replay takes the thinned records)
+        self.bare = replace(ctx, train=[])
 
     def _plans(self, fit: CauseFit) -> list:
         """Each training record's replay as the fit's cause reads it."""
-        setup = fit.cause.setup(self._bare, np.asarray(fit.theta, float))
+        setup = fit.cause.setup(self.bare, np.asarray(fit.theta, float))
         model = setup.model
         dynamics = self.ctx.dynamics
         if dynamics is not None:

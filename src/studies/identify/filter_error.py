@@ -53,6 +53,8 @@ process noise by a shaping filter: the augmented state).
 from __future__ import annotations
 
 import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from numba import njit
@@ -233,7 +235,7 @@ def measurement_update(s, P, z, R, speed0, current_north, current_east, innovati
     return loglik
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _filter(cm, k, wp, cmd, ext, dt, z, R, q, s_init, P_init, innovations, variances, decay):
     """EKF over the samples of ``z`` (n, 6: x0, y0, psi, u, v, r over ground;
     NaN = missing); ``cmd`` (n,) the rudder at the samples, ``ext`` (n - 1, 9)
@@ -396,6 +398,22 @@ def innovation_likelihood(plan, vector: np.ndarray, measured: np.ndarray, R: np.
     return float(loglik), innovations, variances
 
 
+#: threads that filter a model's records side by side (the compiled filters release the GIL):
+#: one per core this process may use, at most four
+FILTER_THREADS = max(1, min(4, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
+                            else (os.cpu_count() or 1)))
+_pool: tuple[int, ThreadPoolExecutor] | None = None
+
+
+def _threads() -> ThreadPoolExecutor:
+    """The process's pool of :data:`FILTER_THREADS` threads (made again in a
+    forked child, whose copy of the parent's pool has no threads)."""
+    global _pool
+    if _pool is None or _pool[0] != os.getpid():
+        _pool = (os.getpid(), ThreadPoolExecutor(FILTER_THREADS, thread_name_prefix="filter"))
+    return _pool[1]
+
+
 def coloured_noise(q: np.ndarray, start: np.ndarray, P0: np.ndarray, dt: float, tau: float) -> tuple:
     """The filter's process noise, start and initial covariance with three
     disturbance states of correlation time ``tau`` [s] on ``du, v, r``
@@ -432,12 +450,23 @@ class PredictionError:
         self.R, self.q0 = np.asarray(R, float), np.asarray(q0, float)
         self.tau = float(tau)
 
+    def _each_record(self, vector: np.ndarray, log_scale: float) -> list:
+        """:func:`innovation_likelihood` of every record at process-noise scale
+        ``10**log_scale``, in the records' order (side by side on
+        :data:`FILTER_THREADS` threads)."""
+        q = self.q0 * 10.0 ** float(log_scale)
+
+        def one(i):
+            return innovation_likelihood(self.plans[i], vector, self.measured[i], self.R, q, tau=self.tau)
+
+        if FILTER_THREADS < 2 or len(self.plans) < 2:
+            return [one(i) for i in range(len(self.plans))]
+        return list(_threads().map(one, range(len(self.plans))))
+
     def loglik(self, vector: np.ndarray, log_scale: float) -> float:
         """Summed log-likelihood of the records at process-noise scale ``10**log_scale``."""
-        q = self.q0 * 10.0 ** float(log_scale)
         total = 0.0
-        for plan, z in zip(self.plans, self.measured):
-            ll, _, _ = innovation_likelihood(plan, vector, z, self.R, q, tau=self.tau)
+        for ll, _, _ in self._each_record(vector, log_scale):
             if not np.isfinite(ll):
                 return -np.inf
             total += ll
@@ -447,9 +476,7 @@ class PredictionError:
         """Per record ``(z, innovations, variances)`` at process-noise scale
         ``10**log_scale``; ``None`` for the innovations and variances of a
         record whose prediction leaves the physical range."""
-        q = self.q0 * 10.0 ** float(log_scale)
-        for plan, z in zip(self.plans, self.measured):
-            ll, e, S = innovation_likelihood(plan, vector, z, self.R, q, tau=self.tau)
+        for z, (ll, e, S) in zip(self.measured, self._each_record(vector, log_scale)):
             yield (z, e, S) if np.isfinite(ll) else (z, None, None)
 
     def residuals(self, vector: np.ndarray, log_scale: float) -> np.ndarray:

@@ -56,7 +56,7 @@ def _rates(s0, s1, s2, s5, d, rate, n, c, k, a, g, e0, e1, e2, cn, ce, speed0):
     return f[0], f[1], f[2], f[3] + cn, f[4] + ce, f[5]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _mmg_filter(c, k, a, g, delta, rps, ext, cn, ce, speed0, dt, z, R, q, s_init, P_init,
                 innovations, variances, decay):
     """EKF over the samples of ``z`` (n, 6: x0, y0, psi, u, v, r over ground;
