@@ -32,7 +32,6 @@ from __future__ import annotations
 import abc
 import math
 import time
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Sequence
 
@@ -45,6 +44,7 @@ from studies.roll.decay import decay_curve, estimate_period, fit_decay_curve
 from studies.roll.lssvm import WindowedLSSVM, cv_select
 from studies.roll.model import RollModel, compiled_rk4
 from studies.roll.records import initial_state
+from studies.runtime.threads import single_thread_blas
 
 __all__ = [
     "RollFit",
@@ -224,21 +224,6 @@ def _initial_guess(model: RollModel, records: Sequence[pd.DataFrame]) -> dict:
     return out
 
 
-@contextmanager
-def _single_thread_blas():
-    """Run BLAS single-threaded: the matrices here are small (tens to hundreds
-    of rows), where thread start-up costs more than it gains and, on a busy
-    machine, multiplies the CPU time several-fold (threadpoolctl, a
-    scikit-learn dependency; without it nothing changes)."""
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # pragma: no cover
-        yield
-        return
-    with threadpool_limits(limits=1, user_api="blas"):
-        yield
-
-
 class _Estimator(abc.ABC):
     """Common part: settings, timing, record handling."""
 
@@ -272,7 +257,7 @@ class _Estimator(abc.ABC):
         """
         records = _as_records(record)
         self._prepare()
-        with _single_thread_blas():
+        with single_thread_blas():
             c0, w0 = time.process_time(), time.perf_counter()
             params, meta = self._fit(records)
             cpu = time.process_time() - c0
