@@ -44,7 +44,7 @@ from studies.roll.decay import decay_curve, estimate_period, fit_decay_curve
 from studies.roll.lssvm import WindowedLSSVM, cv_select
 from studies.roll.model import RollModel, compiled_rk4
 from studies.roll.records import initial_state
-from studies.runtime.threads import single_thread_blas
+from studies.threads import single_thread_blas
 
 __all__ = [
     "RollFit",

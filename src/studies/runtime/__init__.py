@@ -6,6 +6,5 @@
   between the launcher and its workers (results, runs left open, stopping);
 - :mod:`~studies.runtime.resume`: the config hash that lets ``resume=true``
   skip finished jobs;
-- :mod:`~studies.runtime.threads`: BLAS held to one thread where its matrices are small;
 - :mod:`~studies.runtime.ui`: ``studies ui``, the MLflow UI on the store.
 """

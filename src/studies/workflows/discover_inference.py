@@ -30,7 +30,7 @@ from ..discover.stated_effect import score_stated, stated_causes
 from ..discover.track_inference import infer_on_tracks
 from ..discover.report import plot_evidence, plot_predictions, write_discovery, write_report
 from ..discover.verdict import Discovery
-from ..runtime.threads import single_thread_blas
+from ..threads import single_thread_blas
 from ..vessels import has_mmg_particulars, mmg_vessel_at_speed
 from .discover import DEPARTURES, departures, on_record_time
 from .protocol import PreparedDiscovery, gain_pct
@@ -91,7 +91,7 @@ def _undecided(ranking: list, named: str, confidence: float, undecidable: list) 
 
 def execute_inference(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
     """Run the discovery on manoeuvring records by one inference; ``(discovery, metrics)``
-    (BLAS single-threaded: :func:`studies.runtime.threads.single_thread_blas`)."""
+    (BLAS single-threaded: :func:`studies.threads.single_thread_blas`)."""
     with single_thread_blas():
         return _execute(prepared, out_dir)
 
