@@ -87,3 +87,21 @@ def test_records_filtered_side_by_side_keep_their_order(filtered, monkeypatch):
     alone = PredictionError(plans[1:2], measured[1:2], SD ** 2, np.array([1e-6, 1e-6, 1e-10]), tau=20.0)
     start = 2 * measured[0].size
     np.testing.assert_array_equal(threaded[start:start + 2 * measured[1].size], alone.deviance_residuals(vector, 0.0))
+
+
+def test_models_filtered_together_give_each_its_own_records(filtered, monkeypatch):
+    """Several models' records filtered in one batch (a Jacobian's columns)
+    give each model what it gives alone."""
+    import studies.identify.filter_error as filter_error
+
+    model, ship, like, z = filtered
+    monkeypatch.setattr(filter_error, "FILTER_THREADS", 2)
+    vectors = [model.vector(dict(ship.coefficients, Nr=f * ship.coefficients["Nr"])) for f in (1.0, 0.8, 0.6)]
+    other = like.with_noises(like.q0 * 10.0, like.R * 2.0, 5.0)
+    jobs = [(like, vectors[0], 0.0), (other, vectors[1], 0.5), (like, vectors[2], -1.0)]
+    for (job_like, vector, a), results in zip(jobs, filter_error.filter_all(jobs)):
+        np.testing.assert_array_equal(job_like.deviance_of(results), job_like.deviance_residuals(vector, a))
+        assert job_like.total(results) == job_like.loglik(vector, a)
+    # the three models differ: the batch did not hand one model's records to another
+    firsts = [like.deviance_of(r) for r in filter_error.filter_all(jobs)]
+    assert not np.array_equal(firsts[0], firsts[2])

@@ -77,6 +77,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.optimize import least_squares
 
+from ..identify.filter_error import filter_all
 from .causes import Combined, Current, MissingTerm, WindUnmodelled, extended_library
 from .causes.base import Cause
 from .fitting import CauseFit, Context
@@ -183,6 +184,14 @@ class InnovationDesign:
         ones, e.g. an added term's) with ``cause`` acting at ``theta`` (beside
         :attr:`base`, if any; ``cause`` None: the base alone); ``coefficients``
         replace the baseline's."""
+        like, vector = self.likelihood_of(cause, theta, extra, coefficients)
+        return like.deviance_residuals(vector, self.log_q_scale)
+
+    def likelihood_of(self, cause: Cause, theta, extra: dict | None = None,
+                      coefficients: dict | None = None) -> tuple:
+        """``(PredictionError, coefficient vector)`` of the model whose
+        :meth:`innovations` these are (arguments as there); its filter runs at
+        :attr:`log_q_scale`."""
         theta = np.asarray(theta, float)
         if self.base is not None:
             first, first_theta, first_terms = self.base
@@ -198,7 +207,7 @@ class InnovationDesign:
         fit = replace(self.fit, cause=cause, theta=theta, setup=setup)
         params = dict(self.fit.params if coefficients is None else coefficients)
         params.update(extra or {})
-        return self.scorer._likelihood(fit).deviance_residuals(setup.model.vector(params, 0.0), self.log_q_scale)
+        return self.scorer._likelihood(fit), setup.model.vector(params, 0.0)
 
 
 def beside(design: InnovationDesign, cause: Cause, theta: np.ndarray, terms: dict,
@@ -374,11 +383,15 @@ def coefficient_jacobian(like, beta: np.ndarray, log_q: float, r0: np.ndarray | 
     innovations at ``beta`` if known)."""
     r0 = like.deviance_residuals(beta, log_q) if r0 is None else r0
     scale = np.maximum(np.abs(beta), 1e-6)
-    jac = np.empty((len(r0), len(beta)))
+    bumped = []
     for j in range(len(beta)):
         b = beta.copy()
         b[j] += COEFFICIENT_STEP * scale[j]
-        jac[:, j] = (like.deviance_residuals(b, log_q) - r0) / COEFFICIENT_STEP
+        bumped.append((like, b, log_q))
+    # every column's filter runs side by side
+    jac = np.empty((len(r0), len(beta)))
+    for j, results in enumerate(filter_all(bumped)):
+        jac[:, j] = (like.deviance_of(results) - r0) / COEFFICIENT_STEP
     return jac
 
 

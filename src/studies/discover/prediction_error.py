@@ -27,7 +27,7 @@ import numpy as np
 from scipy.optimize import minimize
 
 from ..data.resample import block_means
-from ..identify.filter_error import PredictionError
+from ..identify.filter_error import PredictionError, filter_all
 from ..simulate.simulator import ReplayPlan
 from .fitting import CauseFit, Context
 from .noise_levels import noise_floors
@@ -57,6 +57,20 @@ def _measured(record, velocities: bool = True) -> np.ndarray:
     if not velocities:
         z[:, 3:] = np.nan
     return z
+
+
+def _difference_points(x: np.ndarray, bounds: list) -> list:
+    """The points of a forward-difference gradient at ``x``: each coordinate
+    moved by :data:`NOISE_STEP`, backward where that leaves its bounds (as
+    SciPy's L-BFGS-B differences by itself)."""
+    x = np.asarray(x, float)
+    out = []
+    for j, (low, high) in enumerate(bounds):
+        p = x.copy()
+        h = NOISE_STEP if x[j] + NOISE_STEP <= high or x[j] - NOISE_STEP < low else -NOISE_STEP
+        p[j] = x[j] + h
+        out.append(p)
+    return out
 
 
 class FilterScores:
@@ -208,12 +222,23 @@ class FilterScores:
         lowest = [min(0.0, max(-2.0, float(np.log10(np.max(floor[g] / R0[g]))))) for g in groups]
         bounds = [(a - 6.0, a + 4.0)] * nq + [(low, 2.0) for low in lowest]
 
+        def cost_and_gradient(x, bounds):
+            # -ln L and its forward differences (steps of NOISE_STEP, backward at an upper bound),
+            # every filter of them run side by side
+            points = [np.asarray(x, float)] + _difference_points(x, bounds)
+            done = filter_all([(like.with_noises(*unpack(p)), vector, 0.0) for p in points])
+            values = np.array([-ll if np.isfinite(ll) else 1e300 for ll in map(PredictionError.total, done)])
+            steps = np.array([p[j] - x[j] for j, p in enumerate(points[1:])])
+            return values[0], (values[1:] - values[0]) / steps
+
         def search(x, bounds, rounds):
             x = np.clip(x, [b[0] for b in bounds], [b[1] for b in bounds])
             for _ in range(rounds):
-                res = minimize(cost, x, method="L-BFGS-B", bounds=bounds, options=_SEARCH | {"maxfun": 150 * len(x)})
+                # the same budget of filter evaluations as a search that differences by itself
+                res = minimize(cost_and_gradient, x, args=(bounds,), jac=True, method="L-BFGS-B", bounds=bounds,
+                               options=_SEARCH | {"maxfun": 150 * len(x) // (len(x) + 1)})
                 x = res.x
-                log.debug("noises: %d evaluations, -ln L %.2f", res.nfev, res.fun)
+                log.debug("noises: %d evaluations, -ln L %.2f", res.nfev * (len(x) + 1), res.fun)
             return x, float(cost(x))
 
         x = np.concatenate([np.full(nq, a), np.zeros(nr)])

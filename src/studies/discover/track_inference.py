@@ -73,6 +73,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.special import expit
 
+from ..identify.filter_error import filter_all
 from .causes import Combined, MissingTerm, NoCause, manoeuvring_causes
 from .causes.base import Cause
 from .fitting import CauseFit, Context, calibrate
@@ -87,6 +88,9 @@ log = logging.getLogger(__name__)
 
 #: evaluations of the filter a cause's refinement on the innovations may take
 MAX_EVALUATIONS = 40
+#: a refinement stops when an iteration lowers -ln L by less than this (the criterion's
+#: differences that decide, penalties of one parameter, are of order ln n, about 10)
+REFINE_TOLERANCE = 0.01
 #: a second cause is refined beside the first only when its first-order score is above minus this
 PAIR_SCREEN = 20.0
 
@@ -417,25 +421,36 @@ def refine_on_tracks(design: InnovationDesign, ctx: Context, cause: Cause, theta
     lo = np.concatenate([low, np.full(len(names) + nb, -np.inf)])
     hi = np.concatenate([high, np.full(len(names) + nb, np.inf)])
 
+    def model_at(x):
+        return design.likelihood_of(cause, x[:n_theta], dict(zip(names, x[n_theta:n_own].tolist())),
+                                    coefficients=design.coefficients_at(x[n_own:]))
+
     def residual(x):
-        return np.nan_to_num(design.innovations(cause, x[:n_theta], dict(zip(names, x[n_theta:n_own].tolist())),
-                                                coefficients=design.coefficients_at(x[n_own:])))
+        like, vector = model_at(x)
+        return np.nan_to_num(like.deviance_residuals(vector, design.log_q_scale))
 
     def jacobian(x):
-        cols = []
+        points, spans = [], []
         for j, h in enumerate(steps):
             # central differences, one-sided at a bound (a current of nearly no speed)
             plus, minus = x.copy(), x.copy()
             plus[j], minus[j] = min(x[j] + h, hi[j]), max(x[j] - h, lo[j])
-            cols.append((residual(plus) - residual(minus)) / max(plus[j] - minus[j], 1e-300))
+            points += [plus, minus]
+            spans.append(max(plus[j] - minus[j], 1e-300))
+        models = [model_at(p) for p in points]
+        # every column's filters run side by side
+        done = filter_all([(like, vector, design.log_q_scale) for like, vector in models])
+        w = [np.nan_to_num(like.deviance_of(results)) for (like, _), results in zip(models, done)]
+        cols = [(w[2 * j] - w[2 * j + 1]) / spans[j] for j in range(len(steps))]
         return np.column_stack(cols + [design.coefficient_jacobian])
 
     try:
+        cost0 = 0.5 * float(np.sum(residual(x0) ** 2))
         res = least_squares(residual, x0, jac=jacobian, bounds=(lo, hi), max_nfev=max_nfev, method="trf",
-                            x_scale="jac")
+                            x_scale="jac", ftol=max(REFINE_TOLERANCE / max(cost0, 1.0), 1e-12))
         x = res.x
         log.debug("refine %s: nfev %d njev %d status %d cost %.2f -> %.2f theta %s", cause.id, res.nfev, res.njev,
-                 res.status, 0.5 * float(residual(x0) @ residual(x0)), res.cost, np.array2string(x[:n_own], precision=5))
+                  res.status, cost0, res.cost, np.array2string(x[:n_own], precision=5))
     except (ValueError, np.linalg.LinAlgError) as exc:
         log.info("refining %s on the tracks stopped (%s); its linear solution is kept", cause.id, exc)
         x = x0

@@ -63,7 +63,7 @@ from scipy.optimize import minimize_scalar
 from ..simulate.integrator import _constants, _derivatives, _ext_rows, _wind_tuple
 from ..simulate.monomials import coefficient_tuple, dense_coefficients
 
-__all__ = ["N_FILTER", "innovation_likelihood", "PredictionError"]
+__all__ = ["N_FILTER", "innovation_likelihood", "PredictionError", "filter_all"]
 
 #: size of the filter's state (du, v, r, x0, y0, psi)
 N_FILTER = 6
@@ -414,6 +414,30 @@ def _threads() -> ThreadPoolExecutor:
     return _pool[1]
 
 
+def filter_all(jobs: list) -> list:
+    """Every job's records filtered, side by side on :data:`FILTER_THREADS`
+    threads: ``jobs`` are ``(PredictionError, vector, log10 process-noise
+    scale)``; returns per job its records' ``(loglik, innovations,
+    variances)`` (:func:`innovation_likelihood`), in order. A Jacobian's
+    columns or a gradient's finite differences filtered together keep both
+    cores busy where one model's few records of unequal length do not."""
+    tasks = [(like, vector, a, i) for like, vector, a in jobs for i in range(len(like.plans))]
+
+    def run(task):
+        like, vector, a, i = task
+        return like.record_likelihood(i, vector, a)
+
+    if FILTER_THREADS < 2 or len(tasks) < 2:
+        done = [run(t) for t in tasks]
+    else:
+        done = list(_threads().map(run, tasks))
+    out, k = [], 0
+    for like, _, _ in jobs:
+        out.append(done[k:k + len(like.plans)])
+        k += len(like.plans)
+    return out
+
+
 def coloured_noise(q: np.ndarray, start: np.ndarray, P0: np.ndarray, dt: float, tau: float) -> tuple:
     """The filter's process noise, start and initial covariance with three
     disturbance states of correlation time ``tau`` [s] on ``du, v, r``
@@ -450,33 +474,43 @@ class PredictionError:
         self.R, self.q0 = np.asarray(R, float), np.asarray(q0, float)
         self.tau = float(tau)
 
-    def _each_record(self, vector: np.ndarray, log_scale: float) -> list:
-        """:func:`innovation_likelihood` of every record at process-noise scale
-        ``10**log_scale``, in the records' order (side by side on
-        :data:`FILTER_THREADS` threads)."""
+    def record_likelihood(self, i: int, vector: np.ndarray, log_scale: float) -> tuple:
+        """:func:`innovation_likelihood` of record ``i`` at process-noise scale ``10**log_scale``."""
         q = self.q0 * 10.0 ** float(log_scale)
+        return innovation_likelihood(self.plans[i], vector, self.measured[i], self.R, q, tau=self.tau)
 
-        def one(i):
-            return innovation_likelihood(self.plans[i], vector, self.measured[i], self.R, q, tau=self.tau)
+    def with_noises(self, q0: np.ndarray, R: np.ndarray, tau: float) -> "PredictionError":
+        """The same records and plans under other noises (process-noise shape ``q0``,
+        measurement variances ``R``, correlation time ``tau`` [s])."""
+        return PredictionError(self.plans, self.measured, R, q0, tau)
 
-        if FILTER_THREADS < 2 or len(self.plans) < 2:
-            return [one(i) for i in range(len(self.plans))]
-        return list(_threads().map(one, range(len(self.plans))))
+    def _each_record(self, vector: np.ndarray, log_scale: float) -> list:
+        """:meth:`record_likelihood` of every record, in the records' order."""
+        return filter_all([(self, vector, log_scale)])[0]
 
-    def loglik(self, vector: np.ndarray, log_scale: float) -> float:
-        """Summed log-likelihood of the records at process-noise scale ``10**log_scale``."""
+    @staticmethod
+    def total(results: list) -> float:
+        """Summed log-likelihood of one model's records (:func:`filter_all`'s
+        per-record results); -inf when a prediction left the physical range."""
         total = 0.0
-        for ll, _, _ in self._each_record(vector, log_scale):
+        for ll, _, _ in results:
             if not np.isfinite(ll):
                 return -np.inf
             total += ll
         return total
 
+    def loglik(self, vector: np.ndarray, log_scale: float) -> float:
+        """Summed log-likelihood of the records at process-noise scale ``10**log_scale``."""
+        return self.total(self._each_record(vector, log_scale))
+
     def _filtered(self, vector: np.ndarray, log_scale: float):
         """Per record ``(z, innovations, variances)`` at process-noise scale
         ``10**log_scale``; ``None`` for the innovations and variances of a
         record whose prediction leaves the physical range."""
-        for z, (ll, e, S) in zip(self.measured, self._each_record(vector, log_scale)):
+        return self._unpacked(self._each_record(vector, log_scale))
+
+    def _unpacked(self, results: list):
+        for z, (ll, e, S) in zip(self.measured, results):
             yield (z, e, S) if np.isfinite(ll) else (z, None, None)
 
     def residuals(self, vector: np.ndarray, log_scale: float) -> np.ndarray:
@@ -501,8 +535,13 @@ class PredictionError:
         that predicts the tracks no better but is less damped (its state
         covariance, hence ``S``, grows) lowers their sum of squares, and a
         least-squares fit or a likelihood ratio on them alone credits it."""
+        return self.deviance_of(self._each_record(vector, log_scale))
+
+    def deviance_of(self, results: list) -> np.ndarray:
+        """:meth:`deviance_residuals` of :func:`filter_all`'s per-record results
+        for this model."""
         parts = []
-        for z, e, S in self._filtered(vector, log_scale):
+        for z, e, S in self._unpacked(results):
             if e is None:
                 parts.append(np.full(2 * z.size, 1e3))
                 continue
