@@ -187,6 +187,13 @@ class InnovationDesign:
         like, vector = self.likelihood_of(cause, theta, extra, coefficients)
         return like.deviance_residuals(vector, self.log_q_scale)
 
+    def innovations_many(self, models: list) -> list:
+        """:meth:`innovations` of every ``(cause, theta, extra)`` of ``models``,
+        their filters run side by side (:func:`filter_all`)."""
+        built = [self.likelihood_of(cause, theta, extra) for cause, theta, extra in models]
+        done = filter_all([(like, vector, self.log_q_scale) for like, vector in built])
+        return [like.deviance_of(results) for (like, _), results in zip(built, done)]
+
     def likelihood_of(self, cause: Cause, theta, extra: dict | None = None,
                       coefficients: dict | None = None) -> tuple:
         """``(PredictionError, coefficient vector)`` of the model whose
@@ -483,49 +490,69 @@ def cause_variants(design: InnovationDesign, causes: list, library: bool = True)
 
     ctx = design.ctx
     r0 = design.residual
-    out = []
+    # the models whose innovations give the columns, filtered together; each variant's columns
+    # from them
+    models, builders = [], []
+
+    def need(cause, theta, extra=None) -> int:
+        models.append((cause, np.asarray(theta, float), extra))
+        return len(models) - 1
+
     for cause in causes:
         if cause.replaces_dynamics or cause.id == "none" or isinstance(cause, MissingTerm):
             continue
         if isinstance(cause, Current):
             # linear in its earth-fixed components (north, east) at no current
             s = 0.01 * max(float(ctx.vessel.speed), 0.1)
-            north = design.innovations(cause, [s, 0.0]) - design.innovations(cause, [s, np.pi])
-            east = design.innovations(cause, [s, 0.5 * np.pi]) - design.innovations(cause, [s, -0.5 * np.pi])
-            cols = -np.column_stack([north, east]) / (2.0 * s)
+            at = [need(cause, [s, d]) for d in (0.0, np.pi, 0.5 * np.pi, -0.5 * np.pi)]
 
-            def to_theta(b):
-                return np.array([np.hypot(b[0], b[1]), np.arctan2(b[1], b[0])])
-            out.append(Variant(cause, cause.id, cols, to_theta, 2))
+            def current(w, cause=cause, at=at, s=s):
+                cols = -np.column_stack([w[at[0]] - w[at[1]], w[at[2]] - w[at[3]]]) / (2.0 * s)
+
+                def to_theta(b):
+                    return np.array([np.hypot(b[0], b[1]), np.arctan2(b[1], b[0])])
+                return [Variant(cause, cause.id, cols, to_theta, 2)]
+            builders.append(current)
             continue
         if isinstance(cause, WindUnmodelled):
-            calm = design.innovations(cause, [0.0, 0.0])
-            for beta in WIND_DIRECTIONS:
-                col = -(design.innovations(cause, [WIND_REFERENCE, beta]) - calm)
+            calm = need(cause, [0.0, 0.0])
+            at = [need(cause, [WIND_REFERENCE, beta]) for beta in WIND_DIRECTIONS]
 
-                def to_theta(b, beta=beta):
-                    return np.array([WIND_REFERENCE * np.sqrt(max(float(b[0]), 1e-4)), beta])
-                out.append(Variant(cause, f"{cause.id}@{np.rad2deg(beta):.0f}deg", col[:, None], to_theta, 2))
+            def wind(w, cause=cause, calm=calm, at=at):
+                out = []
+                for beta, i in zip(WIND_DIRECTIONS, at):
+                    def to_theta(b, beta=beta):
+                        return np.array([WIND_REFERENCE * np.sqrt(max(float(b[0]), 1e-4)), beta])
+                    out.append(Variant(cause, f"{cause.id}@{np.rad2deg(beta):.0f}deg", -(w[i] - w[calm])[:, None],
+                                       to_theta, 2))
+                return out
+            builders.append(wind)
             continue
         steps = cause_steps(ctx, cause)
-        cols = []
+        at = []
         for j, h in enumerate(steps):
             th = np.zeros(len(steps))
             th[j] = h
-            plus = design.innovations(cause, th)
-            th[j] = -h
-            cols.append(-(plus - design.innovations(cause, th)) / (2.0 * h))
-        out.append(Variant(cause, cause.id, np.column_stack(cols), lambda b: np.asarray(b, float),
-                           len(steps)))
+            at.append((need(cause, th.copy()), need(cause, -th)))
+
+        def central(w, cause=cause, steps=steps, at=at):
+            cols = [-(w[p] - w[m]) / (2.0 * h) for h, (p, m) in zip(steps, at)]
+            return [Variant(cause, cause.id, np.column_stack(cols), lambda b: np.asarray(b, float), len(steps))]
+        builders.append(central)
     for term in (extended_library(ctx.model, 3) if library else []):
         if ctx.dynamics is not None and term.powers[0]:
             continue            # the MMG hull is a function of v', r' only: no surge-speed terms
         added = MissingTerm([term])
-        col = -(design.innovations(added, np.zeros(0), {term.name: TERM_STEP}) - r0) / TERM_STEP
-        if not np.any(col):
-            continue
-        out.append(Variant(added, f"missing_term:{term.name}", col[:, None], lambda b: np.zeros(0), 1))
-    return out
+        i = need(added, np.zeros(0), {term.name: TERM_STEP})
+
+        def missing(w, added=added, i=i, name=term.name):
+            col = -(w[i] - r0) / TERM_STEP
+            if not np.any(col):
+                return []
+            return [Variant(added, f"missing_term:{name}", col[:, None], lambda b: np.zeros(0), 1)]
+        builders.append(missing)
+    w = design.innovations_many(models)
+    return [variant for build in builders for variant in build(w)]
 
 
 @dataclass
