@@ -78,6 +78,7 @@ from .config import compose_settings
 from .errors import ConfigError
 from .scenarios.hidden import (HIDDEN_CAUSES, draw_scenario, hidden_pairs, hidden_records, parameters_match,
                                write_records)
+from .identify import filter_error
 from .scenarios.injected import Injection, inject, injection_grid
 from .scenarios.rates import confusion, rate, reliability
 from .environment.sensor_noise import NOISE_FAMILIES, check_sensor_noise
@@ -419,6 +420,12 @@ def _shown(cases: list, kind: str) -> dict:
                                                                for r in missed)}}
 
 
+def _with_filter_threads(threads: int, fn, *args):
+    """``fn(*args)`` in a bench worker whose filters run on ``threads`` threads."""
+    filter_error.FILTER_THREADS = threads
+    return fn(*args)
+
+
 def run_discovery_bench(settings: DiscoveryBench) -> dict:
     """Run the bench (module docstring) and return its figures."""
     from joblib import Parallel, delayed
@@ -446,7 +453,9 @@ def run_discovery_bench(settings: DiscoveryBench) -> dict:
     t0 = time.perf_counter()
     with out_path.open("a") as handle:
         runner = Parallel(n_jobs=settings.jobs, return_as="generator_unordered")
-        for result in runner(delayed(fn)(*args) for fn, args in jobs + real_jobs):
+        # the cores shared among the parallel discoveries: each filters its records on its share
+        threads = max(1, filter_error.FILTER_THREADS // settings.jobs)
+        for result in runner(delayed(_with_filter_threads)(threads, fn, *args) for fn, args in jobs + real_jobs):
             results.append(result)
             handle.write(json.dumps(result) + "\n")
             handle.flush()
