@@ -188,9 +188,10 @@ class InnovationDesign:
         return like.deviance_residuals(vector, self.log_q_scale)
 
     def innovations_many(self, models: list) -> list:
-        """:meth:`innovations` of every ``(cause, theta, extra)`` of ``models``,
-        their filters run side by side (:func:`filter_all`)."""
-        built = [self.likelihood_of(cause, theta, extra) for cause, theta, extra in models]
+        """:meth:`innovations` of every ``(cause, theta, extra)`` or ``(cause,
+        theta, extra, coefficients)`` of ``models``, their filters run side by
+        side (:func:`filter_all`)."""
+        built = [self.likelihood_of(*model) for model in models]
         done = filter_all([(like, vector, self.log_q_scale) for like, vector in built])
         return [like.deviance_of(results) for (like, _), results in zip(built, done)]
 

@@ -73,7 +73,6 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.special import expit
 
-from ..identify.filter_error import filter_all
 from .causes import Combined, MissingTerm, NoCause, manoeuvring_causes
 from .causes.base import Cause
 from .fitting import CauseFit, Context, calibrate
@@ -422,12 +421,12 @@ def refine_on_tracks(design: InnovationDesign, ctx: Context, cause: Cause, theta
     hi = np.concatenate([high, np.full(len(names) + nb, np.inf)])
 
     def model_at(x):
-        return design.likelihood_of(cause, x[:n_theta], dict(zip(names, x[n_theta:n_own].tolist())),
-                                    coefficients=design.coefficients_at(x[n_own:]))
+        return (cause, x[:n_theta], dict(zip(names, x[n_theta:n_own].tolist())), design.coefficients_at(x[n_own:]))
 
     def residual(x):
-        like, vector = model_at(x)
-        return np.nan_to_num(like.deviance_residuals(vector, design.log_q_scale))
+        if np.array_equal(x, x0):
+            return r0               # least squares starts where the tolerance was taken
+        return np.nan_to_num(design.innovations(*model_at(x)))
 
     def jacobian(x):
         points, spans = [], []
@@ -437,15 +436,14 @@ def refine_on_tracks(design: InnovationDesign, ctx: Context, cause: Cause, theta
             plus[j], minus[j] = min(x[j] + h, hi[j]), max(x[j] - h, lo[j])
             points += [plus, minus]
             spans.append(max(plus[j] - minus[j], 1e-300))
-        models = [model_at(p) for p in points]
         # every column's filters run side by side
-        done = filter_all([(like, vector, design.log_q_scale) for like, vector in models])
-        w = [np.nan_to_num(like.deviance_of(results)) for (like, _), results in zip(models, done)]
+        w = [np.nan_to_num(r) for r in design.innovations_many([model_at(p) for p in points])]
         cols = [(w[2 * j] - w[2 * j + 1]) / spans[j] for j in range(len(steps))]
         return np.column_stack(cols + [design.coefficient_jacobian])
 
     try:
-        cost0 = 0.5 * float(np.sum(residual(x0) ** 2))
+        r0 = np.nan_to_num(design.innovations(*model_at(x0)))
+        cost0 = 0.5 * float(r0 @ r0)
         res = least_squares(residual, x0, jac=jacobian, bounds=(lo, hi), max_nfev=max_nfev, method="trf",
                             x_scale="jac", ftol=max(REFINE_TOLERANCE / max(cost0, 1.0), 1e-12))
         x = res.x
