@@ -113,3 +113,26 @@ def test_the_bench_divides_the_misses_by_what_the_records_can_show():
                                                         "rudder_offset": {"delta0": 0.02}}) == [
         "discover.injected={current:{speed:0.5,direction:1.0},rudder_offset:{delta0:0.02}}"]
     assert injected_override("none", {}) == []
+
+
+def test_an_injected_effect_found_beside_more_of_the_records_own_error_is_found_but_not_right():
+    """The nothing-injected records name nothing; with a current injected the
+    verdict is the current (right parameters) beside an earth-fixed force:
+    the injected effect is found, but the verdict is not the one the grid
+    counts right. A rudder offset named beside it is not found."""
+    from studies.bench_discovery import judge_real
+
+    reference = {"named": "none", "candidates": {"current": {"speed": 0.1, "direction": 0.0}}}
+    injected = {"current": {"speed": 0.5, "direction": 0.0}}
+    params = {"current": {"speed": 0.6, "direction": 0.0}, "environmental_bias": {"bx": 1e-4, "by": 0.0, "bn": 0.0}}
+    beside = judge_real({"injected": injected, "named": "current+environmental_bias", "parameters": params},
+                        reference)
+    assert beside["found"] and not beside["right"]
+    off = judge_real({"injected": injected, "named": "current+rudder_offset",
+                      "parameters": {"current": params["current"], "rudder_offset": {"delta0": 0.01}}}, reference)
+    assert not off["found"]
+    wrong = judge_real({"injected": injected, "named": "current+environmental_bias",
+                        "parameters": {**params, "current": {"speed": 0.9, "direction": 0.0}}}, reference)
+    assert not wrong["found"]
+    nothing = judge_real({"injected": {}, "named": "environmental_bias", "parameters": {}}, reference)
+    assert nothing["found"] and nothing["right"]
