@@ -75,6 +75,7 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import least_squares
 
+from ..identify.filter_error import side_by_side
 from ..identify.kalman import KalmanSettings, kalman_smooth, smoothed_record
 from ..models.terms import DOFS
 from .causes import Combined, Current, MissingTerm, WindUnmodelled, extended_library, manoeuvring_causes
@@ -226,7 +227,8 @@ def smooth_with_baseline(ctx: Context, records: list, settings: KalmanSettings |
     the process model is the MMG model.
     """
     settings = settings or SMOOTHER
-    current = [kinematic_smoothing(r, settings, rates=True) for r in records]
+    # the records side by side: each record's smoother is compiled code that releases Python's lock
+    current = side_by_side(lambda r: kinematic_smoothing(r, settings, rates=True), records)
     for _ in range(int(iterations)):
         thin = Context(ctx.vessel, ctx.model, current, [], "recorded", dynamics=ctx.dynamics)
         params, _, _ = regression_fit(thin, _baseline_setup(thin))

@@ -63,7 +63,7 @@ from scipy.optimize import minimize_scalar
 from ..simulate.integrator import _constants, _derivatives, _ext_rows, _wind_tuple
 from ..simulate.monomials import coefficient_tuple, dense_coefficients
 
-__all__ = ["N_FILTER", "innovation_likelihood", "PredictionError", "filter_all"]
+__all__ = ["N_FILTER", "innovation_likelihood", "PredictionError", "filter_all", "side_by_side"]
 
 #: size of the filter's state (du, v, r, x0, y0, psi)
 N_FILTER = 6
@@ -412,6 +412,17 @@ def _threads() -> ThreadPoolExecutor:
     if _pool is None or _pool[0] != os.getpid():
         _pool = (os.getpid(), ThreadPoolExecutor(FILTER_THREADS, thread_name_prefix="filter"))
     return _pool[1]
+
+
+def side_by_side(fn, items) -> list:
+    """``[fn(item) for item in items]``, the items on :data:`FILTER_THREADS`
+    threads when there are several (``fn`` must spend its time in compiled
+    code that releases Python's lock, as the filters and smoothers do); in
+    order."""
+    items = list(items)
+    if FILTER_THREADS < 2 or len(items) < 2:
+        return [fn(item) for item in items]
+    return list(_threads().map(fn, items))
 
 
 def filter_all(jobs: list) -> list:

@@ -403,7 +403,7 @@ def _rk4(x, d0, d1, n0, n1, dt, mode, c, k, mp):
     return x + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _filter_smooth(z, R, sel, bsel, delta, rps, dt, x0, P0, qc, mode, c, k, mp, smooth):
     """EKF over all samples, then (if ``smooth``) the RTS smoother.
 
