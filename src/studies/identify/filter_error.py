@@ -438,10 +438,7 @@ def filter_all(jobs: list) -> list:
         like, vector, a, i = task
         return like.record_likelihood(i, vector, a)
 
-    if FILTER_THREADS < 2 or len(tasks) < 2:
-        done = [run(t) for t in tasks]
-    else:
-        done = list(_threads().map(run, tasks))
+    done = side_by_side(run, tasks)
     out, k = [], 0
     for like, _, _ in jobs:
         out.append(done[k:k + len(like.plans)])
