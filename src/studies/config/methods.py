@@ -302,6 +302,21 @@ class SindyMethod(MethodConfig):
         Length of the bootstrap's time blocks [s], > 0.
     seed : int
         Seed of the bootstrap.
+    selection : str
+        What the threshold's cross-validation scores: ``equation`` (the
+        held-out one-step equation error, per DOF) or ``simulation`` (the
+        replayed position of held-out time blocks [m^2], one threshold for
+        all DOFs; ``library=model`` only).
+    rule : str
+        How it picks: ``one_se`` (sparsest within one standard error of the
+        best), ``paired_se`` (the same with the standard error of the
+        fold-by-fold difference to the best) or ``min`` (the best).
+    coefficients : str
+        Kept terms' values with an ensemble: ``refit`` (least squares on
+        every row) or ``median`` (median of the bootstrap draws, E-SINDy bragging).
+    folds : str
+        What ``selection=simulation`` holds out: ``blocks`` (the k-th fifth of
+        every record) or ``records`` (each whole record in turn).
     """
 
     threshold: Optional[float] = None
@@ -314,9 +329,17 @@ class SindyMethod(MethodConfig):
     inclusion: float = 0.5
     block_s: float = 30.0
     seed: int = 0
+    selection: str = "equation"
+    rule: str = "one_se"
+    coefficients: str = "refit"
+    folds: str = "blocks"
 
     def __post_init__(self):
         self.library = _choice("method.library", self.library, SINDY_LIBRARIES)
+        self.selection = _choice("method.selection", self.selection, ("equation", "simulation"))
+        self.rule = _choice("method.rule", self.rule, ("one_se", "paired_se", "min"))
+        self.coefficients = _choice("method.coefficients", self.coefficients, ("refit", "median"))
+        self.folds = _choice("method.folds", self.folds, ("blocks", "records"))
         self.thresholds = [float(t) for t in self.thresholds]
         if (self.threshold is not None and self.threshold < 0) or self.alpha < 0 or not self.thresholds \
                 or min(self.thresholds) < 0:

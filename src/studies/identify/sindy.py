@@ -54,6 +54,24 @@ Scaling and threshold
     weakest terms are ``Yvdd`` (4.2e-4 of the RMS sway force) and ``Y0uu``
     (9.4e-4), the largest spurious candidates of the full 35-term least
     squares ``Nvrr`` (2.9e-4) and ``Yvrr`` (1.0e-4), so 1e-4 separates them.
+Selection variants (options, defaults as above)
+    ``rule="min"`` keeps the threshold of the smallest held-out error;
+    ``rule="paired_se"`` applies the one-standard-error rule with the
+    standard error of the fold-by-fold difference to the best threshold
+    (the folds are shared, so their common difficulty drops out).
+    ``selection="simulation"`` scores one threshold shared by all DOFs by
+    the replayed position [m^2] of held-out time blocks (``folds="blocks"``)
+    or whole records (``folds="records"``), each replayed from its own first
+    measured state with its measured rudder: the track, not the one-step
+    force, is what a prediction is judged by. ``coefficients="median"``
+    gives the kept terms the median of the bootstrap draws' coefficients
+    (E-SINDy "bragging", Fasel et al. 2022) instead of a least-squares refit.
+    On the KVLCC2 records none of them predicts MARIN's ``tc_35`` better
+    than least squares from both MARIN's and HSVA's zig-zags
+    (``docs/cross_facility.md``): the held-out errors, equation or
+    replayed, of the zig-zags hardly change with the threshold, and the
+    terms the turn needs (``Xvvvv`` at drift v' 0.28-0.39, where the
+    zig-zags reach 0.23) contribute a few per cent of the zig-zags' force.
 Ensemble
     With ``ensemble = B > 0`` STLSQ is refitted at the chosen threshold on
     ``B`` block-bootstrap draws of the rows (each record cut into blocks of
@@ -166,6 +184,90 @@ THRESHOLDS = (0.0, 1e-4, 1e-3, 1e-2, 0.03, 0.1, 0.3)
 ALPHAS = (1e-12, 1e-4, 1e-2)
 #: contiguous time blocks of every record, one held out per fold
 CV_BLOCKS = 5
+#: what the cross-validation scores: the one-step equation error or the replayed track
+SELECTIONS = ("equation", "simulation")
+#: how the cross-validation picks among thresholds (see :func:`choose`)
+RULES = ("one_se", "paired_se", "min")
+#: what ``selection="simulation"`` holds out: time blocks of every record, or whole records
+FOLDS = ("blocks", "records")
+#: the kept terms' coefficients: least squares on every row, or the ensemble's median (bragging)
+COEFFICIENTS = ("refit", "median")
+
+
+def choose(errors: np.ndarray, terms, thresholds, rule: str) -> int:
+    """Index of the chosen row of a cross-validation table.
+
+    Parameters
+    ----------
+    errors : ndarray (n_rows, n_folds)
+        Held-out error of each candidate (row) in each fold (column); an
+        infinite error (a diverged replay) never qualifies.
+    terms : sequence of int
+        Terms each candidate keeps when fitted on every row.
+    thresholds : sequence of float
+        Each candidate's threshold (larger wins a tie in ``terms``).
+    rule : {"one_se", "paired_se", "min"}
+        ``min``: the smallest mean error. ``one_se``: the sparsest candidate
+        whose mean is within one standard error (of the best candidate's
+        fold errors) of the best. ``paired_se``: the same with the standard
+        error of the fold-by-fold *difference* to the best candidate. The
+        folds are the same for every candidate, and most of the spread of
+        the fold errors is how hard each fold is (a turn against a steady
+        stretch), which is common to all candidates; the paired standard
+        error leaves it out and measures only the uncertainty of the
+        difference, the quantity the rule compares.
+    """
+    errors = np.asarray(errors, float)
+    finite = np.all(np.isfinite(errors), axis=1)
+    mean = np.where(finite, errors.mean(axis=1) if errors.shape[1] else 0.0, np.inf)
+    best = int(np.argmin(mean))
+    if rule == "min" or not np.isfinite(mean[best]):
+        return best
+    k = errors.shape[1]
+    if rule == "one_se":
+        se = errors[best].std(ddof=1) / np.sqrt(k) if k > 1 else 0.0
+        bound = np.full(len(mean), mean[best] + se)
+    else:
+        diff = errors - errors[best]
+        se = diff.std(axis=1, ddof=1) / np.sqrt(k) if k > 1 else np.zeros(len(mean))
+        bound = mean[best] + np.where(finite, se, 0.0)
+    within = [i for i in range(len(mean)) if finite[i] and mean[i] <= bound[i] and terms[i] > 0]
+    if not within:
+        return best
+    return min(within, key=lambda i: (terms[i], -thresholds[i], mean[i]))
+
+
+def _replay_square_error(objective, params: dict, record, t0: float, t1: float) -> float:
+    """Mean squared position error [m^2] of ``record``'s stretch ``t0 <= t <= t1`` [s] replayed.
+
+    The stretch is replayed from its first sample's measured state with its
+    measured rudder (and propeller rate) by the objective's simulator (the
+    MMG replay when the objective carries ``modules``, else the Abkowitz
+    one), and the replayed ``(x0, y0)`` interpolated onto the measured
+    times; ``inf`` if the replay diverges or the record has no positions.
+    """
+    from ..simulate.mmg import replay_mmg            # lazy: the compiled simulators
+    from ..simulate.simulator import replay
+
+    t = record["t"].to_numpy(float)
+    part = record[(t >= t0) & (t <= t1)]
+    if len(part) < 2 or not {"x0", "y0"} <= set(part.columns):
+        return np.inf if len(part) >= 2 else 0.0
+    values = {n: params.get(n, 0.0) for n in objective.model.names}
+    if hasattr(objective, "modules"):
+        pred = replay_mmg(objective.model, values, objective.vessel, part, objective.modules)
+    else:
+        pred = replay(objective.model, values, objective.vessel, part)
+    if "diverged_at" in pred.attrs or len(pred) < 2:
+        return np.inf
+    tm = part["t"].to_numpy(float)
+    tp = pred["t"].to_numpy(float)
+    if tp[-1] < tm[-1] - 1e-6 * max(1.0, abs(tm[-1])):
+        return np.inf
+    dx = np.interp(tm, tp, pred["x0"].to_numpy(float)) - part["x0"].to_numpy(float)
+    dy = np.interp(tm, tp, pred["y0"].to_numpy(float)) - part["y0"].to_numpy(float)
+    error = float(np.mean(dx ** 2 + dy ** 2))
+    return error if np.isfinite(error) else np.inf
 
 
 class SparseRegression:
@@ -214,7 +316,9 @@ class SparseRegression:
     def __init__(self, threshold: float | None = None, thresholds=THRESHOLDS, alpha: float = 1e-12,
                  alphas=ALPHAS,
                  library: str = "model", max_order: int = 3, max_iter: int = 20, ensemble: int = 20,
-                 inclusion: float = 0.5, block_s: float = 30.0, seed: int = 0):
+                 inclusion: float = 0.5, block_s: float = 30.0, seed: int = 0,
+                 selection: str = "equation", rule: str = "one_se", coefficients: str = "refit",
+                 folds: str = "blocks"):
         if library not in LIBRARIES:
             raise ConfigError(f"sindy: library must be one of {', '.join(LIBRARIES)}, got '{library}'")
         thresholds = [float(t) for t in thresholds]
@@ -237,6 +341,17 @@ class SparseRegression:
         self.inclusion = float(inclusion)
         self.block_s = float(block_s)
         self.seed = int(seed)
+        if selection not in SELECTIONS or rule not in RULES or coefficients not in COEFFICIENTS:
+            raise ConfigError(f"sindy: selection must be one of {', '.join(SELECTIONS)}, rule one of "
+                              f"{', '.join(RULES)}, coefficients one of {', '.join(COEFFICIENTS)}")
+        if selection == "simulation" and library != "model":
+            raise ConfigError("sindy: selection=simulation replays the model's own terms; use library=model")
+        self.selection = selection
+        self.rule = rule
+        self.coefficients = coefficients
+        if folds not in FOLDS:
+            raise ConfigError(f"sindy: folds must be one of {', '.join(FOLDS)}")
+        self.folds = folds
 
     def extended_problems(self, problems: dict, objective) -> dict:
         """Problems of the extended library, rebuilt from the objective's records.
@@ -282,6 +397,17 @@ class SparseRegression:
         return np.asarray(opt.coef_, float).reshape(-1), converged
 
     @staticmethod
+    def _record_folds(problem: RegressionProblem, n: int) -> list:
+        """Held-out row sets, one whole record each (rows of a negative record index, a
+        prior's pseudo-observations, never held out); a single record gives the time blocks
+        of :meth:`_folds` instead."""
+        record = np.zeros(n, int) if problem.record is None else np.asarray(problem.record, int)
+        ids = [i for i in np.unique(record) if i >= 0]
+        if len(ids) < 2:
+            return SparseRegression._folds(problem, n)
+        return [np.flatnonzero(record == i) for i in ids]
+
+    @staticmethod
     def _folds(problem: RegressionProblem, n: int) -> list:
         """Held-out row sets: fold ``k`` holds out the ``k``-th of :data:`CV_BLOCKS` contiguous
         time blocks of every record, so that each training set still spans every record's
@@ -301,12 +427,13 @@ class SparseRegression:
         """The chosen ``(threshold, alpha)`` and ``[(threshold, alpha, mean, se, n_terms), ...]``.
 
         Every pair of :attr:`thresholds` and :attr:`alphas` is scored by its
-        mean held-out equation error over the folds; among the pairs within
-        one standard error of the best, the one keeping the fewest terms
-        (fitted on every row) is chosen, the larger threshold on a tie.
+        held-out equation error in each fold (mean square scaled force), and
+        :func:`choose` picks among them by :attr:`rule` (``one_se``: among the
+        pairs within one standard error of the best, the one keeping the
+        fewest terms, fitted on every row, the larger threshold on a tie).
         """
         folds = self._folds(problem, len(y))
-        table = []
+        table, fold_errors = [], []
         for alpha in self.alphas:
             for threshold in self.thresholds:
                 errors = []
@@ -319,10 +446,71 @@ class SparseRegression:
                 se = float(errors.std(ddof=1) / np.sqrt(len(errors))) if len(errors) > 1 else 0.0
                 terms = int(np.count_nonzero(self._stlsq(x, y, threshold, alpha)[0]))
                 table.append((threshold, alpha, float(errors.mean()), se, terms))
-        best = min(table, key=lambda row: row[2])
-        within = [row for row in table if row[2] <= best[2] + best[3] and row[4] > 0]
-        chosen = min(within or [best], key=lambda row: (row[4], -row[0], row[2]))
-        return chosen[0], chosen[1], table
+                fold_errors.append(errors)
+        i = choose(np.asarray(fold_errors), [row[4] for row in table], [row[0] for row in table], self.rule)
+        return table[i][0], table[i][1], table
+
+    def _simulated_threshold(self, problems: dict, objective) -> tuple[float, list]:
+        """One threshold for every DOF, chosen by the replayed track of held-out time blocks.
+
+        The folds are those of :meth:`_folds` (fold ``k`` holds out the
+        ``k``-th fifth of every record). For each threshold of
+        :attr:`thresholds`, every DOF is fitted by STLSQ (ridge
+        :attr:`alpha`) on the other folds' rows, and each record's held-out
+        stretch (from its first to its last held-out sample) is replayed
+        from its own first measured state with its measured rudder (and
+        propeller rate) by the objective's simulator; the fold's error is
+        the mean over records of the mean squared distance between the
+        replayed and the measured position ``(x0, y0)`` [m^2]. A replay that
+        diverges makes the threshold's error infinite. :func:`choose` then
+        picks by :attr:`rule`. One threshold serves all DOFs because a
+        track depends on all three at once, and a scaled coefficient (RMS
+        contribution over the DOF's RMS force) means the same in each.
+
+        Returns ``(threshold, [(threshold, mean, se, n_terms), ...])``.
+        """
+        scaled = {dof: _unit_rms(p) for dof, p in problems.items() if p.theta.shape[1]}
+        first = next(iter(problems.values()))
+        record = (np.zeros(len(first.y), int) if first.record is None
+                  else np.asarray(first.record, int))
+        time = np.asarray(first.time, float)
+        folds = (self._record_folds if self.folds == "records" else self._folds)(first, len(first.y))
+        fixed = {}
+        for p in problems.values():
+            fixed.update(p.fixed)
+        threshold = 0.0
+
+        def values(held):
+            """Every DOF fitted without the rows ``held`` (the data rows come first in each
+            DOF's problem and are the same rows; a prior's rows stay in)."""
+            out = {}
+            for dof, (x, y, col, ys) in scaled.items():
+                train = np.ones(len(y), bool)
+                train[held] = False
+                xi, _ = self._stlsq(x[train], y[train], threshold, self.alpha)
+                out.update(zip(problems[dof].names, (xi * ys / col).tolist()))
+            return out
+
+        table, fold_errors, terms = [], [], []
+        for threshold in self.thresholds:
+            errors = []
+            for held in folds:
+                params = {**fixed, **values(held)}
+                squares = []
+                for i in np.unique(record[held]):
+                    rows = held[record[held] == i]
+                    squares.append(_replay_square_error(objective, params, objective.records[i],
+                                                        float(time[rows].min()), float(time[rows].max())))
+                errors.append(float(np.mean(squares)) if squares else 0.0)
+            errors = np.asarray(errors)
+            kept = int(sum(v != 0.0 for v in values(np.zeros(0, int)).values()))
+            finite = np.all(np.isfinite(errors))
+            se = float(errors.std(ddof=1) / np.sqrt(len(errors))) if finite and len(errors) > 1 else np.inf
+            table.append((threshold, float(errors.mean()), se, kept))
+            fold_errors.append(errors)
+            terms.append(kept)
+        i = choose(np.asarray(fold_errors), terms, list(self.thresholds), self.rule)
+        return self.thresholds[i], table
 
     def _blocks(self, problem, n: int) -> list:
         """Row indices of the bootstrap's time blocks (``block_s`` seconds of one record)."""
@@ -338,27 +526,41 @@ class SparseRegression:
             blocks += [rows[index == k] for k in np.unique(index)]
         return blocks
 
-    def _inclusion(self, problem, x, y, threshold: float, alpha: float) -> np.ndarray:
-        """Share of block-bootstrap draws in which STLSQ keeps each column."""
+    def _inclusion(self, problem, x, y, threshold: float, alpha: float) -> tuple[np.ndarray, np.ndarray]:
+        """Share of block-bootstrap draws in which STLSQ keeps each column, and the median of
+        the draws' scaled coefficients (0 in a draw that drops the term)."""
         blocks = self._blocks(problem, len(y))
         record = np.zeros(len(y), int) if problem.record is None else np.asarray(problem.record, int)
         always = np.flatnonzero(record < 0)                 # the prior's rows stay in every draw
         rng = np.random.default_rng(self.seed)
-        kept = np.zeros(x.shape[1])
-        for _ in range(self.ensemble):
+        draws = np.zeros((self.ensemble, x.shape[1]))
+        for b in range(self.ensemble):
             pick = rng.integers(0, len(blocks), len(blocks))
             rows = np.concatenate([blocks[i] for i in pick] + [always])
-            xi, _ = self._stlsq(x[rows], y[rows], threshold, alpha)
-            kept += xi != 0.0
-        return kept / self.ensemble
+            draws[b], _ = self._stlsq(x[rows], y[rows], threshold, alpha)
+        return np.mean(draws != 0.0, axis=0), np.median(draws, axis=0)
 
-    def fit_one(self, problem: RegressionProblem) -> tuple[np.ndarray, dict, dict]:
+    def fit_one(self, problem: RegressionProblem, threshold: float | None = None,
+                alpha: float | None = None) -> tuple[np.ndarray, dict, dict]:
         """Coefficients (prime, in ``problem.names`` order; 0 = not selected), metrics, and what
-        ``sindy_terms.json`` lists of the DOF (threshold, ridge, cross-validation, inclusion)."""
+        ``sindy_terms.json`` lists of the DOF (threshold, ridge, cross-validation, inclusion).
+
+        ``threshold`` (with ``alpha``, default :attr:`alpha`) given: used as it is (the
+        shared threshold of ``selection="simulation"``); else :attr:`threshold` or, when
+        that is None, the equation-error cross-validation's.
+
+        With an ensemble, the kept terms (inclusion >= :attr:`inclusion`) get
+        ``coefficients="refit"``: least squares on every row (the prior's
+        included); ``"median"``: the median of the draws' coefficients
+        (E-SINDy's bragging, Fasel et al. 2022), which is less swayed by the
+        draws in which a collinear partner was dropped.
+        """
         dof = problem.dof
         x, y, col, ys = _unit_rms(problem)
         metrics, info = {}, {}
-        if self.threshold is None:
+        if threshold is not None:
+            alpha = self.alpha if alpha is None else alpha
+        elif self.threshold is None:
             threshold, alpha, table = self._cross_validate(problem, x, y)
             info["cv"] = [list(row) for row in table]
             metrics[f"sindy/{dof}/cv_error"] = next(row[2] for row in table
@@ -373,12 +575,14 @@ class SparseRegression:
             log.warning("sindy %s: STLSQ did not settle on a set of terms in max_iter=%d passes: raise "
                         "max_iter", dof, self.max_iter)
         if self.ensemble > 0:
-            share = self._inclusion(problem, x, y, threshold, alpha)
+            share, median = self._inclusion(problem, x, y, threshold, alpha)
             info["inclusion"] = {n: float(p) for n, p in zip(problem.names, share)}
             metrics.update({f"sindy/{dof}/inclusion/{n}": float(p) for n, p in zip(problem.names, share)})
             keep = np.flatnonzero(share >= self.inclusion)
             xi = np.zeros(x.shape[1])
-            if len(keep):
+            if len(keep) and self.coefficients == "median":
+                xi[keep] = median[keep]
+            elif len(keep):
                 xi[keep] = np.linalg.lstsq(x[:, keep], y, rcond=None)[0]
         if not np.any(xi):
             log.warning("sindy %s: threshold %g removed every term", dof, threshold)
@@ -413,12 +617,21 @@ class SparseRegression:
             fitted = problems
         result = Identification()
         terms = {}
+        shared, simulated = None, None
+        if self.selection == "simulation" and self.threshold is None:
+            if objective is None or not getattr(objective, "records", None):
+                raise ValueError("sindy with selection: simulation needs the trajectory objective "
+                                 "(model, vessel, records) to replay held-out blocks")
+            shared, simulated = self._simulated_threshold(fitted, objective)
+            result.metrics["sindy/simulated_threshold"] = shared
         for dof, problem in fitted.items():
             model_names = list(problems[dof].names)
             if problem.theta.shape[1] == 0:
                 terms[dof] = {"selected": [], "extra": [], "dropped": []}
                 continue
-            coef, metrics, info = self.fit_one(problem)
+            coef, metrics, info = self.fit_one(problem, shared)
+            if simulated is not None:
+                info["cv_simulated"] = [list(row) for row in simulated]
             selected = [n for n, c in zip(problem.names, coef) if c != 0.0]
             extra = [n for n in selected if n not in model_names]
             dropped = [n for n in model_names if n not in selected]
