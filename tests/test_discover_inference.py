@@ -114,3 +114,36 @@ def test_noise_a_cause_fits_does_not_predict_other_blocks_and_a_real_effect_does
     acting = BlockGains.of(BlockGrams(x, coloured + effect, blocks), {"effect": [[0]], "spurious": [[1]]})
     named = name_per_draw(acting.held, weights, 2.5)
     assert named[0] == 0 and np.mean(named[1:] == 0) > 0.8
+
+
+def test_blocks_follow_the_error_not_the_effect_and_few_blocks_ask_more():
+    """The blocks' length is four correlation times of the error: an effect
+    that acts slowly along the records (here a slow sway and yaw force the
+    cause's column holds) lengthens the baseline's residual's correlation
+    many times, but what the cause's fit leaves of it is the noise, and the
+    blocks cut from it stay as many as without the effect. The naming
+    threshold over few blocks is Student's, higher than the normal quantile
+    and falling towards it as the blocks grow in number."""
+    from types import SimpleNamespace
+
+    from scipy.stats import norm
+
+    rng = np.random.default_rng(4)
+    n = 1500
+    t = np.arange(3 * n) % n
+    slow = np.sin(2.0 * np.pi * t / 400.0)[:, None]              # 400 rows per period
+    noise = rng.standard_normal(3 * n)
+
+    def tau_with(effect):
+        residual = noise + effect * slow[:, 0]
+        design = SimpleNamespace(residual=residual, n_data=[n, n, n])
+        res = SimpleNamespace(y=residual, x=slow,
+                              fit=lambda idx: np.linalg.lstsq(slow[:, idx], residual, rcond=None)[0])
+        return inf._tau(residual, design), inf._residual_tau(design, res, [np.array([0])])
+
+    plain_none, plain = tau_with(0.0)
+    effect_none, effect = tau_with(3.0)
+    assert effect_none > 10.0 * plain_none, (effect_none, plain_none)      # the baseline's residual alone
+    assert effect < 1.5 * max(plain, 1.0), (effect, plain)
+    assert inf._threshold(7, 3) > inf._threshold(7, 5) > inf._threshold(7, 27) > norm.ppf(1.0 - 0.05 / 7)
+    assert inf._threshold(7, 10_000) == pytest.approx(norm.ppf(1.0 - 0.05 / 7), rel=1e-3)

@@ -28,7 +28,10 @@ confidence.
    enters as the secant column of a reference wind from each of
    :data:`WIND_DIRECTIONS` directions.
 3. **One comparison, on unseen blocks.** The records are cut into blocks of
-   several correlation times of the baseline's residual; every cause, with
+   four correlation times of the error (:func:`_residual_tau`: of the
+   baseline's residual, or of what the best-fitting variant of a cause
+   leaves of it where shorter, so that a larger effect does not leave fewer
+   blocks); every cause, with
    the baseline's columns projected out (:class:`_Residualised`), is fitted
    with one block left out and predicts that block
    (:mod:`studies.discover.selection`); a cause with variants (a missing
@@ -38,7 +41,8 @@ confidence.
    the smoother took for signal, coloured or quantised sensor noise, or one
    manoeuvre's quirk does not repeat in another block, so it earns nothing.
 4. **One criterion.** A cause is named when its held-out gain exceeds
-   ``z = Phi^-1(1 - FALSE_NAMING / causes)`` of its standard error over the
+   the quantile ``1 - FALSE_NAMING / causes`` of Student's t with one
+   degree of freedom less than the blocks of its standard error over the
    blocks (Bonferroni: at most :data:`FALSE_NAMING` of records where nothing
    acts get a cause); among those, the one of largest gain less the log of
    its number of variants. A second cause is judged the same way on the
@@ -523,18 +527,38 @@ def _tau(residual: np.ndarray, design: _Design) -> float:
     return max(integrated_time(r) for r in parts)
 
 
+def _residual_tau(design: _Design, res: "_Residualised", models: list) -> float:
+    """Correlation time [rows] of the error the blocks must hold apart: of the
+    baseline's residual, or of what the best-fitting variant of a cause
+    leaves of it where shorter. An effect that acts along the records
+    lengthens the baseline's residual's correlation; blocks cut from it
+    would shrink in number as the effect grows, and the standard error of
+    the effect's gain would rest on fewer blocks the larger the effect. The
+    residual a cause's fit leaves holds the noise and what no cause
+    explains, not the effect (the error variance of a regression is taken
+    from the larger model for the same reason)."""
+    n = int(np.sum(design.n_data))
+    taus = [_tau(design.residual, design)]
+    for idx in models:
+        left = res.y - res.x[:, idx] @ res.fit(idx)
+        taus.append(_tau(left[:n], design))
+    return min(taus)
+
+
 #: family-wise probability of naming a cause (or a second one) that does not act: a cause is
 #: named only when its held-out gain exceeds the one-sided ``1 - FALSE_NAMING / (causes
-#: compared)`` normal quantile of its standard error (Bonferroni over the causes)
+#: compared)`` quantile of Student's t of its standard error (Bonferroni over the causes)
 FALSE_NAMING = 0.05
 
 
-def _threshold(n_causes: int) -> float:
+def _threshold(n_causes: int, n_blocks: int) -> float:
     """Standard errors a cause's held-out gain must exceed to be named: the
-    one-sided normal quantile of ``1 - FALSE_NAMING / n_causes``."""
-    from scipy.stats import norm
+    one-sided quantile of ``1 - FALSE_NAMING / n_causes`` of Student's t
+    with ``n_blocks - 1`` degrees of freedom (the standard error is the
+    spread of that many blocks' gains)."""
+    from scipy.stats import t
 
-    return float(norm.ppf(1.0 - FALSE_NAMING / max(n_causes, 1)))
+    return float(t.ppf(1.0 - FALSE_NAMING / max(n_causes, 1), max(int(n_blocks) - 1, 1)))
 
 
 def _spans(variants: list) -> list:
@@ -601,23 +625,23 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
 
     # 1. every cause alone against none, each judged on blocks it was not fitted to
     t1 = time.perf_counter()
-    block_rows = max(20, int(4 * _tau(design.residual, design)))
-    blocks = row_blocks(design.record, design.dof, block_rows)
     spans = _spans(variants)
     columns = np.hstack([v.columns for v in variants]) if variants else np.zeros((len(design.y), 0))
     res = _Residualised(design, columns)
-    grams = BlockGrams(res.x, res.y, blocks)
     singles = _by_cause(variants)
+    chosen = {cid: _best_variant(res, spans, idx) for cid, idx in singles.items()}
+    block_rows = max(20, int(4 * _residual_tau(design, res, [spans[i] for i in chosen.values()])))
+    blocks = row_blocks(design.record, design.dof, block_rows)
+    grams = BlockGrams(res.x, res.y, blocks)
     gains = BlockGains.of(grams, {cid: [spans[i] for i in idx] for cid, idx in singles.items()})
     seconds["comparison"] = time.perf_counter() - t1
 
     # every single cause refined (its parameters are reported as candidates, named or not); a
     # cause that is not linear in its parameters is judged at its refined fit
     t2 = time.perf_counter()
-    fits, chosen = {(): baseline_fit(every)}, {}
+    fits = {(): baseline_fit(every)}
     for j, (cid, idx) in enumerate(singles.items()):
-        i = _best_variant(res, spans, idx)
-        chosen[cid] = i
+        i = chosen[cid]
         fits[(i,)] = refine(every, variants[i].cause, _model_theta(variants, (i,), res.fit(spans[i])))
         if not isinstance(variants[i].cause, MissingTerm):
             refined = _refined_gains(every, fits[(i,)], design, variants[i].columns, blocks, grams.yyk)
@@ -626,7 +650,7 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
     seconds["refinement"] = time.perf_counter() - t2
 
     weights = np.vstack([np.ones(grams.n_blocks), bayesian_bootstrap(grams.n_blocks, seed=seed)])
-    threshold = _threshold(len(gains.ids))
+    threshold = _threshold(len(gains.ids), grams.n_blocks)
     ids = np.array(["none"] + list(gains.ids), dtype=object)
     draw_verdict = ids[name_per_draw(gains.held, weights, threshold,
                                      np.log([len(singles[cid]) for cid in gains.ids])) + 1]
@@ -656,7 +680,7 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
                                                for cid, idx in others.items()})
                 held2.held = held2.held - grams2.folds(own[None]).held[:, 0][None, :]
                 evidence.update({_pair_id(first, cid): t for cid, t in zip(held2.ids, t_values(held2.held))})
-                threshold2 = _threshold(len(held2.ids))
+                threshold2 = _threshold(len(held2.ids), grams.n_blocks)
                 extended = np.array([first] + [_pair_id(first, cid) for cid in held2.ids], dtype=object)
                 pick2 = extended[name_per_draw(held2.held, weights, threshold2,
                                                np.log([len(others[cid]) for cid in held2.ids])) + 1]

@@ -12,8 +12,8 @@ the records (a current, a sensor offset, a missing force) predicts every
 block better.
 
 - **Blocks** are consecutive rows of one record, several correlation times
-  of the baseline's residual long, shared by the three DOFs, so that blocks
-  are nearly independent.
+  of the error long (the caller's choice: :func:`row_blocks` takes their
+  length), shared by the three DOFs, so that blocks are nearly independent.
 - **A verdict's gain** in a block is the fall in that block's weighted
   residual sum of squares (half of it: a log-likelihood at unit variance)
   when the verdict's model, fitted on every other block, predicts it. A
