@@ -7,7 +7,8 @@ from typing import Any, List, Optional
 from omegaconf import II, MISSING
 
 from ..errors import ConfigError
-from .values import (GA_BASES, GA_PARENT_SELECTIONS, SVM_LOSSES, SINDY_LIBRARIES, BAYES_MOVES,
+from .values import (GA_BASES, GA_PARENT_SELECTIONS, SVM_LOSSES, SINDY_LIBRARIES, SINDY_SELECTIONS, SINDY_RULES,
+                     SINDY_COEFFICIENTS, SINDY_FOLDS, BAYES_MOVES,
                      BAYES_DISCREPANCIES, _optional_number,
                      _integer, _choice)
 
@@ -336,10 +337,10 @@ class SindyMethod(MethodConfig):
 
     def __post_init__(self):
         self.library = _choice("method.library", self.library, SINDY_LIBRARIES)
-        self.selection = _choice("method.selection", self.selection, ("equation", "simulation"))
-        self.rule = _choice("method.rule", self.rule, ("one_se", "paired_se", "min"))
-        self.coefficients = _choice("method.coefficients", self.coefficients, ("refit", "median"))
-        self.folds = _choice("method.folds", self.folds, ("blocks", "records"))
+        self.selection = _choice("method.selection", self.selection, SINDY_SELECTIONS)
+        self.rule = _choice("method.rule", self.rule, SINDY_RULES)
+        self.coefficients = _choice("method.coefficients", self.coefficients, SINDY_COEFFICIENTS)
+        self.folds = _choice("method.folds", self.folds, SINDY_FOLDS)
         self.thresholds = [float(t) for t in self.thresholds]
         if (self.threshold is not None and self.threshold < 0) or self.alpha < 0 or not self.thresholds \
                 or min(self.thresholds) < 0:

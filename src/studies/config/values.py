@@ -10,7 +10,8 @@ from typing import Optional
 from ..errors import ConfigError
 
 __all__ = ["CONF_DIR", "DERIVATIVES", "DISCOVERY_METHODS", "DISCOVERY_JUDGES", "DATA_SCHEMES", "WEIGHTINGS", "STUDY_KINDS", "ROLL_TERMS",
-           "ROLL_DAMPING_TERMS", "MANOEUVRE_KINDS", "SVM_LOSSES", "SINDY_LIBRARIES", "BAYES_MOVES", "GA_BASES",
+           "ROLL_DAMPING_TERMS", "MANOEUVRE_KINDS", "SVM_LOSSES", "SINDY_LIBRARIES", "SINDY_SELECTIONS", "SINDY_RULES",
+           "SINDY_COEFFICIENTS", "SINDY_FOLDS", "BAYES_MOVES", "GA_BASES",
            "GA_PARENT_SELECTIONS",
            "BAYES_DISCREPANCIES", "WIND_CONVENTIONS", "OBJECTIVE_SIMULATIONS", "DISTURBANCE_SCALINGS",
            "RECORD_SCALES", "MMG_REFINABLE", "MMG_SCALES", "USER_CONF_ENV", "user_conf_dir"]
@@ -62,6 +63,14 @@ SVM_LOSSES = ("squared_epsilon_insensitive", "epsilon_insensitive")
 
 #: ``method.library`` of SINDy
 SINDY_LIBRARIES = ("model", "extended")
+#: ``method.selection`` of SINDy: what the threshold's cross-validation scores
+SINDY_SELECTIONS = ("equation", "simulation")
+#: ``method.rule`` of SINDy: how the cross-validation picks among thresholds
+SINDY_RULES = ("one_se", "paired_se", "min")
+#: ``method.coefficients`` of SINDy: the kept terms' values with an ensemble
+SINDY_COEFFICIENTS = ("refit", "median")
+#: ``method.folds`` of SINDy: what ``selection=simulation`` holds out
+SINDY_FOLDS = ("blocks", "records")
 
 
 #: ``method.moves`` of the Bayesian regression

@@ -65,6 +65,11 @@ class MMGObjective(TrajectoryObjective):
         super().__init__(model, vessel, records, max_samples)
         self.modules = modules
 
+    def replay(self, values: dict, record):
+        """``record`` replayed by the MMG model with its rudder and propeller rate
+        (:func:`studies.simulate.mmg.replay_mmg`)."""
+        return replay_mmg(self.model, values, self.vessel, record, self.modules)
+
     def residuals_many(self, vectors: np.ndarray) -> list[np.ndarray]:
         """Per record, replayed minus recorded ``(u, v, r)``: (n_sets, n_samples, 3); NaN
         from where a replay diverged."""
@@ -74,8 +79,7 @@ class MMGObjective(TrajectoryObjective):
             target = rec[["u", "v", "r"]].to_numpy(float)
             block = np.full((vectors.shape[0], len(rec), 3), np.nan)
             for i, vec in enumerate(vectors):
-                pred = replay_mmg(self.model, dict(zip(self.model.names, vec)), self.vessel, rec,
-                                  self.modules)
+                pred = self.replay(dict(zip(self.model.names, vec)), rec)
                 n = min(len(pred), len(rec))
                 block[i, :n] = pred[["u", "v", "r"]].to_numpy(float)[:n] - target[:n]
             out.append(block)

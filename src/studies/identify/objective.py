@@ -34,7 +34,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..models.abkowitz import ManoeuvringModel
 from ..simulate.manoeuvres import zigzag_of_record
-from ..simulate.simulator import DIVERGED_PENALTY, ReplayPlan, record_environment, simulate_many
+from ..simulate.simulator import DIVERGED_PENALTY, ReplayPlan, record_environment, replay, simulate_many
 from ..vessels.base import Vessel
 
 __all__ = ["TrajectoryObjective", "ClosedLoopObjective", "trajectory_objective", "SIMULATIONS"]
@@ -69,6 +69,11 @@ class TrajectoryObjective:
     @property
     def names(self) -> list[str]:
         return self.model.names
+
+    def replay(self, values: dict, record):
+        """``record`` replayed with ``values`` (prime coefficients by name) from its first
+        state with its own rudder (:func:`studies.simulate.simulator.replay`)."""
+        return replay(self.model, values, self.vessel, record)
 
     def residuals_many(self, vectors: np.ndarray) -> list[np.ndarray]:
         """Per record, simulated minus recorded (du, v, r): (n_sets, n_samples, 3)."""

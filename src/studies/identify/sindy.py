@@ -132,7 +132,7 @@ from ..models.terms import candidate_terms
 from .base import Identification
 from .ls import regression_diagnostics
 from .regression import RegressionProblem, build_problems
-from ..config import SINDY_LIBRARIES
+from ..config import SINDY_COEFFICIENTS, SINDY_FOLDS, SINDY_LIBRARIES, SINDY_RULES, SINDY_SELECTIONS
 
 __all__ = ["SparseRegression", "term_library", "LIBRARIES"]
 
@@ -185,13 +185,13 @@ ALPHAS = (1e-12, 1e-4, 1e-2)
 #: contiguous time blocks of every record, one held out per fold
 CV_BLOCKS = 5
 #: what the cross-validation scores: the one-step equation error or the replayed track
-SELECTIONS = ("equation", "simulation")
+SELECTIONS = SINDY_SELECTIONS
 #: how the cross-validation picks among thresholds (see :func:`choose`)
-RULES = ("one_se", "paired_se", "min")
+RULES = SINDY_RULES
 #: what ``selection="simulation"`` holds out: time blocks of every record, or whole records
-FOLDS = ("blocks", "records")
+FOLDS = SINDY_FOLDS
 #: the kept terms' coefficients: least squares on every row, or the ensemble's median (bragging)
-COEFFICIENTS = ("refit", "median")
+COEFFICIENTS = SINDY_COEFFICIENTS
 
 
 def choose(errors: np.ndarray, terms, thresholds, rule: str) -> int:
@@ -241,23 +241,15 @@ def _replay_square_error(objective, params: dict, record, t0: float, t1: float) 
     """Mean squared position error [m^2] of ``record``'s stretch ``t0 <= t <= t1`` [s] replayed.
 
     The stretch is replayed from its first sample's measured state with its
-    measured rudder (and propeller rate) by the objective's simulator (the
-    MMG replay when the objective carries ``modules``, else the Abkowitz
-    one), and the replayed ``(x0, y0)`` interpolated onto the measured
+    measured rudder (and propeller rate) by the objective's simulator
+    (:meth:`~studies.identify.objective.TrajectoryObjective.replay`), and the replayed ``(x0, y0)`` interpolated onto the measured
     times; ``inf`` if the replay diverges or the record has no positions.
     """
-    from ..simulate.mmg import replay_mmg            # lazy: the compiled simulators
-    from ..simulate.simulator import replay
-
     t = record["t"].to_numpy(float)
     part = record[(t >= t0) & (t <= t1)]
     if len(part) < 2 or not {"x0", "y0"} <= set(part.columns):
         return np.inf if len(part) >= 2 else 0.0
-    values = {n: params.get(n, 0.0) for n in objective.model.names}
-    if hasattr(objective, "modules"):
-        pred = replay_mmg(objective.model, values, objective.vessel, part, objective.modules)
-    else:
-        pred = replay(objective.model, values, objective.vessel, part)
+    pred = objective.replay({n: params.get(n, 0.0) for n in objective.model.names}, part)
     if "diverged_at" in pred.attrs or len(pred) < 2:
         return np.inf
     tm = part["t"].to_numpy(float)
@@ -478,11 +470,10 @@ class SparseRegression:
         fixed = {}
         for p in problems.values():
             fixed.update(p.fixed)
-        threshold = 0.0
 
-        def values(held):
-            """Every DOF fitted without the rows ``held`` (the data rows come first in each
-            DOF's problem and are the same rows; a prior's rows stay in)."""
+        def values(held, threshold):
+            """Every DOF fitted at ``threshold`` without the rows ``held`` (the data rows come
+            first in each DOF's problem and are the same rows; a prior's rows stay in)."""
             out = {}
             for dof, (x, y, col, ys) in scaled.items():
                 train = np.ones(len(y), bool)
@@ -495,7 +486,7 @@ class SparseRegression:
         for threshold in self.thresholds:
             errors = []
             for held in folds:
-                params = {**fixed, **values(held)}
+                params = {**fixed, **values(held, threshold)}
                 squares = []
                 for i in np.unique(record[held]):
                     rows = held[record[held] == i]
@@ -503,7 +494,7 @@ class SparseRegression:
                                                         float(time[rows].min()), float(time[rows].max())))
                 errors.append(float(np.mean(squares)) if squares else 0.0)
             errors = np.asarray(errors)
-            kept = int(sum(v != 0.0 for v in values(np.zeros(0, int)).values()))
+            kept = int(sum(v != 0.0 for v in values(np.zeros(0, int), threshold).values()))
             finite = np.all(np.isfinite(errors))
             se = float(errors.std(ddof=1) / np.sqrt(len(errors))) if finite and len(errors) > 1 else np.inf
             table.append((threshold, float(errors.mean()), se, kept))
