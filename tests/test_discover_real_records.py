@@ -36,6 +36,21 @@ def test_nothing_injected_names_neither_an_offset_nor_a_current(reference):
     assert "rudder_offset" in reference["candidates"] and "current" in reference["candidates"]
 
 
+def test_in_zig_zags_an_offset_is_nearly_what_a_constant_yaw_moment_does(reference):
+    """On the MARIN zig-zags every cause that acts as a nearly constant yaw
+    moment (a rudder offset, a propeller's side force, an earth-fixed force,
+    ``N0``) has nearly the offset's signature; an earth-fixed yaw moment is
+    exactly ``N0``'s; a current, which acts through the heading, is less alike."""
+    alike = reference["alike"]
+    offset = {other: v["correlation"] for other, v in alike["rudder_offset"].items()}
+    assert offset["propeller_asymmetry"] > 0.95 and offset["environmental_bias"] > 0.9
+    assert offset["current"] < min(offset["propeller_asymmetry"], offset["environmental_bias"])
+    assert alike["environmental_bias"]["missing_term"]["variant"] == "missing_term:N0"
+    assert alike["environmental_bias"]["missing_term"]["correlation"] == pytest.approx(1.0, abs=1e-6)
+    # symmetric
+    assert alike["propeller_asymmetry"]["rudder_offset"]["correlation"] == offset["propeller_asymmetry"]
+
+
 @pytest.mark.parametrize("speed,direction", [(0.5, 0.0), (0.5, 90.0), (0.5, 180.0), (0.5, 270.0), (0.8, 90.0)])
 def test_an_injected_current_is_named_with_its_speed_and_direction(reference, speed, direction):
     case = judge_real(real_case(str(FOLDER), Injection(current_speed=speed,

@@ -304,7 +304,8 @@ def real_case(folder: str, injection: Injection, real_set: str = "marin", overri
     return _clean({"kind": "real", "set": real_set, "injection": injection.label, "injected": injection.truth(),
                    "named": d["cause"], "confidence": d.get("confidence"), "parameters": d.get("parameters") or {},
                    "candidates": d.get("candidates") or {},
-                   "candidates_beside": d.get("candidates_beside") or {}, "gain_pct": d.get("gain_pct"), "elapsed": elapsed})
+                   "candidates_beside": d.get("candidates_beside") or {}, "alike": d.get("alike") or {},
+                   "gain_pct": d.get("gain_pct"), "elapsed": elapsed})
 
 
 def judge_real(case: dict, reference: dict) -> dict:

@@ -82,6 +82,7 @@ from scipy.optimize import least_squares
 from ..identify.filter_error import side_by_side
 from ..identify.kalman import KalmanSettings, kalman_smooth, smoothed_record
 from ..models.terms import DOFS
+from .alike import signature_alike
 from .causes import Combined, Current, MissingTerm, WindUnmodelled, extended_library, manoeuvring_causes
 from .causes.base import Cause, Setup
 from .fitting import (CauseFit, Context, _score, integrated_time, kinematic_smoothing, regression_fit,
@@ -189,6 +190,8 @@ class Inference:
     #: the smallest probability a verdict's ranking score is taken from (one more than the
     #: bootstrap's draws for the block cross-validation)
     probability_floor: float = 1.0 / (DRAWS + 1)
+    #: how alike every pair of causes' signatures is on these records (:func:`.alike.signature_alike`)
+    alike: dict = field(default_factory=dict)
 
     def verdict_of(self, model: tuple) -> str:
         """The verdict id of a model: its causes' ids joined by ``+`` in catalogue order, or ``none``."""
@@ -628,6 +631,8 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
     spans = _spans(variants)
     columns = np.hstack([v.columns for v in variants]) if variants else np.zeros((len(design.y), 0))
     res = _Residualised(design, columns)
+    n_data = int(np.sum(design.n_data))
+    alike = signature_alike(variants, [res.x[:n_data, s] for s in spans])
     singles = _by_cause(variants)
     chosen = {cid: _best_variant(res, spans, idx) for cid, idx in singles.items()}
     block_rows = max(20, int(4 * _residual_tau(design, res, [spans[i] for i in chosen.values()])))
@@ -714,7 +719,8 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
     out = Inference(variants, named, inclusion, verdicts, coefficients, covariance, int(res.n), seconds,
                     gains=mean_gain, beats_none=beats_none, threshold=threshold,
                     evidence=evidence, second_threshold=threshold2,
-                    n_blocks=grams.n_blocks, block_seconds=_block_seconds(records, design, block_rows))
+                    n_blocks=grams.n_blocks, block_seconds=_block_seconds(records, design, block_rows),
+                    alike=alike)
     out.fits = fits
     out.fit = fits.get(named)
     out.beside = {}

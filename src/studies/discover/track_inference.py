@@ -73,6 +73,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.special import expit
 
+from .alike import signature_alike
 from .causes import Combined, MissingTerm, NoCause, manoeuvring_causes
 from .causes.base import Cause
 from .fitting import CauseFit, Context, calibrate
@@ -130,6 +131,7 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
     causes = [c for c in causes if c.undecidable(ctx) is None]
     t1 = time.perf_counter()
     variants = cause_variants(design, causes)
+    alike = signature_alike(variants, [design.project(np.nan_to_num(v.columns)) for v in variants])
     seconds["signatures"] = time.perf_counter() - t1
 
     # 1. every cause alone against none, judged at its fit refined on the tracks (its parameters
@@ -251,6 +253,7 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
                     gains={k: 0.5 * s for k, s in scores.items()}, beats_none=beats_none, threshold=0.0,
                     evidence=evidence, second_threshold=0.0 if pair_variants else float("nan"),
                     n_blocks=design.n_blocks, block_seconds=float(BLOCK_SECONDS), probability_floor=1e-300)
+    out.alike = alike
     out.fits = fits
     out.fit = fits.get(tuple(named))
     # the filter and the records every verdict was judged on (an effect stated beforehand is scored

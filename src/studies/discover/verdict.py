@@ -88,6 +88,12 @@ class Discovery:
         Where the whole replays (baseline, extended, another simulator's run
         given by ``simulation.path``) depart most from the held-out records:
         per model its largest departures by phase and state.
+    alike : dict
+        ``{cause id: {other cause id: {"correlation", "variant", "as"}}}``: how
+        alike two causes' signatures are on these records (first canonical
+        correlation, the baseline's coefficients projected out; 1: the
+        records cannot tell them apart whatever the noise, 0: nothing in
+        common), at the variants most alike (:mod:`studies.discover.alike`).
     injected : dict or None
         With ``discover.injected``: the stated effect's own score on these
         records at its stated parameters (:mod:`.stated_effect`; ``score``
@@ -130,6 +136,8 @@ class Discovery:
     splits: list = field(default_factory=list)
     #: the stated effect's own score (``discover.injected``)
     injected: dict | None = None
+    #: how alike the causes' signatures are on these records
+    alike: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """The value written to ``discovery.json``."""

@@ -89,6 +89,26 @@ def _undecided(ranking: list, named: str, confidence: float, undecidable: list) 
     return [named] + rivals + [c for c, _ in undecidable if c not in rivals], text or None
 
 
+def _rounded_alike(alike: dict) -> dict:
+    return {a: {b: {**v, "correlation": round(float(v["correlation"]), 4)} for b, v in row.items()}
+            for a, row in alike.items()}
+
+
+def _alike_note(named: str, alike: dict) -> str | None:
+    """In words, how alike each named cause's signature is to the other causes'
+    on these records (:mod:`studies.discover.alike`), most alike first."""
+    parts = []
+    for cid in named.split("+"):
+        row = sorted((alike.get(cid) or {}).items(), key=lambda kv: -kv[1]["correlation"])
+        if row:
+            others = ", ".join(f"{other} {v['correlation']:.2f}"
+                               + (f" ({v['variant']})" if v["variant"] != other else "") for other, v in row)
+            parts.append(f"{cid}'s signature on these records is alike {others} (first canonical correlation, "
+                         "the baseline's coefficients projected out; near 1 the records cannot tell the two "
+                         "apart, whatever the noise)")
+    return "; ".join(parts) or None
+
+
 def execute_inference(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
     """Run the discovery on manoeuvring records by one inference; ``(discovery, metrics)``
     (BLAS single-threaded: :func:`studies.threads.single_thread_blas`)."""
@@ -173,6 +193,9 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
                      "it was not scored")
     elif injected is not None:
         notes.append(_injected_note(injected))
+    said = _alike_note(named, result.alike)
+    if said:
+        notes.append(said)
     for cid, manoeuvre in undecidable:
         notes.append(f"{cid} is not compared: the training records cannot decide it ({manoeuvre} would)")
     if best is not baseline and best.validation.get("diverged"):
@@ -227,6 +250,7 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
                                        else None)},
         departures=(departed.groupby("model", sort=False).head(DEPARTURES).to_dict("records")
                     if not departed.empty else []),
+        alike=_rounded_alike(result.alike),
         seconds={"smoothing": t_smooth, "inference": t_infer, **{k: float(v) for k, v in result.seconds.items()},
                  "total": time.perf_counter() - t0})
     discovery.injected = injected
