@@ -45,3 +45,17 @@ def test_every_pair_of_causes_at_their_variants_most_alike():
     assert alike["current"]["missing_term"]["correlation"] == pytest.approx(1.0)
     assert alike["current"]["missing_term"]["variant"] == "missing_term:Yvvv"
     assert alike["rudder_offset"]["current"]["correlation"] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_the_report_table_is_square_and_symmetric():
+    from studies.workflows.discover_inference import alike_table
+
+    rng = np.random.default_rng(5)
+    e = np.linalg.qr(rng.normal(size=(200, 3)))[0].T
+    variants = [_variant("rudder_offset"), _variant("current"), _variant("environmental_bias")]
+    projected = [e[0][:, None], (0.8 * e[0] + 0.6 * e[1])[:, None], e[2][:, None]]
+    table = alike_table(signature_alike(variants, projected))
+    assert list(table.index) == list(table.columns) == ["rudder_offset", "current", "environmental_bias"]
+    assert np.allclose(np.diag(table.to_numpy()), 1.0)
+    assert np.allclose(table.to_numpy(), table.to_numpy().T)
+    assert table.loc["rudder_offset", "current"] == pytest.approx(0.8)

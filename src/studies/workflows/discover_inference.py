@@ -94,6 +94,15 @@ def _rounded_alike(alike: dict) -> dict:
             for a, row in alike.items()}
 
 
+def alike_table(alike: dict) -> pd.DataFrame:
+    """The causes' signatures' likeness as a square table (1 on the diagonal)."""
+    ids = list(alike)
+    table = pd.DataFrame([[1.0 if a == b else round(float(alike[a].get(b, {}).get("correlation", np.nan)), 2)
+                           for b in ids] for a in ids], index=ids, columns=ids)
+    table.index.name = "cause"
+    return table
+
+
 def _alike_note(named: str, alike: dict) -> str | None:
     """In words, how alike each named cause's signature is to the other causes'
     on these records (:mod:`studies.discover.alike`), most alike first."""
@@ -354,6 +363,11 @@ def _sections(ctx, result, whole_base: dict, whole_best: dict, named: str, out_d
                      "name it; gain: held-out log-likelihood gain over none, summed over the blocks; score: -2 ln "
                      "of the probability relative to the most probable)", ranking),
                     ("Share of the bootstrap reweightings naming each cause (alone or in a pair)", inclusion)]
+    if result.alike:
+        sections.append(("How alike the causes' signatures are on these records (first canonical correlation, "
+                         "the baseline's coefficients projected out; near 1 the records cannot tell the two "
+                         "apart whatever the noise; a cause with variants at its variant most alike)",
+                         alike_table(result.alike)))
     if departed is not None and not departed.empty:
         sections.append(("Where the simulation departs most from the held-out records (whole replays; u, v in "
                          "m/s, r in deg/s; ranked by the prime RMSE)", departed.set_index("model")))
