@@ -40,13 +40,18 @@ def _basis(columns: np.ndarray) -> np.ndarray | None:
     return u[:, keep]
 
 
+def _cosine(qa: np.ndarray, qb: np.ndarray) -> float:
+    """Largest singular value of ``qa^T qb`` for orthonormal bases: the first canonical correlation."""
+    return float(min(np.linalg.svd(qa.T @ qb, compute_uv=False)[0], 1.0))
+
+
 def first_canonical_correlation(a: np.ndarray, b: np.ndarray) -> float:
     """Cosine of the smallest angle between the spans of the columns of ``a`` and ``b``
     (same rows); NaN when either spans nothing."""
     qa, qb = _basis(a), _basis(b)
     if qa is None or qb is None:
         return float("nan")
-    return float(min(np.linalg.svd(qa.T @ qb, compute_uv=False)[0], 1.0))
+    return _cosine(qa, qb)
 
 
 def signature_alike(variants: list, projected: list) -> dict:
@@ -81,7 +86,7 @@ def signature_alike(variants: list, projected: list) -> dict:
             best = (-1.0, "", "")
             for la, qa in bases[a]:
                 for lb, qb in bases[b]:
-                    c = float(min(np.linalg.svd(qa.T @ qb, compute_uv=False)[0], 1.0))
+                    c = _cosine(qa, qb)
                     if c > best[0]:
                         best = (c, la, lb)
             out[a][b] = {"correlation": best[0], "variant": best[2], "as": best[1]}
