@@ -252,8 +252,8 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
                     int(design.n), seconds,
                     gains={k: 0.5 * s for k, s in scores.items()}, beats_none=beats_none, threshold=0.0,
                     evidence=evidence, second_threshold=0.0 if pair_variants else float("nan"),
-                    n_blocks=design.n_blocks, block_seconds=float(BLOCK_SECONDS), probability_floor=1e-300)
-    out.alike = alike
+                    n_blocks=design.n_blocks, block_seconds=float(BLOCK_SECONDS), probability_floor=1e-300,
+                    alike=alike)
     out.fits = fits
     out.fit = fits.get(tuple(named))
     # the filter and the records every verdict was judged on (an effect stated beforehand is scored

@@ -89,6 +89,11 @@ def _undecided(ranking: list, named: str, confidence: float, undecidable: list) 
     return [named] + rivals + [c for c, _ in undecidable if c not in rivals], text or None
 
 
+#: how to read the signatures' likeness (the report's table and the named cause's note)
+ALIKE_READING = ("first canonical correlation, the baseline's coefficients projected out; near 1 the records "
+                 "cannot tell the two apart, whatever the noise")
+
+
 def _rounded_alike(alike: dict) -> dict:
     return {a: {b: {**v, "correlation": round(float(v["correlation"]), 4)} for b, v in row.items()}
             for a, row in alike.items()}
@@ -112,9 +117,7 @@ def _alike_note(named: str, alike: dict) -> str | None:
         if row:
             others = ", ".join(f"{other} {v['correlation']:.2f}"
                                + (f" ({v['variant']})" if v["variant"] != other else "") for other, v in row)
-            parts.append(f"{cid}'s signature on these records is alike {others} (first canonical correlation, "
-                         "the baseline's coefficients projected out; near 1 the records cannot tell the two "
-                         "apart, whatever the noise)")
+            parts.append(f"{cid}'s signature on these records is alike {others} ({ALIKE_READING})")
     return "; ".join(parts) or None
 
 
@@ -364,10 +367,8 @@ def _sections(ctx, result, whole_base: dict, whole_best: dict, named: str, out_d
                      "of the probability relative to the most probable)", ranking),
                     ("Share of the bootstrap reweightings naming each cause (alone or in a pair)", inclusion)]
     if result.alike:
-        sections.append(("How alike the causes' signatures are on these records (first canonical correlation, "
-                         "the baseline's coefficients projected out; near 1 the records cannot tell the two "
-                         "apart whatever the noise; a cause with variants at its variant most alike)",
-                         alike_table(result.alike)))
+        sections.append((f"How alike the causes' signatures are on these records ({ALIKE_READING}; a cause "
+                         "with variants at its variant most alike)", alike_table(result.alike)))
     if departed is not None and not departed.empty:
         sections.append(("Where the simulation departs most from the held-out records (whole replays; u, v in "
                          "m/s, r in deg/s; ranked by the prime RMSE)", departed.set_index("model")))
