@@ -65,7 +65,7 @@ from ..plotting import pyplot
 from ..simulate.simulator import replay_plan
 
 __all__ = ["LEVELS", "Z_SCORES", "TRUSTED_COVERAGE", "interval_score", "crps_ensemble", "joint_coverage",
-           "predictive_draws", "band_statistics", "pit_values", "training_envelope", "outside_fraction",
+           "predictive_draws", "point_replay", "position_rmse", "band_statistics", "pit_values", "training_envelope", "outside_fraction",
            "trust_verdict", "plot_calibration"]
 
 #: nominal levels of the calibration check
@@ -109,7 +109,8 @@ def _initial_spread(record: pd.DataFrame, settings: KalmanSettings, bias_sd) -> 
 
 
 def predictive_draws(model, vectors: np.ndarray, vessel, record: pd.DataFrame, discrepancy=None,
-                     seed: int = 0, settings: KalmanSettings | None = None, modules=None):
+                     seed: int = 0, settings: KalmanSettings | None = None, modules=None,
+                     steer: bool = False):
     """Replays of ``record`` for the posterior predictive band.
 
     The replays run on the model's own simulator
@@ -121,12 +122,18 @@ def predictive_draws(model, vectors: np.ndarray, vessel, record: pd.DataFrame, d
     takes a realisation of the discrepancy accelerations and an initial
     ``u, v, r`` drawn around the measured one (:func:`_initial_spread`: the
     sensor noise and the sensor biases found on the training records).
+    With ``steer`` a zig-zag record is replayed as it was run, the rudder
+    reversed when each replay's own heading reaches the test's angle
+    (:func:`~studies.simulate.manoeuvres.zigzag_of_record`): its heading
+    error corrects itself as the ship's did, where a replay of the measured
+    rudder turns yaw noise into heading drift; other records follow their
+    measured rudder.
     Returns ``(states (n_draws, n, 7), diverged (n_draws,))`` as
     :func:`~studies.simulate.simulator.replay_many` (columns 3-5: ``x0, y0,
     psi``).
     """
     vectors = np.atleast_2d(vectors)
-    plan = replay_plan(model, vessel, record, modules)
+    plan = replay_plan(model, vessel, record, modules, steer=steer)
     if discrepancy is None:
         return plan.run(vectors)
     settings = settings or KalmanSettings()
@@ -141,6 +148,34 @@ def predictive_draws(model, vectors: np.ndarray, vessel, record: pd.DataFrame, d
         states.append(s)
         diverged.append(d)
     return np.asarray(states), np.asarray(diverged)
+
+
+def point_replay(model, vector: np.ndarray, vessel, record: pd.DataFrame, modules=None,
+                 steer: bool = False) -> tuple[pd.DataFrame, bool]:
+    """The replay of one coefficient vector as the band's replays run
+    (:func:`predictive_draws` without a discrepancy): ``(track, steered)``,
+    the track a frame of ``t`` [s, the record's], ``x0``, ``y0`` [m] and
+    ``psi`` [rad] (all NaN from the step it diverged), ``steered`` whether a
+    zig-zag was run by its rule."""
+    plan = replay_plan(model, vessel, record, modules, steer=steer)
+    states, diverged = plan.run(np.atleast_2d(np.asarray(vector, float)))
+    states = states[0]
+    n = min(states.shape[0], len(record))
+    track = pd.DataFrame({"t": record["t"].to_numpy(float)[:n], "x0": states[:n, 3], "y0": states[:n, 4],
+                          "psi": states[:n, 5]})
+    if int(diverged[0]) >= 0:
+        track.loc[:, ["x0", "y0", "psi"]] = np.nan
+    track.attrs["name"] = record.attrs.get("name", "record")
+    return track, bool(getattr(plan, "steered", False))
+
+
+def position_rmse(track: pd.DataFrame, record: pd.DataFrame) -> float:
+    """Position RMSE [m] of ``track`` (:func:`point_replay`) against the
+    measured ``x0, y0`` over their common samples; nan when it diverged."""
+    n = min(len(track), len(record))
+    dx = track["x0"].to_numpy(float)[:n] - record["x0"].to_numpy(float)[:n]
+    dy = track["y0"].to_numpy(float)[:n] - record["y0"].to_numpy(float)[:n]
+    return float(np.sqrt(np.mean(dx ** 2 + dy ** 2)))
 
 
 def band_statistics(states: np.ndarray, diverged: np.ndarray, record: pd.DataFrame, noise: bool = True,

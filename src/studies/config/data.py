@@ -174,6 +174,10 @@ class ValidationWind:
         self.direction = _optional_number("validate.wind.direction", self.direction)
 
 
+#: ``validate.band_replay``: zig-zags run by their rule, or every record with its measured rudder
+BAND_REPLAYS = ("steered", "rudder")
+
+
 @dataclass
 class Validate:
     """What the identified model is judged on (``validate``).
@@ -189,6 +193,13 @@ class Validate:
         Length [s] of the validation manoeuvres, > 0; None: their own.
     band_draws : int
         Posterior draws replayed for the predictive band (method=bayes), >= 0.
+    band_replay : str
+        One of :data:`BAND_REPLAYS`: how the band's replays steer a
+        measured record. ``steered`` (default): a zig-zag is run by its rule,
+        the rudder reversed when each replay's heading reaches the test's
+        angle (read from the record), as the ship was steered; other records
+        follow their measured rudder. ``rudder``: every record follows its
+        measured rudder.
     compare_derivatives : bool
         Measured data: also validate with Savitzky-Golay derivatives.
     wind : ValidationWind
@@ -200,6 +211,7 @@ class Validate:
                                                       "zigzag_40_40", "turning_35"])
     duration: Optional[float] = None
     band_draws: int = 50
+    band_replay: str = "steered"
     compare_derivatives: bool = True
     wind: ValidationWind = field(default_factory=ValidationWind)
 
@@ -214,4 +226,5 @@ class Validate:
         self.band_draws = _integer("validate.band_draws", self.band_draws)
         if self.band_draws < 0:
             raise ConfigError(f"validate.band_draws must be >= 0, got {self.band_draws}")
+        self.band_replay = _choice("validate.band_replay", self.band_replay, BAND_REPLAYS)
         self.compare_derivatives = _flag("validate.compare_derivatives", self.compare_derivatives)

@@ -205,6 +205,11 @@ class BayesMethod(MethodConfig):
         None: as sampled.
     discrepancy_evaluations : int
         Most likelihood evaluations of its estimate, >= 1.
+    discrepancy_out_of_sample : bool
+        Each training record filtered by the coefficients identified
+        without it (default), so that the discrepancy is what the model
+        misses on a record it did not train on; false: every record at the
+        posterior medians.
     max_steps : int or None
         The budget of a chain that has not converged (shorter than 50
         autocorrelation times): it runs on by itself up to this many steps
@@ -234,6 +239,7 @@ class BayesMethod(MethodConfig):
     discrepancy: str = "auto"
     discrepancy_step: Optional[float] = 0.5
     discrepancy_evaluations: int = 600
+    discrepancy_out_of_sample: bool = True
     max_steps: Optional[int] = 50000
 
     def __post_init__(self):

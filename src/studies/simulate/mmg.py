@@ -62,7 +62,7 @@ from ..models.mmg import (HULL_TERMS, MMGParameters, hull_forces, module_constan
                           module_gains, thrust_normal_force)
 from ..vessels.kvlcc2_mmg import MMGVessel
 from .integrator import DIVERGED_SPEED_FACTOR, N_STATES, _command, _small_rotation
-from .manoeuvres import Manoeuvre
+from .manoeuvres import Manoeuvre, zigzag_of_record
 
 __all__ = ["simulate_mmg", "replay_mmg", "rk4_mmg", "hull_vector", "mmg_inputs", "mmg_forces",
            "self_propulsion_rps", "MMGReplayPlan", "mmg_acceleration", "process_constants"]
@@ -426,13 +426,22 @@ class MMGReplayPlan:
         Propeller and rudder parameters; default ``vessel.modules``.
     rps : float, optional
         Constant propeller rate replacing the record's.
+    steer : bool
+        A zig-zag record (:func:`~studies.simulate.manoeuvres.zigzag_of_record`)
+        is replayed as it was run: the rudder reversed when the *replay's*
+        heading reaches the test's angle, at the rudder rate of the vessel,
+        from the execute on (``steered`` says whether it is). Any other
+        record follows its measured rudder.
     """
 
     def __init__(self, model: ManoeuvringModel, vessel: MMGVessel, record: pd.DataFrame,
-                 modules: MMGParameters | None = None, rps: float | None = None):
+                 modules: MMGParameters | None = None, rps: float | None = None, steer: bool = False):
         t = record["t"].to_numpy(float)
         dt = float(np.median(np.diff(t)))
         man = Manoeuvre(str(record.attrs.get("name", "record")), "rudder", dt * (len(t) - 1), dt)
+        zigzag = zigzag_of_record(record) if steer else None
+        if zigzag is not None:
+            man = zigzag
         grid = man.step_times()
         if rps is None and "n" not in record:
             raise ValueError("the record has no propeller rate 'n'; pass rps=")
@@ -441,6 +450,12 @@ class MMGReplayPlan:
                           grid, columns)
         self.model = model
         self.delta = np.ascontiguousarray(inputs["delta"].to_numpy(), float)
+        self.steered = zigzag is not None
+        if self.steered:
+            self.mode, self.cmd, self.params = zigzag.rudder_programme(YAW_SIGN)
+            self.cmd = np.ascontiguousarray(self.cmd, float)
+        else:
+            self.mode, self.cmd, self.params = 3, self.delta, np.zeros(4)
         self.rate = (np.ascontiguousarray(inputs["n"].to_numpy(), float) if rps is None
                      else np.full(grid.shape[0], float(rps)))
         first = record.iloc[0]
@@ -457,7 +472,7 @@ class MMGReplayPlan:
     @property
     def steps(self) -> int:
         """Integration steps of the replay (external accelerations need one row per step)."""
-        return int(self.delta.shape[0] - 1)
+        return int(self.cmd.shape[0] - 1)
 
     @staticmethod
     def external_accelerations(accelerations: np.ndarray) -> np.ndarray:
@@ -475,7 +490,7 @@ class MMGReplayPlan:
                 if key in initial:
                     x0[idx] = float(initial[key])
         hull = hull_vector(self.model, dict(zip(self.model.names, np.asarray(vector, float))))
-        return rk4_mmg(hull, self.k, self.a, x0, self.step, self.delta, 3, np.zeros(4), self.rate,
+        return rk4_mmg(hull, self.k, self.a, x0, self.step, self.cmd, self.mode, self.params, self.rate,
                        self.limit_speed, external, external_gain)
 
     def run_one(self, vector: np.ndarray, external=None, initial: dict | None = None,

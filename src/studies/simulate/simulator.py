@@ -23,7 +23,7 @@ from ..models.abkowitz import ManoeuvringModel
 from ..vessels.base import Vessel
 from ..vessels.kvlcc2_mmg import MMGVessel
 from .integrator import rk4_simulate, rk4_simulate_many
-from .manoeuvres import Manoeuvre
+from .manoeuvres import Manoeuvre, zigzag_of_record
 from .mmg import MMGReplayPlan
 
 __all__ = ["simulate", "simulate_many", "replay", "replay_many", "ReplayPlan", "SimulationInputs",
@@ -184,17 +184,24 @@ def simulate_many(model: ManoeuvringModel, vectors: np.ndarray, vessel: Vessel,
 
 def _replay_inputs(model: ManoeuvringModel, vessel: Vessel, record: pd.DataFrame,
                    environment: Environment | None, yaw_sign: float,
-                   external=None, max_step: float = 0.1) -> SimulationInputs:
+                   external=None, max_step: float = 0.1, steer: bool = False) -> SimulationInputs:
+    """The integrator's inputs of a replay: the measured rudder prescribed, or
+    with ``steer`` a zig-zag record run by its rule (:func:`zigzag_of_record`)."""
     t = record["t"].to_numpy(float)
     dt = float(np.median(np.diff(t)))
     duration = dt * (len(t) - 1)
-    man = Manoeuvre(str(record.attrs.get("name", "record")), "rudder", duration, dt, max_step=max_step)
+    zigzag = zigzag_of_record(record) if steer else None
+    man = Manoeuvre(str(record.attrs.get("name", "record")), "rudder", duration, dt, max_step=max_step) \
+        if zigzag is None else Manoeuvre(zigzag.name, "zigzag", zigzag.duration, zigzag.dt, max_step=max_step,
+                                         amplitude=zigzag.amplitude, heading=zigzag.heading,
+                                         first_sign=zigzag.first_sign, execute=zigzag.execute)
     grid = man.step_times()
-    delta = _rudder_on_grid(record, grid)
     environment = environment or Environment()
     initial = _replay_initial(record, environment, None)
     inputs = prepare(model, vessel, man, environment, _external_rows(external, len(grid)), yaw_sign, initial)
-    return SimulationInputs(**{**inputs.__dict__, "mode": 3, "cmd": delta})
+    if zigzag is not None:
+        return inputs
+    return SimulationInputs(**{**inputs.__dict__, "mode": 3, "cmd": _rudder_on_grid(record, grid)})
 
 
 def _rudder_on_grid(record: pd.DataFrame, grid: np.ndarray) -> np.ndarray:
@@ -254,15 +261,19 @@ class ReplayPlan:
     environment, external forces) for many coefficient sets and initial
     states: what :func:`replay_many` does, without preparing the record again
     on every call (an output-error fit replays the same windows hundreds of
-    times).
+    times). With ``steer`` a zig-zag record is replayed as it was run (the
+    rudder reversed when the replay's heading reaches the test's angle:
+    :func:`zigzag_of_record`; ``steered`` says whether it is).
     """
 
     def __init__(self, model: ManoeuvringModel, vessel: Vessel, record: pd.DataFrame,
-                 environment: Environment | None = None, external=None, max_step: float = 0.1):
+                 environment: Environment | None = None, external=None, max_step: float = 0.1,
+                 steer: bool = False):
         self.environment = environment or record_environment(record)
         self.record = record
         self.vessel = vessel
-        self.inputs = _replay_inputs(model, vessel, record, self.environment, -1.0, external, max_step)
+        self.inputs = _replay_inputs(model, vessel, record, self.environment, -1.0, external, max_step, steer)
+        self.steered = int(self.inputs.mode) == 1
 
     def variant(self, record: pd.DataFrame | None = None, environment: Environment | None = None,
                 external=None) -> "ReplayPlan":
@@ -273,6 +284,7 @@ class ReplayPlan:
         at every trial."""
         new = object.__new__(ReplayPlan)
         new.vessel = self.vessel
+        new.steered = self.steered and record is None
         new.record = self.record if record is None else record
         if record is None:
             new._first = self._first_values()
@@ -285,6 +297,7 @@ class ReplayPlan:
                    "ext": np.zeros((0, 6)) if ext is None else np.ascontiguousarray(ext)}
         if record is not None:
             changes["cmd"] = _rudder_on_grid(record, grid)
+            changes["mode"] = 3
         new.inputs = SimulationInputs(**{**inputs.__dict__, **changes})
         return new
 
@@ -352,17 +365,19 @@ class ReplayPlan:
         return states[:, :: inputs.substeps], diverged
 
 
-def replay_plan(model: ManoeuvringModel, vessel, record: pd.DataFrame, modules=None):
+def replay_plan(model: ManoeuvringModel, vessel, record: pd.DataFrame, modules=None, steer: bool = False):
     """A record's replay prepared for many coefficient sets, on the model's own
     simulator: :class:`~studies.simulate.mmg.MMGReplayPlan` (propeller rate
     from the record's ``n``, ``modules`` the propeller and rudder parameters)
     for a vessel with MMG particulars
     (:class:`~studies.vessels.kvlcc2_mmg.MMGVessel`), :class:`ReplayPlan`
-    otherwise. Both give ``steps``, ``step``, ``run(vectors)``,
-    ``run_one(vector, external, initial)`` and ``external_accelerations``."""
+    otherwise. Both give ``steps``, ``step``, ``steered``, ``run(vectors)``,
+    ``run_one(vector, external, initial)`` and ``external_accelerations``.
+    With ``steer`` a zig-zag record is run by its rule, any other record
+    with its measured rudder."""
     if isinstance(vessel, MMGVessel):
-        return MMGReplayPlan(model, vessel, record, modules)
-    return ReplayPlan(model, vessel, record)
+        return MMGReplayPlan(model, vessel, record, modules, steer=steer)
+    return ReplayPlan(model, vessel, record, steer=steer)
 
 
 def record_environment(record: pd.DataFrame) -> Environment:

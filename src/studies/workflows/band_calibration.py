@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..analysis.bands import LEVELS, band_statistics, predictive_draws
+from ..analysis.bands import LEVELS, band_statistics, point_replay, position_rmse, predictive_draws
 from ..identify.discrepancy import Discrepancy
 from ..plotting import pyplot
 from . import measured as _measured
@@ -64,13 +64,17 @@ TARGETS = {"coverage_90": (0.85, 0.95), "miscalibration": 0.05, "record_min_90":
 
 
 def held_out_bands(run, result, record: pd.DataFrame, rmse: float, n_draws: int,
-                   seed: int = 0) -> tuple[list[dict], dict]:
+                   seed: int = 0, steer: bool = False) -> tuple[list[dict], dict]:
     """Both bands of one held-out record; ``(rows, pit)``.
 
     ``run`` is the fold (its model, vessel and propeller/rudder modules),
     ``result`` its identification with posterior samples, ``rmse`` the
     position RMSE [m] of the replay with the point estimate (its validation's
-    ``<record>/rmse_position``, nan when it diverged). ``rows`` holds one dict per band
+    ``<record>/rmse_position``, nan when it diverged). With ``steer``
+    (``validate.band_replay=steered``) a zig-zag's replays are run by its
+    rule (:func:`~studies.analysis.bands.predictive_draws`), both bands and
+    the point prediction whose RMSE the width is judged against (``steered``
+    in the rows). ``rows`` holds one dict per band
     (:data:`BANDS`) with the record's name, ``coverage_<level>``, ``crps_m``,
     ``interval_score_m``, ``half_width_m``, ``rmse_m``, ``width_over_rmse``,
     ``diverged``; ``pit`` maps each band to its ``pit_x0``, ``pit_y0``,
@@ -79,18 +83,23 @@ def held_out_bands(run, result, record: pd.DataFrame, rmse: float, n_draws: int,
     name = str(record.attrs.get("name", "record"))
     vectors = _measured.posterior_vectors(run.model, result, n_draws, seed)
     discrepancy = Discrepancy.from_sample(result.samples.get("discrepancy"))
+    modules = getattr(run, "modules", None)
+    centre = np.array([result.params.get(n, 0.0) for n in run.model.names], float)
+    track, steered = point_replay(run.model, centre, run.vessel, record, modules, steer)
+    if steered:
+        rmse = position_rmse(track, record)
     rows, pit = [], {}
     for band in BANDS:
         with_discrepancy = discrepancy if band == "band" else None
         states, diverged = predictive_draws(run.model, vectors, run.vessel, record, with_discrepancy, seed,
-                                            modules=getattr(run, "modules", None))
+                                            modules=modules, steer=steer)
         stats = band_statistics(states, diverged, record, noise=True, seed=seed)
         half = 0.25 * ((stats["x0"][-1] - stats["x0"][0]) + (stats["y0"][-1] - stats["y0"][0]))
         row = {"record": name, "band": band, "discrepancy": with_discrepancy is not None,
                **{f"coverage_{pc}": stats[f"coverage_joint_{pc}"] for _, pc in PERCENT},
                "crps_m": stats["crps_xy_m"], "interval_score_m": stats["interval_score_xy_m"],
                "half_width_m": float(np.nanmedian(half)), "rmse_m": rmse,
-               "diverged": stats["diverged"], "samples": len(record)}
+               "diverged": stats["diverged"], "samples": len(record), "steered": steered}
         row["width_over_rmse"] = row["half_width_m"] / max(rmse, 1e-9)
         rows.append(row)
         pit[band] = {k: stats[k] for k in ("pit_x0", "pit_y0", "joint_level")}

@@ -58,7 +58,8 @@ def _fold(run, i: int, identify, out_dir: Path, band_draws: int, seed: int):
     found = _manoeuvring._validate_records(fold, params, fold_dir)
     if band_draws > 0 and getattr(result, "samples", None):
         rmse = found.get(f"{name}/rmse_position", float("nan"))
-        found_rows, pit = held_out_bands(fold, result, held, rmse, band_draws, seed)
+        found_rows, pit = held_out_bands(fold, result, held, rmse, band_draws, seed,
+                                         steer=run.cfg.validate.band_replay == "steered")
         return name, found, found_rows, pit
     return name, found, [], {}
 
@@ -81,7 +82,8 @@ def cross_validate(run, identify, out_dir: Path, band_draws: int = 0, seed: int 
         With posterior samples (``method=bayes``) and ``band_draws > 0``,
         each held-out record's predictive band and its coefficient-only
         baseline are judged on it
-        (:func:`studies.workflows.band_calibration.held_out_bands`).
+        (:func:`studies.workflows.band_calibration.held_out_bands`; zig-zags
+        run by their rule with the run's ``validate.band_replay=steered``).
     seed : int
         Seed of the posterior draws and the discrepancy's realisations.
     jobs : int

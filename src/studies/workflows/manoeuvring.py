@@ -41,8 +41,8 @@ import pandas as pd
 
 from ..config import RunConfig, settled_discrepancy
 from ..analysis.characteristics import characteristics, manoeuvre_kind
-from ..analysis.bands import (TRUSTED_COVERAGE, outside_fraction, plot_calibration, training_envelope,
-                              trust_verdict)
+from ..analysis.bands import (TRUSTED_COVERAGE, outside_fraction, plot_calibration, point_replay,
+                              training_envelope, trust_verdict)
 from ..analysis.metrics import error_metrics
 from ..data import load_manoeuvres
 from ..data.derivatives import STATE_COLUMNS, noise_ratio
@@ -451,9 +451,13 @@ def _validate_records(study: ManoeuvringRun, params: dict, out_dir: Path, result
         write_overlay_table(rec, pred, out_dir / f"validation_{name}.csv")
         if vectors is not None:
             t_band = time.perf_counter()
+            steer = study.cfg.validate.band_replay == "steered"
             band = _measured.posterior_band(study.model, vectors, study.vessel, rec,
                                             discrepancy=discrepancy, seed=study.settings.seed,
-                                            modules=getattr(study, "modules", None))
+                                            modules=getattr(study, "modules", None), steer=steer)
+            centre, steered = point_replay(study.model, study.model.vector(params, default=0.0), study.vessel,
+                                           rec, getattr(study, "modules", None), steer)
+            metrics[f"{name}/band/steered"] = float(steered)
             for key in BAND_KEYS:
                 metrics[f"{name}/band/{key}"] = band[key]
             metrics[f"{name}/band/draws"] = float(len(vectors))
@@ -464,7 +468,9 @@ def _validate_records(study: ManoeuvringRun, params: dict, out_dir: Path, result
             metrics[f"{name}/band/trusted"] = float(trusted)
             verdicts.append(sentence)
             what = "coefficients and model discrepancy" if discrepancy is not None else "coefficients"
-            _measured.plot_band(rec, pred, band, out_dir / f"band_{name}.png",
+            if steered:
+                what += "; the zig-zag run by its rule"
+            _measured.plot_band(rec, centre if steered else pred, band, out_dir / f"band_{name}.png",
                                 f"{name}: 5-95 % posterior predictive band ({len(vectors)} draws: {what})")
             plot_calibration(band, out_dir / f"calibration_{name}.png",
                              f"{name}\ncoverage of the measured track ({what})")

@@ -418,7 +418,7 @@ def posterior_vectors(model: ManoeuvringModel, result: Identification, n_draws: 
 def posterior_band(model: ManoeuvringModel, vectors: np.ndarray, vessel: Vessel,
                    record: pd.DataFrame, quantiles=(0.05, 0.5, 0.95), noise: bool = True,
                    discrepancy=None, seed: int = 0, settings: KalmanSettings | None = None,
-                   modules=None) -> dict:
+                   modules=None, steer: bool = False) -> dict:
     """Replay ``record`` with every vector; quantiles of ``x0, y0, psi`` per sample.
 
     Returns ``{"t", "x0", "y0", "psi"}`` (each channel an array (3, n):
@@ -441,10 +441,11 @@ def posterior_band(model: ManoeuvringModel, vectors: np.ndarray, vessel: Vessel,
     drawn from the sensor's uncertainty
     (:func:`studies.analysis.bands.predictive_draws`, seeded by ``seed``).
     The replays run on the model's own simulator: the MMG simulator for an
-    MMG vessel (``modules`` its propeller and rudder parameters).
+    MMG vessel (``modules`` its propeller and rudder parameters); with
+    ``steer`` a zig-zag record is run by its rule (``validate.band_replay``).
     """
     states, diverged = predictive_draws(model, vectors, vessel, record, discrepancy, seed, settings,
-                                        modules)
+                                        modules, steer)
     return band_statistics(states, diverged, record, noise, quantiles, seed=seed)
 
 

@@ -400,8 +400,15 @@ def _cross_validation(run: MMGRun, out_dir: Path) -> dict:
 
 
 def _discrepancy_setting(run: MMGRun) -> str:
-    return (f"model={run.model.name}, method=bayes, method.discrepancy="
-            f"{getattr(run.cfg.method, 'discrepancy', 'none')}")
+    method = run.cfg.method
+    out = (f"model={run.model.name}, method=bayes, method.discrepancy="
+           f"{getattr(method, 'discrepancy', 'none')}")
+    if getattr(method, "discrepancy", "none") != "none":
+        out += (", each training record filtered by the model of the others"
+                if getattr(method, "discrepancy_out_of_sample", False) else ", in sample")
+    replay = run.cfg.validate.band_replay
+    return out + ("; zig-zags replayed as they were run (the rudder reversed at the test's heading)"
+                  if replay == "steered" else "; every record replayed with its measured rudder")
 
 
 def _captive(run: MMGRun, params: dict, modules, out_dir: Path) -> dict:

@@ -16,7 +16,7 @@ import numpy as np
 
 from ...errors import ConfigError
 from ..base import Identification
-from ..discrepancy import DISCREPANCIES, estimate_process_noise
+from ..discrepancy import DISCREPANCIES, estimate_process_noise, out_of_sample_values
 from ..ls import regression_diagnostics
 from ..objective import TrajectoryObjective
 from ..regression import RegressionProblem
@@ -96,6 +96,11 @@ class BayesianRegression:
         discrepancy's Kalman filter; None: as sampled.
     discrepancy_evaluations : int
         Most likelihood evaluations of its search (Powell's method).
+    discrepancy_out_of_sample : bool
+        Filter each training record with the coefficients identified
+        without it (:func:`~studies.identify.discrepancy.out_of_sample_values`),
+        so that the discrepancy is what the model misses on records it was
+        not fitted to (default); False: every record at the posterior medians.
 
     References
     ----------
@@ -114,7 +119,8 @@ class BayesianRegression:
                  trajectory_duration: float | None = 600.0, trajectory_prior_width: float = 1.0,
                  trajectory_init_scale: float = 0.01, trajectory_autocorr_correction: bool = True,
                  discrepancy: str = "none", discrepancy_step: float | None = 0.5,
-                 discrepancy_evaluations: int = 600, max_steps: int | None = None):
+                 discrepancy_evaluations: int = 600, max_steps: int | None = None,
+                 discrepancy_out_of_sample: bool = True):
         for key, value, low in (("n_samples", n_samples, 1), ("burn_in", burn_in, 0),
                                 ("thin", thin, 1), ("trajectory_steps", trajectory_steps, 1),
                                 ("trajectory_burn_in", trajectory_burn_in, 0),
@@ -166,6 +172,7 @@ class BayesianRegression:
         self.discrepancy = str(discrepancy)
         self.discrepancy_step = None if discrepancy_step is None else float(discrepancy_step)
         self.discrepancy_evaluations = int(discrepancy_evaluations)
+        self.discrepancy_out_of_sample = bool(discrepancy_out_of_sample)
         if max_steps is not None and (int(max_steps) != max_steps or max_steps < 1):
             raise ConfigError(f"method.max_steps must be null or an integer >= 1, got {max_steps!r}")
         self.max_steps = None if max_steps is None else int(max_steps)
@@ -256,24 +263,34 @@ class BayesianRegression:
             raise ValueError("bayes: method.discrepancy=auto must be settled by the run before fitting "
                              "(studies.config.settled_discrepancy: process_noise on measured records)")
         if self.discrepancy != "none":
-            result.update(self.estimate_discrepancy(objective, result.params))
+            result.update(self.estimate_discrepancy(objective, result.params, problems))
         return result
 
-    def estimate_discrepancy(self, objective, params: dict) -> Identification:
+    def estimate_discrepancy(self, objective, params: dict, problems: dict | None = None) -> Identification:
         """The model discrepancy of ``discrepancy`` on the objective's training
-        records at ``params`` (:mod:`studies.identify.discrepancy`)."""
+        records at ``params`` (:mod:`studies.identify.discrepancy`); with
+        ``discrepancy_out_of_sample`` and the regression ``problems``, each
+        record filtered by the coefficients identified without it."""
         if objective is None:
             raise ValueError("bayes: method.discrepancy needs the training records "
                              "(fit(problems, objective=...))")
         model = objective.model
         values = {name: params.get(name, 0.0) for name in model.names}
-        found = estimate_process_noise(model, values, objective.vessel, objective.records,
+        per_record = None
+        if self.discrepancy_out_of_sample and problems is not None:
+            per_record = out_of_sample_values(problems, values, len(objective.records))
+            if per_record is None:
+                logger.info("bayes: the discrepancy is estimated in sample (fewer than three training "
+                            "records, or a record's removal leaves a regression underdetermined)")
+        found = estimate_process_noise(model, per_record or values, objective.vessel, objective.records,
                                        step=self.discrepancy_step,
                                        max_evaluations=self.discrepancy_evaluations,
                                        modules=getattr(objective, "modules", None))
-        logger.info("bayes: model discrepancy (%s) sigma = %.3g m/s^2, %.3g m/s^2, %.3g rad/s^2, "
+        logger.info("bayes: model discrepancy (%s%s) sigma = %.3g m/s^2, %.3g m/s^2, %.3g rad/s^2, "
                     "tau = %.1f s, %.1f s, %.1f s; constant per record: sd %.3g m/s^2, %.3g m/s^2, "
-                    "%.3g rad/s^2", found.kind, *found.sigma, *found.taus, *found.offset_sd)
+                    "%.3g rad/s^2", found.kind,
+                    ", each record filtered by the model of the others" if per_record else "",
+                    *found.sigma, *found.taus, *found.offset_sd)
         out = Identification()
         out.samples["discrepancy"] = found.as_sample()
         out.metrics.update(found.metrics(objective.vessel))
