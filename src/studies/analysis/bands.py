@@ -108,6 +108,30 @@ def _initial_spread(record: pd.DataFrame, settings: KalmanSettings, bias_sd) -> 
     return {ch: float(np.sqrt(var[j] + float(bias_sd[j]) ** 2)) for j, ch in enumerate(("u", "v", "r"))}
 
 
+def _mean_along_centre(plan, centre: np.ndarray, discrepancy, vessel, record: pd.DataFrame,
+                       passes: int = 2) -> np.ndarray:
+    """The discrepancy's mean accelerations (steps, 3) on the integration grid,
+    evaluated along the replay of the coefficients ``centre`` that carries
+    them (``passes`` fixed-point passes from the uncorrected replay); zeros
+    without a mean or when that replay diverges. Every replay of the band
+    adds the same series: the mean is smooth in the state, and the replays
+    stay near their centre."""
+    mean = np.zeros((plan.steps, 3))
+    if getattr(discrepancy, "mean_coef", None) is None:
+        return mean
+    t = record["t"].to_numpy(float)
+    grid = np.arange(plan.steps) * plan.step
+    for _ in range(passes):
+        states, diverged = plan.run_one(centre, plan.external_accelerations(mean), None,
+                                        discrepancy.rate_gain)
+        if diverged >= 0:
+            return np.zeros((plan.steps, 3))
+        n = min(len(states), len(t))
+        on_grid = [np.interp(grid, t[:n] - t[0], states[:n, j]) for j in range(3)]
+        mean = discrepancy.mean_along(on_grid[0] + float(vessel.speed), on_grid[1], on_grid[2], vessel.length)
+    return mean
+
+
 def predictive_draws(model, vectors: np.ndarray, vessel, record: pd.DataFrame, discrepancy=None,
                      seed: int = 0, settings: KalmanSettings | None = None, modules=None,
                      steer: bool = False):
@@ -127,7 +151,9 @@ def predictive_draws(model, vectors: np.ndarray, vessel, record: pd.DataFrame, d
     (:func:`~studies.simulate.manoeuvres.zigzag_of_record`): its heading
     error corrects itself as the ship's did, where a replay of the measured
     rudder turns yaw noise into heading drift; other records follow their
-    measured rudder.
+    measured rudder. A discrepancy with a mean that depends on the state
+    (``mean_coef``) adds it to every replay along the replay of the
+    coefficients' median that carries it (:func:`_mean_along_centre`).
     Returns ``(states (n_draws, n, 7), diverged (n_draws,))`` as
     :func:`~studies.simulate.simulator.replay_many` (columns 3-5: ``x0, y0,
     psi``).
@@ -140,9 +166,10 @@ def predictive_draws(model, vectors: np.ndarray, vessel, record: pd.DataFrame, d
     rng = np.random.default_rng(seed)
     spread = _initial_spread(record, settings, discrepancy.initial_sd)
     first = record.iloc[0]
+    mean = _mean_along_centre(plan, np.median(vectors, axis=0), discrepancy, vessel, record)
     states, diverged = [], []
     for vector in vectors:
-        ext = plan.external_accelerations(discrepancy.realise(plan.steps, plan.step, rng))
+        ext = plan.external_accelerations(discrepancy.realise(plan.steps, plan.step, rng) + mean)
         initial = {ch: float(first[ch]) + spread[ch] * rng.standard_normal() for ch in ("u", "v", "r")}
         s, d = plan.run_one(vector, ext, initial, discrepancy.rate_gain)
         states.append(s)

@@ -210,6 +210,11 @@ class BayesMethod(MethodConfig):
         without it (default), so that the discrepancy is what the model
         misses on a record it did not train on; false: every record at the
         posterior medians.
+    discrepancy_mean : bool
+        A mean of the discrepancy that depends on the state (the speed lost
+        in a turn, ...), fitted to the training records' smoothed
+        discrepancy and added to the bands (default); false: centred on the
+        model.
     max_steps : int or None
         The budget of a chain that has not converged (shorter than 50
         autocorrelation times): it runs on by itself up to this many steps
@@ -240,6 +245,7 @@ class BayesMethod(MethodConfig):
     discrepancy_step: Optional[float] = 0.5
     discrepancy_evaluations: int = 600
     discrepancy_out_of_sample: bool = True
+    discrepancy_mean: bool = True
     max_steps: Optional[int] = 50000
 
     def __post_init__(self):

@@ -101,6 +101,11 @@ class BayesianRegression:
         without it (:func:`~studies.identify.discrepancy.out_of_sample_values`),
         so that the discrepancy is what the model misses on records it was
         not fitted to (default); False: every record at the posterior medians.
+    discrepancy_mean : bool
+        Fit a mean of the discrepancy that depends on the state
+        (:func:`~studies.identify.discrepancy.fit_mean`) to the training
+        records' smoothed discrepancy; the bands add it (default); False: the
+        discrepancy is centred on the model.
 
     References
     ----------
@@ -120,7 +125,7 @@ class BayesianRegression:
                  trajectory_init_scale: float = 0.01, trajectory_autocorr_correction: bool = True,
                  discrepancy: str = "none", discrepancy_step: float | None = 0.5,
                  discrepancy_evaluations: int = 600, max_steps: int | None = None,
-                 discrepancy_out_of_sample: bool = True):
+                 discrepancy_out_of_sample: bool = True, discrepancy_mean: bool = True):
         for key, value, low in (("n_samples", n_samples, 1), ("burn_in", burn_in, 0),
                                 ("thin", thin, 1), ("trajectory_steps", trajectory_steps, 1),
                                 ("trajectory_burn_in", trajectory_burn_in, 0),
@@ -173,6 +178,7 @@ class BayesianRegression:
         self.discrepancy_step = None if discrepancy_step is None else float(discrepancy_step)
         self.discrepancy_evaluations = int(discrepancy_evaluations)
         self.discrepancy_out_of_sample = bool(discrepancy_out_of_sample)
+        self.discrepancy_mean = bool(discrepancy_mean)
         if max_steps is not None and (int(max_steps) != max_steps or max_steps < 1):
             raise ConfigError(f"method.max_steps must be null or an integer >= 1, got {max_steps!r}")
         self.max_steps = None if max_steps is None else int(max_steps)
@@ -285,7 +291,8 @@ class BayesianRegression:
         found = estimate_process_noise(model, per_record or values, objective.vessel, objective.records,
                                        step=self.discrepancy_step,
                                        max_evaluations=self.discrepancy_evaluations,
-                                       modules=getattr(objective, "modules", None))
+                                       modules=getattr(objective, "modules", None),
+                                       mean=self.discrepancy_mean)
         logger.info("bayes: model discrepancy (%s%s) sigma = %.3g m/s^2, %.3g m/s^2, %.3g rad/s^2, "
                     "tau = %.1f s, %.1f s, %.1f s; constant per record: sd %.3g m/s^2, %.3g m/s^2, "
                     "%.3g rad/s^2", found.kind,
