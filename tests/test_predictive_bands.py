@@ -336,9 +336,15 @@ def test_wrong_model_bands_over_seeds(vessel):
 def test_kvlcc2_bands_with_the_discrepancy(tmp_path):
     """``studies run vessel=kvlcc2 method=bayes method.discrepancy=process_noise``
     on zz_20 + tc_35, validated on zz_10: the files and metrics of the bands,
-    and the measured figures (seed 0): the 90 % bands of x0 and y0 hold the
-    measured track 80 % of the time, the joint 90 % band 84 % (without the
-    discrepancy 74 and 76 %), 143 m wide on a 3790 m manoeuvre. (Before the
+    and the measured figures (seed 0). The zig-zag is replayed as it was run
+    (``validate.band_replay=steered``): the joint 90 % band holds the measured
+    track 70 % of the time, the 90 % bands of x0 and y0 each 60 %, 81 m wide
+    on a 3790 m manoeuvre (CRPS 15.3 m); one record says little about
+    calibration (tests/test_band_calibration.py and docs/calibration.md judge
+    it over many), and with two training records the discrepancy is
+    estimated in sample, which the 16 KVLCC2 records show to be narrow for
+    steered replays. Replayed with its measured rudder it held 84 % and 80 %,
+    143 m wide (without the discrepancy 74 and 76 %). (Before the
     discrepancy had a correlation time per channel, a growth with |r'| and
     the initial spread of the start of the records: 82 % and 156 m; the
     initial spread then was the RMS of the sensor biases over whole records,
@@ -359,9 +365,11 @@ def test_kvlcc2_bands_with_the_discrepancy(tmp_path):
                 "interval_score_xy_m", "crps_xy_m", "covered_until_s", "trusted", "outside_training"):
         assert f"{rec}/band/{key}" in metrics, key
     assert metrics[f"{rec}/band/discrepancy"] == 1.0
-    assert 0.7 <= metrics[f"{rec}/band/coverage_xy"] <= 0.97
-    assert 0.8 <= metrics[f"{rec}/band/coverage_joint"] <= 0.97
-    assert metrics[f"{rec}/band/width_over_extent"] < 0.2
+    assert metrics[f"{rec}/band/steered"] == 1.0
+    assert 0.5 <= metrics[f"{rec}/band/coverage_xy"] <= 0.97
+    assert 0.6 <= metrics[f"{rec}/band/coverage_joint"] <= 0.97
+    assert metrics[f"{rec}/band/width_over_extent"] < 0.05
+    assert metrics[f"{rec}/band/crps_xy_m"] < 30.0
     assert metrics["discrepancy/tau_s"] > 0
     text = (out / "bands.md").read_text()
     assert rec in text and "trusted" in text

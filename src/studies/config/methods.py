@@ -213,8 +213,9 @@ class BayesMethod(MethodConfig):
     discrepancy_mean : bool
         A mean of the discrepancy that depends on the state (the speed lost
         in a turn, ...), fitted to the training records' smoothed
-        discrepancy and added to the bands (default); false: centred on the
-        model.
+        discrepancy and added to the bands; false (default): centred on the
+        model (the mean, learnt on the training records, misleads a record
+        beyond them: docs/calibration.md).
     max_steps : int or None
         The budget of a chain that has not converged (shorter than 50
         autocorrelation times): it runs on by itself up to this many steps
@@ -245,7 +246,7 @@ class BayesMethod(MethodConfig):
     discrepancy_step: Optional[float] = 0.5
     discrepancy_evaluations: int = 600
     discrepancy_out_of_sample: bool = True
-    discrepancy_mean: bool = True
+    discrepancy_mean: bool = False
     max_steps: Optional[int] = 50000
 
     def __post_init__(self):
