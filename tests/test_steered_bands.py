@@ -23,7 +23,8 @@ import numpy as np
 import pytest
 from conftest import hsva_file, marin_file
 
-from studies.analysis.bands import point_replay, position_rmse, predictive_draws
+from studies.analysis.bands import point_replay, predictive_draws
+from studies.analysis.metrics import position_rmse
 from studies.data.hsva import read_hsva
 from studies.data.marin import read_marin
 from studies.errors import ConfigError

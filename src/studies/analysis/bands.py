@@ -65,8 +65,8 @@ from ..plotting import pyplot
 from ..simulate.simulator import replay_plan
 
 __all__ = ["LEVELS", "Z_SCORES", "TRUSTED_COVERAGE", "interval_score", "crps_ensemble", "joint_coverage",
-           "predictive_draws", "point_replay", "position_rmse", "band_statistics", "pit_values", "training_envelope", "outside_fraction",
-           "trust_verdict", "plot_calibration"]
+           "predictive_draws", "point_replay", "band_statistics", "pit_values", "training_envelope",
+           "outside_fraction", "trust_verdict", "plot_calibration"]
 
 #: nominal levels of the calibration check
 LEVELS = (0.5, 0.8, 0.9, 0.95)
@@ -194,15 +194,6 @@ def point_replay(model, vector: np.ndarray, vessel, record: pd.DataFrame, module
         track.loc[:, ["x0", "y0", "psi"]] = np.nan
     track.attrs["name"] = record.attrs.get("name", "record")
     return track, bool(getattr(plan, "steered", False))
-
-
-def position_rmse(track: pd.DataFrame, record: pd.DataFrame) -> float:
-    """Position RMSE [m] of ``track`` (:func:`point_replay`) against the
-    measured ``x0, y0`` over their common samples; nan when it diverged."""
-    n = min(len(track), len(record))
-    dx = track["x0"].to_numpy(float)[:n] - record["x0"].to_numpy(float)[:n]
-    dy = track["y0"].to_numpy(float)[:n] - record["y0"].to_numpy(float)[:n]
-    return float(np.sqrt(np.mean(dx ** 2 + dy ** 2)))
 
 
 def band_statistics(states: np.ndarray, diverged: np.ndarray, record: pd.DataFrame, noise: bool = True,

@@ -49,7 +49,13 @@ def error_metrics(pred: pd.DataFrame, ref: pd.DataFrame, prefix: str) -> dict:
         out[f"{prefix}/rmse_{col}"] = float(np.sqrt(np.mean(e ** 2))) if not diverged else DIVERGED_PENALTY
         out[f"{prefix}/mae_{col}"] = float(np.mean(np.abs(e))) if not diverged else DIVERGED_PENALTY
     if not diverged:
-        ax, bx = _aligned(pred, ref, "x0")
-        ay, by = _aligned(pred, ref, "y0")
-        out[f"{prefix}/rmse_position"] = float(np.sqrt(np.mean((ax - bx) ** 2 + (ay - by) ** 2)))
+        out[f"{prefix}/rmse_position"] = position_rmse(pred, ref)
     return out
+
+
+def position_rmse(pred: pd.DataFrame, ref: pd.DataFrame) -> float:
+    """Position RMSE [m] of ``pred`` against ``ref`` (``x0, y0``) over their
+    common samples; nan when ``pred`` holds NaN (a diverged replay)."""
+    ax, bx = _aligned(pred, ref, "x0")
+    ay, by = _aligned(pred, ref, "y0")
+    return float(np.sqrt(np.mean((ax - bx) ** 2 + (ay - by) ** 2)))

@@ -138,6 +138,7 @@ from scipy.signal import lfilter
 from ..errors import ConfigError
 from ..simulate.simulator import acceleration_forces
 from .kalman import KalmanSettings, _default_qc, innovation_loglik
+from .ls import LeastSquares
 from ..config import BAYES_DISCREPANCIES
 
 __all__ = ["DISCREPANCIES", "Discrepancy", "MEAN_FEATURES", "estimate_process_noise", "fit_mean", "mean_features",
@@ -505,9 +506,10 @@ def estimate_process_noise(model, values: dict, vessel, records, settings: Kalma
                                            modules=modules, gain=gain)
         starts.append(states[0, 9:12] ** 2 + var[0, 9:12])
         means.append(np.mean(states[:, 6:9], axis=0))
-        features.append(mean_features(rec["u"].to_numpy(float), rec["v"].to_numpy(float),
-                                      rec["r"].to_numpy(float), vessel.length))
-        smoothed.append(states[:, 6:9])
+        if mean:
+            features.append(mean_features(rec["u"].to_numpy(float), rec["v"].to_numpy(float),
+                                          rec["r"].to_numpy(float), vessel.length))
+            smoothed.append(states[:, 6:9])
         t = rec["t"].to_numpy(float)
         durations.append(float(t[-1] - t[0]))
     initial_sd = np.sqrt(np.mean(starts, axis=0))
@@ -554,8 +556,6 @@ def out_of_sample_values(problems: dict, values: dict, n_records: int) -> list |
     estimated out of sample are 1.5 and 1.4 times the in-sample ones
     (``docs/calibration.md``).
     """
-    from .ls import LeastSquares
-
     if n_records < 3 or any(getattr(p, "record", None) is None for p in problems.values()):
         return None
     solver = LeastSquares()

@@ -13,6 +13,7 @@ instead of NaN.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -192,9 +193,7 @@ def _replay_inputs(model: ManoeuvringModel, vessel: Vessel, record: pd.DataFrame
     duration = dt * (len(t) - 1)
     zigzag = zigzag_of_record(record) if steer else None
     man = Manoeuvre(str(record.attrs.get("name", "record")), "rudder", duration, dt, max_step=max_step) \
-        if zigzag is None else Manoeuvre(zigzag.name, "zigzag", zigzag.duration, zigzag.dt, max_step=max_step,
-                                         amplitude=zigzag.amplitude, heading=zigzag.heading,
-                                         first_sign=zigzag.first_sign, execute=zigzag.execute)
+        if zigzag is None else dataclasses.replace(zigzag, max_step=max_step)
     grid = man.step_times()
     environment = environment or Environment()
     initial = _replay_initial(record, environment, None)

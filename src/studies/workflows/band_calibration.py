@@ -41,7 +41,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..analysis.bands import LEVELS, band_statistics, point_replay, position_rmse, predictive_draws
+from ..analysis.bands import LEVELS, band_statistics, point_replay, predictive_draws
+from ..analysis.metrics import position_rmse
 from ..identify.discrepancy import Discrepancy
 from ..plotting import pyplot
 from . import measured as _measured
@@ -84,10 +85,12 @@ def held_out_bands(run, result, record: pd.DataFrame, rmse: float, n_draws: int,
     vectors = _measured.posterior_vectors(run.model, result, n_draws, seed)
     discrepancy = Discrepancy.from_sample(result.samples.get("discrepancy"))
     modules = getattr(run, "modules", None)
-    centre = np.array([result.params.get(n, 0.0) for n in run.model.names], float)
-    track, steered = point_replay(run.model, centre, run.vessel, record, modules, steer)
-    if steered:
-        rmse = position_rmse(track, record)
+    steered = False
+    if steer:
+        centre = np.array([result.params.get(n, 0.0) for n in run.model.names], float)
+        track, steered = point_replay(run.model, centre, run.vessel, record, modules, steer)
+        if steered:
+            rmse = position_rmse(track, record)
     rows, pit = [], {}
     for band in BANDS:
         with_discrepancy = discrepancy if band == "band" else None

@@ -455,8 +455,10 @@ def _validate_records(study: ManoeuvringRun, params: dict, out_dir: Path, result
             band = _measured.posterior_band(study.model, vectors, study.vessel, rec,
                                             discrepancy=discrepancy, seed=study.settings.seed,
                                             modules=getattr(study, "modules", None), steer=steer)
-            centre, steered = point_replay(study.model, study.model.vector(params, default=0.0), study.vessel,
-                                           rec, getattr(study, "modules", None), steer)
+            centre, steered = None, False
+            if steer:
+                centre, steered = point_replay(study.model, study.model.vector(params, default=0.0),
+                                               study.vessel, rec, getattr(study, "modules", None), steer)
             metrics[f"{name}/band/steered"] = float(steered)
             for key in BAND_KEYS:
                 metrics[f"{name}/band/{key}"] = band[key]
