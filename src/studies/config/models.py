@@ -280,6 +280,11 @@ class MMGModelConfig(ModelConfig):
         thrust of the training records that carry a ``thrust`` column
         (:mod:`studies.identify.mmg_propeller`); without one the published
         values are kept.
+    rudder_lift : str
+        ``published``: the vessel's rudder lift gradient ``f_alpha`` and the
+        standard method's normal force, linear in ``sin(alpha_R)``. ``fit``:
+        ``f_alpha`` and the quadratic ``f_alpha_2`` identified with the hull
+        from the training records (:mod:`studies.identify.mmg_rudder`).
     """
 
     prior_scale: float = 0.5
@@ -296,6 +301,7 @@ class MMGModelConfig(ModelConfig):
     cross_validate_jobs: int = 1
     asymmetry: bool = False
     fit_wake: bool = False
+    rudder_lift: str = "published"
 
     def __post_init__(self):
         super().__post_init__()
@@ -312,6 +318,8 @@ class MMGModelConfig(ModelConfig):
                               "model.output_error_evaluations at least 1")
         if self.weights not in ("none", "speed"):
             raise ConfigError(f"model.weights must be none or speed, got '{self.weights}'")
+        if self.rudder_lift not in ("published", "fit"):
+            raise ConfigError(f"model.rudder_lift must be published or fit, got '{self.rudder_lift}'")
         if not self.captive_weight >= 0:
             raise ConfigError(f"model.captive_weight must be >= 0, got {self.captive_weight}")
         self.cross_validate_jobs = _integer("model.cross_validate_jobs", self.cross_validate_jobs)

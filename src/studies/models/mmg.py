@@ -48,6 +48,7 @@ thrust).
 Rudder (eq. 18-32)::
 
     F_N = 0.5 rho A_R U_R^2 f_alpha sin(alpha_R),   alpha_R = delta_M - atan(v_R / u_R)
+        [+ 0.5 rho A_R U_R^2 f_alpha_2 sin(alpha_R) |sin(alpha_R)|, see below]
     X_R = -(1 - t_R) F_N sin(delta_M)
     Y_R = -(1 + a_H) F_N cos(delta_M)
     N_R = -(x_R + a_H x_H) F_N cos(delta_M)
@@ -55,7 +56,12 @@ Rudder (eq. 18-32)::
     v_R = U gamma_R beta_R,   beta_R = beta - l'_R r',   eta = D / H_R
     gamma_R = gamma_R- for beta_R < 0, gamma_R+ otherwise
 
-with ``x_R`` the rudder position and ``x_H = x'_H L``.
+with ``x_R`` the rudder position and ``x_H = x'_H L``. The bracketed term
+is not in the standard method (``f_alpha_2 = 0`` by default): the normal
+force of a rudder of low aspect ratio grows faster than ``sin(alpha_R)`` at
+large angles of attack (the cross-flow part of low-aspect-ratio wing
+theory); :mod:`studies.identify.mmg_rudder` identifies ``f_alpha`` and
+``f_alpha_2`` from free-running records.
 :func:`thrust_normal_force` evaluates ``u_R`` in the equivalent form
 ``epsilon sqrt(eta (u_P + kappa (sqrt(u_P^2 + 8 T / (pi rho D^2)) - u_P))^2
 + (1 - eta) u_P^2)`` with ``u_P = u (1 - w_P)`` (no division by ``J_P``),
@@ -174,6 +180,12 @@ class MMGParameters:
         Propeller slipstream correction kappa [-].
     f_alpha : float
         Rudder lift gradient coefficient f_alpha [1/rad].
+    f_alpha_2 : float
+        Coefficient of the rudder normal force's quadratic (cross-flow) part
+        [-]: ``F_N = 0.5 rho A_R U_R^2 (f_alpha sin a_R + f_alpha_2 sin a_R
+        |sin a_R|)``. 0 in the MMG standard method (a normal force linear in
+        ``sin a_R``); a low-aspect-ratio rudder's force grows faster than that
+        at large angles of attack.
     """
 
     tP: float = 0.220
@@ -190,6 +202,7 @@ class MMGParameters:
     epsilon: float = 1.09
     kappa: float = 0.50
     f_alpha: float = 2.747
+    f_alpha_2: float = 0.0
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -229,7 +242,7 @@ def fit_kt(j, kt) -> tuple[float, float, float]:
 #: names of :func:`module_constants`, in order
 MODULE_CONSTANTS = ("L", "rho", "D", "k0", "k1", "k2", "xP", "xR", "q_rudder", "eta", "tP",
                     "wP0", "C1", "C2_plus", "C2_minus", "tR", "aH", "xH", "gammaR_minus",
-                    "gammaR_plus", "lR", "epsilon", "kappa")
+                    "gammaR_plus", "lR", "epsilon", "kappa", "q_rudder_2")
 
 
 def module_constants(vessel, params: MMGParameters) -> tuple:
@@ -248,7 +261,7 @@ def module_constants(vessel, params: MMGParameters) -> tuple:
               0.5 * vessel.rho * vessel.rudder_area * p.f_alpha,
               vessel.propeller_diameter / vessel.rudder_height, p.tP, p.wP0, p.C1, p.C2_plus,
               p.C2_minus, p.tR, p.aH, p.xH * L, p.gammaR_minus, p.gammaR_plus, p.lR, p.epsilon,
-              p.kappa)
+              p.kappa, 0.5 * vessel.rho * vessel.rudder_area * p.f_alpha_2)
     return tuple(float(x) for x in values)
 
 
@@ -331,7 +344,7 @@ def thrust_normal_force(u, speed, beta, rp, sin_delta, cos_delta, n, k):
     ``U_R^2`` summed beside ``u_R^2`` instead of from it).
     """
     (L, rho, D, k0, k1, k2, xP, xR, q_rudder, eta, tP, wP0, C1, C2p, C2m, tR, aH, xH,
-     gRm, gRp, lR, eps, kappa) = k
+     gRm, gRp, lR, eps, kappa, q_rudder_2) = k
     # propeller inflow: the wake changes with the drift at the propeller,
     # u_P = u (1 - w_P) = u (1 - w_P0) (C_2 - (C_2 - 1) exp(-C_1 |beta_P|))
     beta_p = beta - xP * rp
@@ -356,6 +369,8 @@ def thrust_normal_force(u, speed, beta, rp, sin_delta, cos_delta, n, k):
     outside = (eps * eps * (1.0 - eta)) * u_p * u_p
     u_r = np.sqrt(inflow * inflow + outside)
     speed_r = np.sqrt(inflow * inflow + (outside + v_r * v_r))
-    # F_N = 0.5 rho A_R f_alpha U_R^2 sin(alpha_R), U_R sin(alpha_R) = u_R sin(dM) - v_R cos(dM),
-    # with the MMG's rudder sign opposite to the contract's
-    return rho * D * D * p, q_rudder * speed_r * (u_r * -sin_delta - v_r * cos_delta)
+    # F_N = 0.5 rho A_R U_R^2 (f_alpha sin(alpha_R) + f_alpha_2 sin(alpha_R) |sin(alpha_R)|),
+    # U_R sin(alpha_R) = u_R sin(dM) - v_R cos(dM), with the MMG's rudder sign opposite to the
+    # contract's; the quadratic part, 0 in the standard method, adds exactly 0.0
+    across = u_r * -sin_delta - v_r * cos_delta
+    return rho * D * D * p, q_rudder * speed_r * across + q_rudder_2 * across * np.abs(across)

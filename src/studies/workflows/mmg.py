@@ -62,6 +62,7 @@ from .methods import check_method
 from ..identify.ls import LeastSquares
 from ..identify.mmg_output_error import MMGObjective, refine_modules
 from ..identify.mmg_propeller import fit_wake
+from ..identify.mmg_rudder import RUDDER_LIFT_FACTORS, fit_rudder_lift, rudder_lift_columns
 from ..identify.mmg_regression import mmg_problems
 from ..models.mmg import mmg
 from ..models.registry import get_model
@@ -221,11 +222,13 @@ def _estimates(run: MMGRun) -> list:
     return _measured.estimate_all(run.records, derivative, kalman)
 
 
-def hull_problems(run: MMGRun):
+def hull_problems(run: MMGRun, estimates=None):
     """``problems(modules)``: the hull regression of the run's records (prior and captive rows
-    as configured) for given propeller and rudder parameters."""
+    as configured) for given propeller and rudder parameters; ``estimates`` the records'
+    smoothed states when already computed."""
     cfg = run.cfg.model
-    estimates = _estimates(run)
+    if estimates is None:
+        estimates = _estimates(run)
     prior = dict(run.vessel.coefficients) if math.isfinite(cfg.prior_scale) else None
 
     captive = None
@@ -244,7 +247,8 @@ def hull_problems(run: MMGRun):
 def identify_mmg(run: MMGRun):
     """Hull coefficients (and listed interaction factors); ``(result, modules, metrics)``."""
     cfg = run.cfg.model
-    problems = hull_problems(run)
+    estimates = _estimates(run)
+    problems = hull_problems(run, estimates)
 
     def fit_hull(modules):
         return LeastSquares().fit(problems(modules)).params
@@ -255,6 +259,13 @@ def identify_mmg(run: MMGRun):
     if cfg.fit_wake:
         modules, wake = fit_wake(run.records, run.vessel, modules)
         metrics.update(wake)
+    if cfg.rudder_lift == "fit":
+        modules, lift = fit_rudder_lift(problems(modules),
+                                        rudder_lift_columns(run.vessel, modules, run.records, estimates),
+                                        modules)
+        metrics.update(lift)
+        logger.info("rudder lift identified with the hull: f_alpha %.3f (published %.3f), "
+                    "f_alpha_2 %.3f", modules.f_alpha, run.vessel.modules.f_alpha, modules.f_alpha_2)
     if cfg.output_error:
         modules, _, info = refine_modules(run.model, run.vessel, run.records, modules,
                                           cfg.output_error, fit_hull, cfg.output_error_sample_s,
@@ -271,8 +282,13 @@ def identify_mmg(run: MMGRun):
 
 def _factor_table(run: MMGRun, modules) -> pd.DataFrame:
     fitted = set(run.cfg.model.output_error)
-    rows = [{"name": k, "value": v, "prior": getattr(run.vessel.modules, k),
-             "source": "output_error" if k in fitted else "published"}
+    regressed = set(RUDDER_LIFT_FACTORS) if run.cfg.model.rudder_lift == "fit" else set()
+
+    def source(name):
+        if name in fitted:
+            return "output_error"
+        return "regression" if name in regressed else "published"
+    rows = [{"name": k, "value": v, "prior": getattr(run.vessel.modules, k), "source": source(k)}
             for k, v in modules.as_dict().items()]
     return pd.DataFrame(rows)
 
