@@ -126,3 +126,42 @@ def test_hsva_zigzags_give_a_rudder_stronger_at_large_angles_that_narrows_the_ma
     assert abs(m[f"{tc}/steady_diameter_error_pct"]) < 4.0               # published rudder: +8.9 %
     assert abs(m[f"{tc}/steady_speed_error_pct"]) < 5.0
     assert abs(m[f"{tc}/steady_yaw_rate_error_pct"]) < 5.0
+
+
+def test_the_lift_is_read_from_the_records_rows_not_from_the_captive_rows():
+    """A regression whose rows say ``f_alpha`` is 0.3 higher and ``f_alpha_2`` 1.1: the fit
+    finds them, and captive rows (forces taken with the starting rudder, here made wrong on
+    purpose) do not move it."""
+    from studies.identify.mmg_regression import MMG_CAPTIVE_RECORD, MMG_PRIOR_RECORD
+    from studies.identify.mmg_rudder import fit_rudder_lift
+    from studies.identify.regression import RegressionProblem
+    from studies.models.mmg import MMGParameters
+
+    rng = np.random.default_rng(3)
+    n, k = 400, 3
+    start = MMGParameters()
+
+    def problems(with_captive):
+        out, columns = {}, {}
+        for dof in ("Y", "N"):
+            theta = rng.standard_normal((n, k))
+            lift = rng.standard_normal((n, 2))
+            y = theta @ np.array([0.2, -0.1, 0.05]) + lift @ np.array([0.3, 1.1]) + 1e-3 * rng.standard_normal(n)
+            record = np.zeros(n, int)
+            if with_captive:
+                theta = np.vstack([theta, rng.standard_normal((30, k))])
+                y = np.concatenate([y, 50.0 + rng.standard_normal(30)])
+                record = np.concatenate([record, np.full(30, MMG_CAPTIVE_RECORD)])
+            theta = np.vstack([theta, 0.01 * np.eye(k)])
+            y = np.concatenate([y, np.zeros(k)])
+            record = np.concatenate([record, np.full(k, MMG_PRIOR_RECORD)])
+            problem = RegressionProblem(dof, theta, y, [f"c{i}" for i in range(k)], record=record)
+            problem.n_data = n
+            out[dof], columns[dof] = problem, lift
+        return out, columns
+
+    for with_captive in (False, True):
+        fitted, metrics = fit_rudder_lift(*problems(with_captive), start)
+        assert fitted.f_alpha == pytest.approx(start.f_alpha + 0.3, abs=1e-3), with_captive
+        assert fitted.f_alpha_2 == pytest.approx(1.1, abs=1e-3), with_captive
+        assert metrics["rudder/f_alpha_2"] == fitted.f_alpha_2 and metrics["rudder/f_alpha_2_se"] < 1e-3

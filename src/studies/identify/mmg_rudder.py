@@ -20,9 +20,10 @@ and yaw moment is linear in the two coefficients, through the published
 gains ``-(1 + a_H)`` and ``-(x_R + a_H x_H)``. Sway and yaw share the two
 coefficients; each DOF's rows (records and prior rows alike) are divided by
 that DOF's residual RMS of the unregularised fit, so the two are weighed by
-their own noise. The hull coefficients of this joint fit are not kept: the
-run regresses the hull again with the identified rudder (the same least
-squares, the rudder's columns then known).
+their own noise. The captive tests' rows, when the regression has them, are
+left out of this fit (their hull forces were taken with the starting
+rudder). The hull coefficients of this joint fit are not kept: the run
+regresses the hull again, captive rows included, with the identified rudder.
 
 Units: forces prime (over ``0.5 rho L d U^2``, moment ``0.5 rho L^2 d
 U^2``), ``f_alpha`` [1/rad] as in the MMG, ``f_alpha_2`` [-]; the records
@@ -36,6 +37,7 @@ import dataclasses
 import numpy as np
 
 from ..models.mmg import MMGParameters, module_constants, module_forces
+from .mmg_regression import MMG_CAPTIVE_RECORD
 
 __all__ = ["rudder_lift_columns", "fit_rudder_lift", "RUDDER_LIFT_FACTORS"]
 
@@ -108,10 +110,13 @@ def fit_rudder_lift(problems: dict, columns: dict, modules: MMGParameters) -> tu
         n_data = int(getattr(problem, "n_data", problem.theta.shape[0]))
         extra = np.zeros((problem.theta.shape[0], 2))
         extra[:n_data] = columns[dof]
+        keep = np.ones(problem.theta.shape[0], bool)
+        if problem.record is not None:
+            keep = np.asarray(problem.record) != MMG_CAPTIVE_RECORD
         records_theta, records_y = problem.theta[:n_data], problem.y[:n_data]
         fitted = np.linalg.lstsq(records_theta, records_y, rcond=None)[0]
         sigma = float(np.sqrt(np.mean((records_y - records_theta @ fitted) ** 2)))
-        blocks.append((problem.theta / sigma, extra / sigma, problem.y / sigma))
+        blocks.append((problem.theta[keep] / sigma, extra[keep] / sigma, problem.y[keep] / sigma))
     widths = [b[0].shape[1] for b in blocks]
     rows = []
     for i, (theta, extra, _) in enumerate(blocks):
