@@ -88,7 +88,7 @@ from ..data.derivatives import MODEL_FREE_METHODS, DerivativeEstimate
 from ..data.derivatives import estimate_derivatives as model_free_derivatives
 from ..data.resample import uniform_step
 from ..errors import ConfigError
-from ..models.mmg import HULL_TERMS
+from ..models.mmg import HULL_TERMS, MODULE_CONSTANTS
 from ..simulate.mmg import mmg_acceleration, process_constants
 from ..simulate.monomials import dense_coefficients, scaled_forces
 from ..vessels.kvlcc2_mmg import MMGVessel
@@ -567,7 +567,7 @@ def _biased_channels(settings: KalmanSettings) -> tuple:
 
 
 #: the MMG constants of a filter without the MMG process model (one compiled signature)
-_NO_MMG = ((0.0,) * len(HULL_TERMS), (0.0,) * 23, (0.0,) * 13, (0.0,) * 4)
+_NO_MMG = ((0.0,) * len(HULL_TERMS), (0.0,) * len(MODULE_CONSTANTS), (0.0,) * 13, (0.0,) * 4)
 
 
 def _process(model, values: dict, vessel, modules=None, tau=None, gain: float = 0.0) -> tuple:
