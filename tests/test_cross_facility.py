@@ -146,3 +146,32 @@ def test_the_report_sets_the_published_predictions_and_the_cross_validation_besi
     assert "## Predictions beside published ones" in page and "| 3.1 | port |" in page
     assert "## Each training record held out in turn" in page
     assert "| HSVA_CPMC_KVLCC2_Z_35_05 | -4.6 |" in page
+
+
+@pytest.mark.slow
+def test_a_zigzag_is_run_again_as_it_was_run(tmp_path):
+    """The closed-loop overshoots of a 30/5 zig-zag: the model's own 30/5 (rudder 30 deg,
+    reversed at 5 deg of heading), not a 30/30. With the coefficients of the simulator that
+    made the record (MMG, no noise) they are the record's to a fraction of a degree."""
+    from studies.scenarios.hidden import write_records
+    from studies.simulate import zigzag
+    from studies.simulate.mmg import simulate_mmg
+    from studies.models.mmg import mmg
+    from studies.vessels import get_mmg_vessel
+
+    vessel = get_mmg_vessel("kvlcc2")
+    model = mmg()
+    records = []
+    for (angle, heading), name in (((10.0, 10.0), "zz10"), ((20.0, 20.0), "zz20"), ((30.0, 5.0), "zz30_5")):
+        rec = simulate_mmg(model, vessel.coefficients, vessel, zigzag(angle, heading, duration=80.0, dt=0.05))
+        rec.attrs.update({"name": name, "vessel": "kvlcc2"})
+        records.append(rec)
+    paths = write_records(records, tmp_path)
+    cfg = compose_settings("config", overrides=[
+        "model=mmg", f"data.path=[{','.join(paths[:2])}]", f"validate.path=[{paths[2]}]",
+        "data.derivative=central", "model.captive=false", "model.compare_abkowitz=false", "model.prior_scale=1e6"])
+    m = kind_for(cfg).prepare(cfg, tmp_path).execute(tmp_path / "out")
+    for k in (1, 2):
+        measured = m[f"zz30_5/closed_loop/overshoot{k}_deg_measured"]
+        assert 1.0 < measured < 15.0, (k, measured)                      # a 30/5's overshoots
+        assert abs(m[f"zz30_5/closed_loop/overshoot{k}_error_deg"]) < 0.3, k

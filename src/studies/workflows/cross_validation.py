@@ -33,14 +33,20 @@ from .band_calibration import held_out_bands
 
 __all__ = ["CV_QUANTITIES", "cross_validate", "cv_table_markdown"]
 
-#: characteristics reported per held-out record (prediction minus measurement)
+#: characteristics reported per held-out record (prediction minus measurement); a zig-zag's
+#: overshoots both replayed with its measured rudder and run again by the model as the test
+#: was run (``closed_loop/``: the rudder reversed when the model's heading reaches the
+#: record's execute heading)
 CV_QUANTITIES = ("rmse_position", "advance_error_pct", "tactical_diameter_error_pct",
                  "steady_speed_error_pct", "steady_yaw_rate_error_pct", "overshoot1_error_deg",
-                 "overshoot2_error_deg")
+                 "overshoot2_error_deg", "closed_loop/overshoot1_error_deg",
+                 "closed_loop/overshoot2_error_deg")
 _HEADINGS = {"rmse_position": "RMSE position [m]", "advance_error_pct": "advance [%]",
              "tactical_diameter_error_pct": "tactical diameter [%]",
              "steady_speed_error_pct": "speed in turn [%]", "steady_yaw_rate_error_pct": "yaw rate in turn [%]",
-             "overshoot1_error_deg": "1st overshoot [deg]", "overshoot2_error_deg": "2nd overshoot [deg]"}
+             "overshoot1_error_deg": "1st overshoot [deg]", "overshoot2_error_deg": "2nd overshoot [deg]",
+             "closed_loop/overshoot1_error_deg": "1st overshoot, run as the test [deg]",
+             "closed_loop/overshoot2_error_deg": "2nd overshoot, run as the test [deg]"}
 
 
 def _fold(run, i: int, identify, out_dir: Path, band_draws: int, seed: int):

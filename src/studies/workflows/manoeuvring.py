@@ -60,7 +60,8 @@ from ..models.registry import get_model
 from ..models.terms import DOFS, candidate_terms
 from .sparse_terms import ls_problems, sindy_beside_ls
 from ..analysis.figures import plot_deviations, plot_overlay
-from ..simulate import replay, simulate, zigzag
+from ..simulate import replay, simulate
+from ..simulate.manoeuvres import zigzag_of_record
 from ..vessels import get_vessel, has_mmg_particulars
 from ..vessels.base import Vessel
 from . import measured as _measured
@@ -563,30 +564,29 @@ def _markdown_table(table: pd.DataFrame, study: ManoeuvringRun) -> str:
         lines.append(f"| {row.record} | {row.simulation} | {row.quantity} | {row.predicted:.1f} | "
                      f"{row.measured:.1f} | {row.error:+.1f} {row.error_unit} |")
     lines += ["", "replay: the measured rudder prescribed from the measured initial state; "
-              "closed_loop: the model's own zig-zag (rudder reversed at the nominal execute "
-              "heading), overshoots against the measured ones at that heading.", ""]
+              "closed_loop: the model's own zig-zag, the record's (rudder reversed when the model's "
+              "heading reaches the record's execute heading), overshoots against the measured ones "
+              "at that heading.", ""]
     return "\n".join(lines)
 
 
 def _closed_loop_zigzag(study: ManoeuvringRun, params: dict, rec: pd.DataFrame) -> dict:
     """Overshoots of the model's own zig-zag started from the record's initial state.
 
-    The nominal zig-zag N/N: N is half the measured rudder's peak-to-peak
-    angle to the degree; rudder reversed when the model's heading has
-    changed by N from the initial one. Both overshoots are measured from N.
+    The zig-zag the record shows (:func:`~studies.simulate.manoeuvres.zigzag_of_record`:
+    rudder amplitude, execute heading, first side and execute time read from the record,
+    so a 35/5 is run as a 35/5); the rudder reversed when the model's heading has changed
+    by the execute heading from the initial one. Both overshoots, predicted and measured,
+    are measured from that heading.
     """
     name = rec.attrs.get("name", "record")
     measured = characteristics(rec, "zigzag")
     if "execute_heading_deg" not in measured:
         return {}
-    delta = rec["delta"].to_numpy(float)
-    # nominal N/N zig-zag: half the rudder's peak-to-peak, to the degree
-    amplitude = float(np.round(np.rad2deg(0.5 * (delta.max() - delta.min()))))
-    heading = amplitude
-    first = int(np.sign(delta[np.argmax(np.abs(delta - delta[0]) > 0.5 * np.deg2rad(amplitude))]) or 1)
-    t = rec["t"].to_numpy(float)
-    man = dataclasses.replace(zigzag(amplitude, heading, duration=float(t[-1] - t[0]),
-                                     dt=float(np.median(np.diff(t)))), first_sign=first)
+    man = zigzag_of_record(rec)
+    if man is None:
+        return {}
+    heading = man.heading
     row = rec.iloc[0]
     initial = {k: float(row[k]) for k in ("u", "v", "r", "x0", "y0", "psi")}
     sim = study.simulate_manoeuvre(params, man, initial)
