@@ -31,7 +31,7 @@ HSVA_TESTS = ("05_01", "10_01", "10_05", "10_10_P", "10_10_S", "15_01", "15_05",
 def test_the_quadratic_part_adds_f_alpha_2_sin_abs_sin_to_the_normal_force():
     """Going straight (no drift, no yaw rate) the rudder's angle of attack is its angle:
     the normal force with ``f_alpha_2`` is the standard one times ``1 + f_alpha_2 /
-    f_alpha |sin(delta)|``, of the same sign; with ``f_alpha_2 = 0`` it is the standard one."""
+    f_alpha |sin(delta)|``, of the same sign."""
     from studies.models.mmg import MMGParameters, module_constants, thrust_normal_force
     from studies.vessels.kvlcc2_mmg import kvlcc2_mmg
 
@@ -46,7 +46,6 @@ def test_the_quadratic_part_adds_f_alpha_2_sin_abs_sin_to_the_normal_force():
         return np.asarray(f)
 
     standard = normal(MMGParameters())
-    assert np.array_equal(standard, normal(MMGParameters(f_alpha_2=0.0)))
     quadratic = normal(MMGParameters(f_alpha_2=1.3))
     expected = standard * (1.0 + 1.3 / MMGParameters().f_alpha * np.abs(np.sin(delta)))
     np.testing.assert_allclose(quadratic, expected, rtol=1e-12)
