@@ -35,6 +35,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+from scipy.linalg import block_diag
 
 from ..models.mmg import MMGParameters, module_constants, module_forces
 from .mmg_regression import MMG_CAPTIVE_RECORD
@@ -70,11 +71,11 @@ def rudder_lift_columns(vessel, modules: MMGParameters, records, estimates) -> d
         s = est.states
         u, v, r, delta = (np.asarray(s[k], float) for k in ("u", "v", "r", "delta"))
         n = rec["n"].to_numpy(float)[est.index]
-        q = 0.5 * vessel.rho * vessel.length * vessel.draught * (u * u + v * v)
+        scale = vessel.force_scale(np.hypot(u, v))
         _, y1, n1 = module_forces(u, v, r, delta, n, linear)
         _, y2, n2 = module_forces(u, v, r, delta, n, quadratic)
-        out["Y"].append(np.column_stack([y1, y2]) / q[:, None])
-        out["N"].append(np.column_stack([n1, n2]) / (q * vessel.length)[:, None])
+        out["Y"].append(np.column_stack([y1, y2]) / scale[:, 1:2])
+        out["N"].append(np.column_stack([n1, n2]) / scale[:, 2:3])
     return {dof: np.vstack(parts) for dof, parts in out.items()}
 
 
@@ -117,13 +118,7 @@ def fit_rudder_lift(problems: dict, columns: dict, modules: MMGParameters) -> tu
         fitted = np.linalg.lstsq(records_theta, records_y, rcond=None)[0]
         sigma = float(np.sqrt(np.mean((records_y - records_theta @ fitted) ** 2)))
         blocks.append((problem.theta[keep] / sigma, extra[keep] / sigma, problem.y[keep] / sigma))
-    widths = [b[0].shape[1] for b in blocks]
-    rows = []
-    for i, (theta, extra, _) in enumerate(blocks):
-        left = np.zeros((theta.shape[0], sum(widths[:i])))
-        right = np.zeros((theta.shape[0], sum(widths[i + 1:])))
-        rows.append(np.hstack([left, theta, right, extra]))
-    a = np.vstack(rows)
+    a = np.hstack([block_diag(*[blk[0] for blk in blocks]), np.vstack([blk[1] for blk in blocks])])
     b = np.concatenate([blk[2] for blk in blocks])
     coef, *_ = np.linalg.lstsq(a, b, rcond=None)
     residual = b - a @ coef
