@@ -44,7 +44,7 @@ USAGE = """usage: studies <command> [key=value ...]
 commands:
   run      identify a manoeuvring model from simulated or measured data and log it to MLflow
   discover show what a model gets wrong on measured data, name the cause, extend, measure the gain
-  simplify derive the simplified model (correlation + PAWN, Li et al. 2023) and log how
+  simplify derive the simplified model (correlation + PAWN, Li et al. 2023) and log its derivation
   report   write reports/<experiment>/index.md and index.html from the MLflow runs
   simulate simulate a manoeuvre with a logged or registered model (model_uri=...), as a run validates
   ui       start the MLflow UI on the project's store (127.0.0.1:5000)
@@ -58,9 +58,8 @@ Options are Hydra overrides, e.g.
   studies run tracking.register=mariner_ls           # also register the identified model
   studies simulate model_uri=models:/mariner_ls/1 manoeuvre=turning_35
 
-studies --version prints the version; studies ui --help the UI's options; every
-option of run/discover/report/simulate is declared with its unit in studies/config/
-and listed by `studies <command> --help`.
+studies --version prints the version; studies <command> --help the command's own
+options with their units and defaults (studies <command> --help-all: every option).
 """
 
 
@@ -196,6 +195,7 @@ def _resumable(settings, params: dict, root):
 
 def _study(cfg, root: Path, out_dir: Path, on_create) -> dict:
     """One `studies run` job: check, (skip,) prepare, open the run, execute, log."""
+    from .console import run_lines
     from .runtime import tracking
     from .workflows.identified_model import IDENTIFIED_MODEL_FILE
     from .workflows.kinds import logged_params, kind_for
@@ -229,7 +229,9 @@ def _study(cfg, root: Path, out_dir: Path, on_create) -> dict:
     if logged:
         print(f"model {logged['uri']}" + (f", registered as {logged['registered']}"
                                           if logged["registered"] else ""))
-    print(_console(summary))
+    simulated = not settings.data.path
+    trained_on = set(settings.train.manoeuvres or [settings.manoeuvre.name]) if simulated else set()
+    print("\n".join(run_lines(metrics, trained_on)))
     return {"status": "finished", "run_id": run.run_id, "config_hash": digest}
 
 
@@ -244,23 +246,12 @@ def _browse(settings, root: Path) -> str:
             f"compare with `studies report report.experiment={settings.tracking.experiment}`")
 
 
-def _rounded(value):
-    """A number to 4 significant digits for people (nested lists and dicts too)."""
-    if isinstance(value, bool) or value is None or isinstance(value, str):
-        return value
-    if isinstance(value, (int, float)):
-        return float(f"{value:.4g}")
-    if isinstance(value, dict):
-        return {k: _rounded(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_rounded(v) for v in value]
-    return value
-
-
 def _console(values: dict) -> str:
     """``key  value`` lines, numbers to 4 significant digits (the files keep them all)."""
+    from .console import number
+
     width = max((len(k) for k in values), default=0)
-    return "\n".join(f"  {k:<{width}}  {_rounded(v)}" for k, v in sorted(values.items())
+    return "\n".join(f"  {k:<{width}}  {number(v)}" for k, v in sorted(values.items())
                      if v is not None)
 
 
@@ -286,6 +277,7 @@ def _simplify_task(cfg):
 
 def _discover(cfg, root: Path, out_dir: Path, on_create) -> dict:
     """One `studies discover` job: load and check inputs, then one tracked run."""
+    from .console import discovery_lines
     from .runtime import tracking
     from .workflows.kinds import execute_discover, logged_params, prepare_discover
     from .workflows.settings import as_path_list, check_output_paths
@@ -310,10 +302,8 @@ def _discover(cfg, root: Path, out_dir: Path, on_create) -> dict:
                       **({"vessel": named.get("name") or "unknown"} if isinstance(named, dict) else {})})
     print(f"discovery '{name}' ({run.run_id}) -> {out_dir}")
     print(_browse(settings, root))
-    print(_console({"cause": discovery["cause"], "gain_pct": discovery["gain_pct"],
-                    **{f"parameters/{k}": v for k, v in (discovery.get("parameters") or {}).items()},
-                    **{f"uncertainty/{k}": v for k, v in (discovery.get("uncertainty") or {}).items()},
-                    "second_cause": (discovery.get("second_cause") or {}).get("cause")}))
+    print("\n".join(discovery_lines(discovery)))
+    print(f"the page: {out_dir / 'report.md'}")
     return {"status": "finished", "run_id": run.run_id}
 
 
@@ -620,10 +610,10 @@ def main(argv: list[str] | None = None) -> int:
     apps = {"run": (_run_task, "config"), "simplify": (_simplify_task, "config"),
             "discover": (_discover_task, "discover"), "report": (_report_task, "report"),
             "simulate": (_simulate_task, "simulate")}
-    if command in apps and any(a in ("-h", "--help") for a in rest):
+    if command in apps and any(a in ("-h", "--help", "--help-all") for a in rest):
         from .cli_help import command_help
 
-        print(command_help(command))
+        print(command_help(command, every="--help-all" in rest))
         return 0
     if command in apps:
         try:

@@ -2,7 +2,7 @@
 the discovery's report, ``studies report``).
 
 Numbers are printed to 4 significant digits (``1e-3 <= |x| < 1e5``, else in
-exponent form); a non-finite number prints as ``-``.
+exponent form); zero prints as ``0`` (never ``-0``), a non-finite number as ``-``.
 """
 
 from __future__ import annotations
@@ -18,7 +18,9 @@ def format_number(x) -> str:
     if isinstance(x, (float, np.floating)):
         if not np.isfinite(x):
             return "-"
-        if x == 0 or 1e-3 <= abs(x) < 1e5:
+        if x == 0:
+            return "0"                      # never "-0"
+        if 1e-3 <= abs(x) < 1e5:
             return f"{x:.4g}"
         return f"{x:.3e}"
     return str(x)

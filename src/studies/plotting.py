@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import functools
 
-__all__ = ["pyplot"]
+__all__ = ["pyplot", "readable_ticks"]
 
 
 @functools.cache
@@ -30,3 +30,22 @@ def pyplot():
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def readable_ticks(ax, axis: str = "y") -> None:
+    """Tick labels of ``ax``'s ``axis`` to 3 significant digits, after the data
+    are drawn. A log axis spanning less than a decade labels its minor ticks,
+    by default as ``4.68719x10^-4``; wider log axes keep matplotlib's labels
+    (the decades only)."""
+    from matplotlib.ticker import FuncFormatter
+
+    def label(value, _pos):
+        return "0" if value == 0 else f"{value:.3g}"
+
+    target = ax.yaxis if axis == "y" else ax.xaxis
+    low, high = sorted(ax.get_ylim() if axis == "y" else ax.get_xlim())
+    if target.get_scale() != "log":
+        target.set_major_formatter(FuncFormatter(label))
+    elif low > 0 and high / low < 10.0:
+        target.set_major_formatter(FuncFormatter(label))
+        target.set_minor_formatter(FuncFormatter(label))

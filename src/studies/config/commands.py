@@ -114,11 +114,10 @@ class DiscoverOptions:
         baseline and the named model identified on the others and judged on
         it (does the gain hold on every manoeuvre).
     method : str
-        ``inference`` (the only one: every cause and pair of the catalogue
-        judged at once by one criterion, :mod:`studies.discover.track_inference`
-        and :mod:`studies.discover.inference`; any baseline, the MMG model
-        included). The earlier rule-based search (``search``) was retired; the
-        value is refused with a line saying so.
+        ``inference``: every cause and pair of the catalogue judged at once
+        by one criterion (:mod:`studies.discover.track_inference` and
+        :mod:`studies.discover.inference`), on any baseline, the MMG model
+        included.
     injected : dict
         An effect whose truth is known (injected into the records, or hidden
         in a simulation): ``{cause id: {parameter: value}}``, one or two

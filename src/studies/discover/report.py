@@ -192,11 +192,24 @@ def _parameter_lines(params: dict, units, uncertainty, depth: int = 0) -> list[s
     return lines
 
 
+def _scale_line(d: dict) -> str:
+    """The scale the records were studied at, and the units of the page's numbers."""
+    scale, ratio = d.get("scale"), d.get("scale_ratio")
+    if scale == "model" and ratio:
+        where = f"model scale (1:{ratio:g})"
+    elif scale in ("model", "full"):
+        where = f"{scale} scale" + (" (Froude scaled where a record was at another)" if scale == "full" else "")
+    else:
+        where = "a scale the records do not state (no particulars beside them)"
+    return (f"Records studied at {where}; SI units (m, m/s, s, N, N m) unless a table says otherwise, "
+            "angles in the text in deg, coefficients in the prime system.")
+
+
 def write_report(out_dir: Path, discovery: dict, explanation: str, sections: list, figures: list) -> None:
     """report.md and report.html: verdict first, then evidence."""
     out_dir = Path(out_dir)
     d = discovery
-    verdict = [f"# Discovery: **{d['cause']}**", "", explanation, ""]
+    verdict = [f"# Discovery: **{d['cause']}**", "", _scale_line(d), "", explanation, ""]
     if d.get("parameters"):
         verdict.append("Estimated parameters (90 % interval; unit and convention):")
         verdict.append("")

@@ -43,7 +43,7 @@ from jinja2 import Environment, select_autoescape
 from markdown_it import MarkdownIt
 
 from ..analysis.metrics import DIVERGED_PENALTY
-from ..plotting import pyplot
+from ..plotting import pyplot, readable_ticks
 from .calibration import LEVELS, band_rows, calibration_sentences, plot_calibration, pooled_calibration
 from .tables import (condition_label, condition_number_table, condition_order, deviation_table,
                      divergence_table, fitness_table, mae_display, mae_table, markdown_table, method_label,
@@ -171,6 +171,7 @@ def _plot_fitness(table: pd.DataFrame, key: str | None, manoeuvre: str, path: Pa
                 label="diverged run(s), left out")
     ax.set_xticks(x, labels)
     ax.set_yscale("log")
+    readable_ticks(ax)
     ax.set_xlabel(key or "condition")
     ax.set_ylabel("fitness (eq. 3.43)")
     ax.set_title(f"System performance: {manoeuvre}")

@@ -15,7 +15,7 @@ __all__ = ["ui_command", "serve"]
 def ui_command(uri: str | None, root, host: str = "127.0.0.1", port: int = 5000) -> list[str]:
     """The ``mlflow server`` command line for the store (artifacts served from it)."""
     uri = tracking.configure(uri, root)
-    cmd = [sys.executable, "-m", "mlflow", "server", "--backend-store-uri", uri,
+    cmd = [sys.executable, "-m", "mlflow", "server", "--backend-store-uri", uri, "--registry-store-uri", uri,
            "--host", host, "--port", str(port), "--workers", "1"]
     if uri.startswith("sqlite:///"):
         artifacts = Path(uri[len("sqlite:///"):]).parent / "artifacts"
@@ -41,7 +41,12 @@ def serve(uri: str | None, root, host: str = "127.0.0.1", port: int = 5000) -> i
 
     # the server starts worker processes of its own: run it in its own process group
     # and end the whole group, so that stopping `studies ui` leaves nothing behind
-    proc = subprocess.Popen(cmd, env=env, start_new_session=True)
+    proc = subprocess.Popen(cmd, env=env, start_new_session=True, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, bufsize=1)
+    import threading
+
+    threading.Thread(target=_forward, args=(proc.stdout,), daemon=True).start()
+    print("press Ctrl+C to stop it", flush=True)
 
     def _stop(signum, frame):
         raise KeyboardInterrupt
@@ -55,6 +60,20 @@ def serve(uri: str | None, root, host: str = "127.0.0.1", port: int = 5000) -> i
         signal.signal(signal.SIGTERM, previous)
         if proc.poll() is None:
             _stop_group(proc)
+
+
+#: what the server says that a user of the UI cannot act on: its start-up steps, each request,
+#: its registry defaulting to the store, and the localhost-only guard `studies ui` already states
+_QUIET = (" INFO:", "Registry store URI not provided", "Security middleware enabled")
+
+
+def _forward(stream) -> None:
+    """Copy the server's output to stderr, less the lines of :data:`_QUIET`
+    (warnings and errors are passed on)."""
+    for line in stream:
+        if not any(mark in line for mark in _QUIET):
+            sys.stderr.write(line)
+            sys.stderr.flush()
 
 
 def _stop_group(proc) -> int:

@@ -247,6 +247,8 @@ def execute_roll_discovery(prepared: PreparedDiscovery, out_dir: Path) -> tuple[
                     "units": {"T0": "s", "zeta": "-", "B44": "N m s/rad"},
                     "models": damping.to_dict("index")},
         "vessel": {"name": vessel, "source": vessel_source},
+        "scale": ("full" if scale == 1 else "model") if scale else "unknown",
+        "scale_ratio": scale,
         "speeds": dict(zip([str(r.attrs.get("name")) for r in prepared.records], speeds_of(prepared.records))),
     }
     if speed is not None:

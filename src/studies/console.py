@@ -1,0 +1,149 @@
+"""What `studies run` and `studies discover` print when they end: the result in words and
+numbers with their units, as the docs describe it. The files keep every number in full.
+
+A run prints what was identified, how far from the true coefficients when
+the data were simulated from a known model, and each validation manoeuvre
+or record with its errors (fitness of thesis eq. 3.43, position RMSE [m],
+advance and tactical diameter errors [%], overshoot errors [deg], roll
+angle RMSE [deg]), the training manoeuvre marked. A discovery prints the
+verdict, its confidence, the parameters in their units, the held-out
+prediction error of the baseline and of the extended model and the records'
+scale.
+"""
+
+from __future__ import annotations
+
+import math
+
+__all__ = ["run_lines", "discovery_lines", "number"]
+
+#: per record: (metric, label, unit), printed in this order when the run has it
+RECORD_QUANTITIES = (
+    ("fitness", "fitness", ""),
+    ("rmse_position", "position RMSE", "m"),
+    ("advance_error_pct", "advance", "%"),
+    ("tactical_diameter_error_pct", "tactical diameter", "%"),
+    ("overshoot1_error_deg", "1st overshoot", "deg"),
+    ("overshoot2_error_deg", "2nd overshoot", "deg"),
+    ("closed_loop/overshoot1_error_deg", "1st overshoot run as the test", "deg"),
+    ("closed_loop/overshoot2_error_deg", "2nd overshoot run as the test", "deg"),
+    ("rmse_deg_record_start", "roll RMSE from the record's start", "deg"),
+    ("rmse_deg_own_start", "from the fitted start", "deg"),
+)
+
+#: units of the identified roll coefficients
+ROLL_UNITS = {"omega0": "rad/s", "b1": "1/s", "b2": "-", "b3": "s", "c3": "1/s^2"}
+
+
+def number(value) -> str:
+    """A number to 4 significant digits for people (``0``, never ``-0``)."""
+    if value is None:
+        return "-"
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return str(value)
+    if not math.isfinite(value):
+        return "-"
+    if value == 0:
+        return "0"
+    return f"{value:.4g}"
+
+
+def _records(metrics: dict) -> list[str]:
+    """The validation records or manoeuvres of a run, in the order their metrics came."""
+    names = []
+    for key in metrics:
+        head, _, tail = key.partition("/")
+        if tail and head not in names and any(tail == q for q, _, _ in RECORD_QUANTITIES):
+            names.append(head)
+    return [n for n in names if n not in ("training", "fit", "validation")]
+
+
+def run_lines(metrics: dict, training: set | None = None) -> list[str]:
+    """The end of a `studies run`: what was identified and how it predicts."""
+    lines = []
+    identify_s, total_s = metrics.get("runtime/identify_s"), metrics.get("runtime/total_s")
+    if identify_s is not None:
+        lines.append(f"identified in {number(identify_s)} s"
+                     + (f" (the whole run {number(total_s)} s)" if total_s is not None else ""))
+    coefficients = {k.split("/", 1)[1]: v for k, v in metrics.items() if k.startswith("coef/")}
+    if coefficients:
+        lines.append("identified: " + ", ".join(f"{k} = {number(v)} {ROLL_UNITS.get(k, '-')}".rstrip(" -")
+                                                 for k, v in coefficients.items()))
+    if "deviation/median_abs_pct" in metrics:
+        lines.append("coefficients against the true ones: median |deviation| "
+                     f"{number(metrics['deviation/median_abs_pct'])} %, largest "
+                     f"{number(metrics.get('deviation/max_abs_pct'))} %")
+    records = _records(metrics)
+    training = set(training or ())
+    training |= {n for n in records if metrics.get(f"{n}/is_training")}
+    if records:
+        held = [n for n in records if n not in training]
+        diverged = sum(1 for n in records if metrics.get(f"{n}/diverged") or metrics.get(f"{n}/diverged_record_start"))
+        lines.append(f"predicted by the identified model: {len(held)} manoeuvre(s) or record(s) not trained on"
+                     + (f" and {len(records) - len(held)} trained on" if len(held) < len(records) else "")
+                     + f", {diverged} diverged"
+                     + (" (fitness: thesis eq. 3.43, 0 is exact)" if any(f"{n}/fitness" in metrics
+                                                                          for n in records) else "") + ":")
+        width = max(len(n) for n in records)
+        for name in records:
+            parts = []
+            for key, label, unit in RECORD_QUANTITIES:
+                value = metrics.get(f"{name}/{key}")
+                if value is not None:
+                    sign = "+" if unit in ("%", "deg") and key.endswith(("_pct", "error_deg")) and value > 0 else ""
+                    parts.append(f"{label} {sign}{number(value)}{(' ' + unit) if unit else ''}")
+            mark = "   (trained on)" if name in training else ""
+            lines.append(f"  {name:<{width}}  {', '.join(parts)}{mark}")
+    if "validation/mae_speed" in metrics:
+        lines.append(f"mean speed error over the {number(metrics.get('validation/validated'))} manoeuvres not "
+                     f"trained on: {number(metrics['validation/mae_speed'])} m/s")
+    if "cpu_s" in metrics and identify_s is None:
+        lines.append(f"identified in {number(metrics['cpu_s'])} s of CPU")
+    return lines
+
+
+def _parameter(name: str, value, unit: str | None) -> str:
+    """A cause's parameter in its catalogue units, angles in radians also in degrees."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        if unit == "rad" or (unit is None and name in ("direction", "delta0")):
+            return f"{name} = {number(value)} rad ({number(math.degrees(value))} deg)"
+        if unit is None and name == "speed":
+            unit = "m/s"
+        return f"{name} = {number(value)}" + (f" {unit}" if unit and unit != "-" else "")
+    if isinstance(value, dict):
+        return f"{name}: " + ", ".join(f"{k} = {number(v)}" for k, v in value.items())
+    return f"{name} = {value}"
+
+
+def discovery_lines(discovery: dict) -> list[str]:
+    """The end of a `studies discover`: the verdict, its confidence, units, the gain, the scale."""
+    cause = discovery.get("cause")
+    confidence = discovery.get("confidence")
+    head = f"verdict: {cause}"
+    if isinstance(confidence, (int, float)):
+        head += f" (confidence {number(confidence)})"
+    lines = [head]
+    parameters = discovery.get("parameters") or {}
+    uncertainty = discovery.get("uncertainty") or {}
+    units = discovery.get("parameter_units") or {}
+    for name, value in parameters.items():
+        text = "  " + _parameter(name, value, units.get(name))
+        interval = uncertainty.get(name)
+        if isinstance(interval, (list, tuple)) and len(interval) == 2:
+            text += f", 90 % interval [{number(interval[0])}, {number(interval[1])}]"
+        lines.append(text)
+    second = (discovery.get("second_cause") or {}).get("cause")
+    if second:
+        lines.append(f"  a second cause on top: {second}")
+    baseline = (discovery.get("baseline") or {}).get("validation_rmse")
+    extended = (discovery.get("extended") or {}).get("validation_rmse")
+    unit = str(discovery.get("units") or "").split(" (")[0] or "m"
+    if baseline is not None and extended is not None:
+        lines.append(f"held-out prediction error: baseline {number(baseline)} {unit}, extended "
+                     f"{number(extended)} {unit}: gain {number(discovery.get('gain_pct'))} %")
+    elif discovery.get("gain_pct") is not None:
+        lines.append(f"held-out gain {number(discovery.get('gain_pct'))} %")
+    scale = discovery.get("scale")
+    if isinstance(scale, str) and scale:
+        lines.append(f"records studied at {scale} scale")
+    return lines
