@@ -19,6 +19,13 @@ import urllib.request
 
 import pytest
 from conftest import REPO, SHARED_DATA, mlflow_runs, run_studies, sweep_parents
+from documented_commands import NOISE
+
+
+def _quiet(proc) -> None:
+    """Nothing on the console that a user cannot act on (a traceback, a library's lines)."""
+    noise = [line for line in (proc.stdout + proc.stderr).splitlines() if any(m in line for m in NOISE)]
+    assert not noise, noise[:5]
 
 
 def _tour() -> list[list[str]]:
@@ -48,13 +55,22 @@ def test_the_readme_tour_runs_step_by_step(tmp_path):
     # 1. the main job: validation errors printed, and where the run went
     proc = run_studies(steps[0][1:], tmp_path)
     assert proc.returncode == 0, proc.stderr[-2000:]
+    _quiet(proc)
     assert "logged to" in proc.stdout and "studies ui" in proc.stdout
+    # what the README says it validates: zig-zags 10/10, 20/20 (trained on), 40/40 and a turning circle
+    lines = proc.stdout.splitlines()
+    for name in ("zigzag_10_10", "zigzag_20_20", "zigzag_40_40", "turning_35"):
+        assert any(line.strip().startswith(name) for line in lines), (name, proc.stdout)
+    assert "3 manoeuvre(s) or record(s) not trained on and 1 trained on" in proc.stdout
     assert len(mlflow_runs(tmp_path)) == 1
     # 2. the discovery on MARIN's records: the ship read from the files, a verdict with its page
     proc = run_studies(steps[1][1:], tmp_path)
     assert proc.returncode == 0, proc.stderr[-2000:]
+    _quiet(proc)
     pages = list((tmp_path / "outputs").rglob("report.md"))
     assert len(pages) == 1 and '"cause"' in (pages[0].parent / "discovery.json").read_text()
+    assert "(confidence " in proc.stdout and "records studied at full scale" in proc.stdout, proc.stdout
+    assert "Records studied at full scale" in pages[0].read_text()
     import sqlite3
     with sqlite3.connect(tmp_path / "mlruns" / "mlflow.db") as con:
         vessels = {row[0] for row in con.execute("select value from tags where key = 'vessel'")}
@@ -62,10 +78,12 @@ def test_the_readme_tour_runs_step_by_step(tmp_path):
     # 3. the sweep: a parent run and one child per wind speed
     proc = run_studies(steps[2][1:], tmp_path)
     assert proc.returncode == 0, proc.stderr[-2000:]
+    _quiet(proc)
     assert len(sweep_parents(tmp_path)) == 1 and len(mlflow_runs(tmp_path)) == 4
     # 4. the report of the sweep
     proc = run_studies(steps[3][1:], tmp_path)
     assert proc.returncode == 0, proc.stderr[-2000:]
+    _quiet(proc)
     page = (tmp_path / "reports" / "tour" / "index.md").read_text()
     assert "wind.speed" in page and (tmp_path / "reports" / "tour" / "index.html").is_file()
     # 5. the UI answers on its address (a free port instead of 5000)

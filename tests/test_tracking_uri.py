@@ -75,6 +75,15 @@ def test_command_help_lists_the_settings_with_units(tmp_path):
     assert "method=" in proc.stdout and "svm_ga" in proc.stdout
     discover = run_studies(["discover", "--help"], tmp_path, timeout=60)
     assert "discover.horizon" in discover.stdout and "simulation.path" in discover.stdout
+    # its own options only, first, and short; the others behind --help-all
+    lines = discover.stdout.splitlines()
+    assert len(lines) < 60, len(lines)
+    assert "simplify.threshold" not in discover.stdout and "noise.measurement" not in discover.stdout
+    assert "--help-all" in discover.stdout and "retired" not in discover.stdout
+    every = run_studies(["discover", "--help-all"], tmp_path, timeout=60).stdout
+    assert every.index("discover.horizon") < every.index("noise.measurement") < every.index("simplify.threshold")
+    usage = run_studies(["--help"], tmp_path, timeout=60).stdout
+    assert "and log how\n" not in usage and "simplify" in usage
 
 
 def test_version_and_ui_help(tmp_path):

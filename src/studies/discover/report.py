@@ -201,6 +201,9 @@ def _scale_line(d: dict) -> str:
         where = f"{scale} scale" + (" (Froude scaled where a record was at another)" if scale == "full" else "")
     else:
         where = "a scale the records do not state (no particulars beside them)"
+    if str(d.get("units", "")).startswith("deg (roll"):
+        return (f"Records studied at {where}; roll angles in deg, time in s, omega0 in rad/s, b1 in 1/s, "
+                "b2 dimensionless, unless a table says otherwise.")
     return (f"Records studied at {where}; SI units (m, m/s, s, N, N m) unless a table says otherwise, "
             "angles in the text in deg, coefficients in the prime system.")
 
