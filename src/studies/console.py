@@ -126,7 +126,7 @@ def discovery_lines(discovery: dict) -> list[str]:
     parameters = discovery.get("parameters") or {}
     uncertainty = discovery.get("uncertainty") or {}
     units = discovery.get("parameter_units") or {}
-    for name, value in parameters.items():
+    for name, value in (parameters.items() if cause != "outside_training_states" else ()):
         text = "  " + _parameter(name, value, units.get(name))
         interval = uncertainty.get(name)
         if isinstance(interval, (list, tuple)) and len(interval) == 2:
@@ -138,9 +138,26 @@ def discovery_lines(discovery: dict) -> list[str]:
     baseline = (discovery.get("baseline") or {}).get("validation_rmse")
     extended = (discovery.get("extended") or {}).get("validation_rmse")
     unit = str(discovery.get("units") or "").split(" (")[0] or "m"
-    if baseline is not None and extended is not None:
+    if baseline is not None and cause in ("none", "outside_training_states"):
+        lines.append(f"held-out prediction error of the model as identified: {number(baseline)} {unit} "
+                     "(no extension named)")
+    elif baseline is not None and extended is not None:
+        interval = discovery.get("gain_interval_pct")
+        shown = f" (90 % interval {number(interval[0])} to {number(interval[1])} %)" if interval else ""
         lines.append(f"held-out prediction error: baseline {number(baseline)} {unit}, extended "
-                     f"{number(extended)} {unit}: gain {number(discovery.get('gain_pct'))} %")
+                     f"{number(extended)} {unit}: gain {number(discovery.get('gain_pct'))} %{shown}")
+    worse = (discovery.get("held_out") or {}).get("worse")
+    if worse and cause != "none":
+        lines.append(f"  the extension predicts worse: {'; '.join(worse)}")
+    beyond = discovery.get("outside_training")
+    if isinstance(beyond, dict) and cause == "outside_training_states":
+        for state in beyond.get("states", {}).values():
+            lines.append(f"  {state['meaning']}: {number(state['held_out'][0])} to {number(state['held_out'][1])} "
+                         f"{state['unit']} held out, {number(state['training'][0])} to "
+                         f"{number(state['training'][1])} in training".replace(" - ", " "))
+        lines.append(f"  would cover them: {beyond.get('manoeuvre')}")
+        if discovery.get("inference_verdict"):
+            lines.append(f"  (the inference on the training records alone named {discovery['inference_verdict']})")
     elif discovery.get("gain_pct") is not None:
         lines.append(f"held-out gain {number(discovery.get('gain_pct'))} %")
     scale = discovery.get("scale")

@@ -145,7 +145,7 @@ def _explained(d: dict) -> list[str]:
     unit = (d.get("units") or "m").split()[0]
     if named.get("training_rmse") is not None:
         who = "extended model" if d["cause"] != "none" else "identified model"
-        v, t = named["validation_rmse"], named["training_rmse"]
+        v, t = named.get("validation_rmse_windowed", named["validation_rmse"]), named["training_rmse"]
         ratio = f" ({v / t:.1f} times as much)" if t > 0 else ""
         lines.append(f"\nThe {who} predicts the records it was fitted to with {t:.4g} {unit} and the held-out "
                      f"ones with {v:.4g} {unit}{ratio}: "
@@ -222,8 +222,15 @@ def write_report(out_dir: Path, discovery: dict, explanation: str, sections: lis
                            + ", ".join(f"`{k}` = {v:.4g}" for k, v in d["fixed_parameters"].items()))
         verdict.append("")
     b, e = d["baseline"]["validation_rmse"], d["extended"]["validation_rmse"]
-    verdict.append(f"Prediction error on data not used for fitting: baseline {b:.4g}, extended {e:.4g} "
-                   f"{d.get('units', '')} -> gain {d['gain_pct']:.1f} %.")
+    interval = d.get("gain_interval_pct")
+    shown = f" (90 % interval {interval[0]:.1f} to {interval[1]:.1f} %)" if interval else ""
+    windowed = d.get("gain_windowed_pct")
+    verdict.append(f"Prediction error on the held-out records: baseline {b:.4g}, extended {e:.4g} "
+                   f"{d.get('units', '')} -> gain {d['gain_pct']:.1f} %{shown}"
+                   + (f"; over prediction windows of the dynamics, {windowed:.1f} %." if windowed is not None else "."))
+    worse = (d.get("held_out") or {}).get("worse")
+    if worse and d["cause"] != "none":
+        verdict.append(f"\nThe extension predicts the held-out records worse than the baseline on: {'; '.join(worse)}.")
     verdict += _explained(d)
     if d.get("indistinguishable_from"):
         others = ", ".join(f"**{c}**" for c in d["indistinguishable_from"])
@@ -232,7 +239,9 @@ def write_report(out_dir: Path, discovery: dict, explanation: str, sections: lis
     if d.get("confidence") is not None and np.isfinite(d["confidence"]):
         verdict.append(f"\nConfidence in **{d['cause']}**: {d['confidence']:.2f} "
                        f"({d.get('confidence_basis', 'posterior probability from the scores')}).")
-    if d.get("next_manoeuvre"):
+    if d["cause"] == "outside_training_states" and d.get("next_manoeuvre"):
+        verdict.append(f"\nWhat would cover those states: {d['next_manoeuvre']}.")
+    elif d.get("next_manoeuvre") and d.get("undecided"):
         rivals = ", ".join(f"**{c}**" for c in d.get("undecided", [])[1:])
         verdict.append(f"\nThese records cannot decide between **{d['cause']}** and {rivals}: "
                        f"{d['next_manoeuvre']} would.")

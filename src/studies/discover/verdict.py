@@ -50,14 +50,38 @@ class Discovery:
     next_manoeuvre : str or None
         What would separate them.
     baseline, extended : dict
-        ``validation_rmse`` (windowed position error on the held-out records [m]),
-        ``validation_rmse_whole_records``, ``training_rmse`` of the baseline and
-        of the named extension.
+        ``validation_rmse`` (position error of the whole held-out records
+        replayed [m], pooled over them), ``validation_rmse_windowed`` (the
+        windowed error, replays from each window's state: the dynamics a few
+        minutes ahead), ``training_rmse`` (windowed, on the training records)
+        of the baseline and of the named extension.
     gain_pct : float
-        What the extension gains on the held-out records [%] (negative: it
+        What the extension gains on the whole held-out records [%]
+        (``100 (1 - extended / baseline)`` of ``validation_rmse``; negative: it
         predicts them worse; reported, never a reason to name).
     explains_validation : bool
-        Whether the named model explains the held-out records.
+        Whether the named model explains the held-out records: its windowed
+        error there is not many times its own training error, and it is no
+        worse than the baseline on the whole records (beyond ``gain_interval_pct``)
+        or on any characteristic (``held_out``).
+    gain_interval_pct : list or None
+        90 % interval of ``gain_pct`` (moving-block bootstrap of the replays'
+        errors: :mod:`studies.discover.held_out`).
+    gain_windowed_pct : float or None
+        The gain in the windowed error (secondary).
+    held_out : dict
+        ``characteristics``: per held-out record the advance, tactical
+        diameter [m] or overshoots [deg] measured and each model's error,
+        ``worse``: what the extension predicts worse than the baseline.
+    outside_training : dict or None
+        Where the held-out records leave the training records' states and how
+        much of the baseline's departure lies there
+        (:mod:`studies.discover.training_states`); the verdict is
+        ``outside_training_states`` when most of it does and no extension
+        predicts them better.
+    inference_verdict : str or None
+        What the inference over the catalogue named on the training records
+        (differs from ``cause`` when that is ``outside_training_states``).
     explanation : str
         The named cause's physical explanation.
     baseline_model : str
@@ -125,7 +149,7 @@ class Discovery:
     method: str
     undecided: list | None = None
     next_manoeuvre: str | None = None
-    units: str = "m (position RMSE over prediction windows)"
+    units: str = "m (position RMSE of the whole held-out records replayed)"
     notes: list = field(default_factory=list)
     seconds: dict = field(default_factory=dict)
     departures: list = field(default_factory=list)
@@ -138,6 +162,11 @@ class Discovery:
     injected: dict | None = None
     #: how alike the causes' signatures are on these records
     alike: dict = field(default_factory=dict)
+    gain_interval_pct: list | None = None
+    gain_windowed_pct: float | None = None
+    held_out: dict = field(default_factory=dict)
+    outside_training: dict | None = None
+    inference_verdict: str | None = None
 
     def to_dict(self) -> dict:
         """The value written to ``discovery.json``."""

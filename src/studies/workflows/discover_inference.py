@@ -25,9 +25,11 @@ from ..discover.causes import NoCause, compact_parameters, manoeuvring_causes
 from ..discover.causes.propulsion import MMGDynamics
 from ..discover.confidence import separating_manoeuvre
 from ..discover.fitting import Context, calibrate, training_error, validate
+from ..discover.held_out import judge_held_out
 from ..discover.inference import baseline_fit, infer, intervals, refine, smooth_with_baseline
 from ..discover.stated_effect import score_stated, stated_causes
 from ..discover.track_inference import infer_on_tracks
+from ..discover.training_states import outside_training
 from ..discover.report import plot_evidence, plot_predictions, write_discovery, write_report
 from ..discover.verdict import Discovery
 from ..threads import single_thread_blas
@@ -43,6 +45,24 @@ log = logging.getLogger(__name__)
 UNDECIDED_BELOW = 0.9
 #: a rival is listed when at least this fraction as probable as the named verdict
 RIVAL_FRACTION = 0.1
+#: the verdict when the held-out departures lie where training never went
+OUTSIDE = "outside_training_states"
+OUTSIDE_EXPLANATION = (
+    "The held-out records go where the training records never went (drift, yaw rate, speed, rudder or thrust "
+    "loading beyond their range), and that is where the model departs from them: no term fitted to the "
+    "training records can be trusted there, and no cause of the catalogue predicts them better. Add the "
+    "manoeuvre below to the training records.")
+
+
+def _outside_note(beyond: dict, inferred: str) -> str:
+    """The ``outside_training_states`` verdict in one sentence, with the inference's own."""
+    ranges = "; ".join(f"{v['meaning']} {v['held_out'][0]:.3g} to {v['held_out'][1]:.3g} {v['unit']} held out "
+                       f"against {v['training'][0]:.3g} to {v['training'][1]:.3g} in training"
+                       for v in beyond["states"].values())
+    return (f"{100 * beyond['departure_share']:.0f} % of the baseline's departure from the held-out records lies "
+            f"beyond the training records' states ({ranges}); the inference on the training records alone "
+            f"named {inferred}, which does not predict the held-out records better: {beyond['manoeuvre']} "
+            "would cover them")
 
 
 def baseline_dynamics(prepared: PreparedDiscovery) -> MMGDynamics | None:
@@ -165,15 +185,38 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
         validate(ctx, best)
     whole_base = validate(ctx, _copy(baseline), keep=True, whole=True)
     whole_best = validate(ctx, _copy(best), keep=True, whole=True) if best is not baseline else whole_base
-    b_rmse, e_rmse = baseline.validation_rmse, best.validation_rmse
+    b_window, e_window = baseline.validation_rmse, best.validation_rmse
     b_train = training_error(ctx, baseline)
     e_train = b_train if best is baseline else training_error(ctx, best)
-    explained = dg.explains(e_rmse, e_train, prepared.vessel.length)
+    judged = judge_held_out(ctx.validation, whole_base["predictions"], whole_best["predictions"],
+                            seed=prepared.cfg.seed)
+    whole = judged["whole"]
+    b_rmse = whole["baseline_rmse"] if whole else whole_base["position_rmse"]
+    e_rmse = whole["extended_rmse"] if whole else whole_best["position_rmse"]
+    explained = dg.explains(e_window, e_train, prepared.vessel.length) and judged["explains"]
+    beyond = outside_training(ctx.train, ctx.validation, whole_base["predictions"], prepared.vessel)
     ranking = result.ranking()
     confidence = result.confidence
-    undecided, next_manoeuvre = _undecided(ranking, named, confidence, undecidable)
+    inferred = named
+    if beyond is not None and (best is baseline or not judged["explains"] or not whole
+                               or whole["interval"][0] <= 0.0):
+        # the departure lies where training never went and no extension predicts it better
+        named, best, e_rmse, e_window, e_train, explained = (
+            OUTSIDE, baseline, b_rmse, b_window, b_train, False)
+        whole_best = whole_base
+        judged = judge_held_out(ctx.validation, whole_base["predictions"], whole_base["predictions"])
+        confidence = None        # a measurement of where the departure lies, not a probability
+    undecided, next_manoeuvre = (_undecided(ranking, named, confidence, undecidable) if named != OUTSIDE
+                                 else (None, beyond["manoeuvre"]))
     cause = best.cause if best is not baseline else NoCause()
     notes = list(prepared.notes)
+    if named == OUTSIDE:
+        notes.append(_outside_note(beyond, inferred))
+    elif beyond is not None:
+        notes.append(f"the held-out records go beyond the training records in "
+                     f"{', '.join(beyond['states'])}, where {inferred} predicts them better all the same "
+                     f"(whole-record gain {whole['gain_pct']:.1f} %, 90 % interval "
+                     f"[{whole['interval'][0]:.1f}, {whole['interval'][1]:.1f}] %)")
     if on_tracks:
         notes.append(f"{len(result.variants)} single-cause variants compared by their likelihood on the "
                      f"tracks of {len(raw)} records (the baseline's Kalman filter's one-step-ahead "
@@ -223,17 +266,29 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
     if any(o is not None for o in other):
         models["other simulator"] = other
     departed = departures(ctx.validation, models, prepared.vessel)
-    gain = gain_pct(b_rmse, e_rmse)
-    if best is not baseline and gain < 0:
-        notes.append(f"the extension predicts the held-out records {-gain:.1f} % worse than the baseline: "
-                     "the records' evidence for the cause lies in motions the held-out records do not repeat, "
-                     "or the cause is wrong; weigh the confidence against this")
+    gain = whole["gain_pct"] if whole else gain_pct(b_rmse, e_rmse)
+    if best is not baseline and judged["worse"]:
+        notes.append(f"the extension predicts the held-out records worse than the baseline on "
+                     f"{'; '.join(judged['worse'])}: the records' evidence for the cause lies in motions the "
+                     "held-out records do not repeat, or the cause is wrong; weigh the confidence against this")
+    if named == OUTSIDE:
+        parameters = {"states": {k: [v["training"], v["held_out"]] for k, v in beyond["states"].items()},
+                      "manoeuvre": beyond["manoeuvre"]}
+        units = {"states": {k: v["unit"] for k, v in beyond["states"].items()}}
+        uncertainty, fixed = {}, {}
+    else:
+        parameters = result.fit.cause.parameters(result.fit.theta, result.fit.params) if result.named else {}
+        units, fixed = dict(cause.units), cause.fixed_parameters()
+        uncertainty = intervals(result, seed=prepared.cfg.seed)
     discovery = Discovery(
         cause=named,
-        parameters=(result.fit.cause.parameters(result.fit.theta, result.fit.params) if result.named else {}),
-        parameter_units=dict(cause.units), fixed_parameters=cause.fixed_parameters(),
-        uncertainty=intervals(result, seed=prepared.cfg.seed), confidence=confidence,
-        confidence_basis=(("posterior probability of the verdict from the BIC of the tracks' likelihood "
+        parameters=parameters,
+        parameter_units=units, fixed_parameters=fixed,
+        uncertainty=uncertainty, confidence=confidence,
+        confidence_basis=(("none: the verdict is a measurement, the share of the baseline's departure from the "
+                           "held-out records that lies beyond the training records' states "
+                           f"({100 * beyond['departure_share']:.0f} %)") if named == OUTSIDE else
+                          ("posterior probability of the verdict from the BIC of the tracks' likelihood "
                            "(the baseline's Kalman-filter innovations; the likelihood ratio, or the Wald "
                            "statistic robust to correlated innovations where smaller), uniform prior over "
                            "none, the single causes and the second causes beside the first")
@@ -243,12 +298,15 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
                            "of its standard error, leave-one-block-out cross-validation)")),
         inclusion={k: float(v) for k, v in sorted(result.inclusion.items(), key=lambda kv: -kv[1])},
         ranking=ranking[:12],
-        baseline={"validation_rmse": b_rmse, "validation_rmse_whole_records": whole_base["position_rmse"],
-                  "training_rmse": b_train},
-        extended={"validation_rmse": e_rmse, "validation_rmse_whole_records": whole_best["position_rmse"],
-                  "training_rmse": e_train},
+        baseline={"validation_rmse": b_rmse, "validation_rmse_windowed": b_window, "training_rmse": b_train},
+        extended={"validation_rmse": e_rmse, "validation_rmse_windowed": e_window, "training_rmse": e_train},
         gain_pct=gain, explains_validation=bool(explained),
-        explanation=cause.explanation if named != "none" else NoCause.explanation,
+        gain_interval_pct=list(whole["interval"]) if whole else None,
+        gain_windowed_pct=gain_pct(b_window, e_window),
+        held_out={"characteristics": judged["characteristics"], "worse": judged["worse"]},
+        outside_training=beyond, inference_verdict=inferred,
+        explanation=(OUTSIDE_EXPLANATION if named == OUTSIDE else
+                     cause.explanation if named != "none" else NoCause.explanation),
         baseline_model=str(prepared.cfg.model.name), scale=_scale(prepared, dynamics),
         method="tracks" if on_tracks else "inference",
         undecided=undecided, next_manoeuvre=next_manoeuvre, notes=notes,
@@ -268,14 +326,17 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
     discovery.injected = injected
     if opts.splits:
         discovery.splits = held_out_in_turn(prepared, smoothed, raw, model, dynamics,
-                                            result.fit if result.named else None, named)
+                                            result.fit if result.named else None, inferred)
     out = discovery.to_dict()
     sections, figures = _sections(ctx, result, whole_base, whole_best, named, out_dir, on_tracks, other, departed,
-                                  discovery.splits)
+                                  discovery.splits, judged, beyond)
     write_discovery(out_dir / "discovery.json", out)
     write_report(out_dir, out, out["explanation"], sections, figures)
-    metrics = {"discover/gain_pct": gain, "discover/confidence": confidence,
+    metrics = {"discover/gain_pct": gain, **({"discover/confidence": confidence} if confidence is not None else {}),
                "discover/baseline_validation_rmse": b_rmse, "discover/extended_validation_rmse": e_rmse,
+               "discover/baseline_validation_rmse_windowed": b_window,
+               "discover/extended_validation_rmse_windowed": e_window,
+               "discover/outside_training_states": float(named == OUTSIDE),
                "discover/baseline_training_rmse": b_train, "discover/extended_training_rmse": e_train,
                "discover/explains_validation": float(explained), "discover/blocks": float(result.n_blocks),
                "discover/n_variants": float(len(result.variants)), "runtime/total_s": time.perf_counter() - t0}
@@ -346,7 +407,7 @@ def _copy(fit):
 
 def _sections(ctx, result, whole_base: dict, whole_best: dict, named: str, out_dir: Path,
               on_tracks: bool = False, other: list | None = None, departed: pd.DataFrame | None = None,
-              splits: list | None = None):
+              splits: list | None = None, judged: dict | None = None, beyond: dict | None = None):
     """The report's tables and figures: verdicts, inclusion probabilities,
     where the replays depart most from the held-out records, every record
     held out in turn, predictions of every held-out record (with another
@@ -372,6 +433,19 @@ def _sections(ctx, result, whole_base: dict, whole_best: dict, named: str, out_d
     if departed is not None and not departed.empty:
         sections.append(("Where the simulation departs most from the held-out records (whole replays; u, v in "
                          "m/s, r in deg/s; ranked by the prime RMSE)", departed.set_index("model")))
+    if beyond is not None:
+        states = pd.DataFrame([{"state": v["meaning"], "unit": v["unit"], "training from": v["training"][0],
+                                "training to": v["training"][1], "held out from": v["held_out"][0],
+                                "held out to": v["held_out"][1], "share of samples beyond": v["share"]}
+                               for v in beyond["states"].values()]).set_index("state")
+        sections.append((f"Where the held-out records leave the training records' states ("
+                         f"{100 * beyond['departure_share']:.0f} % of the baseline's departure lies there; ranges: "
+                         "the 0.5 and 99.5 % quantiles)", states))
+    if judged and judged["characteristics"] and named not in ("none", OUTSIDE):
+        rows = pd.DataFrame(judged["characteristics"]).set_index("record")
+        sections.append(("The held-out manoeuvres' characteristics: each model's error (prediction minus "
+                         "measurement; advance and tactical diameter in m, overshoots in deg; worse: the "
+                         "extension's error exceeds the baseline's beyond the reported resolution)", rows))
     if splits:
         table = pd.DataFrame(splits).set_index("held_out")
         table["parameters"] = [compact_parameters(p) for p in table["parameters"]]
@@ -382,7 +456,7 @@ def _sections(ctx, result, whole_base: dict, whole_best: dict, named: str, out_d
     for rec, pb, pe, sim in zip(ctx.validation, whole_base["predictions"], whole_best["predictions"], other):
         name = str(rec.attrs.get("name", "record"))
         preds = {"baseline": pb}
-        if named != "none":
+        if named not in ("none", OUTSIDE):
             preds[f"extended ({named})"] = pe
         if sim is not None:
             preds["other simulator"] = sim
@@ -390,7 +464,7 @@ def _sections(ctx, result, whole_base: dict, whole_best: dict, named: str, out_d
         plot_predictions(rec, preds, f"{name}: measured vs predicted", out_dir / fig)
         figures.append(fig)
         phase_tables.append(dg.phase_errors(rec, pb, name).assign(model="baseline"))
-        if named != "none":
+        if named not in ("none", OUTSIDE):
             phase_tables.append(dg.phase_errors(rec, pe, name).assign(model="extended"))
         if sim is not None:
             phase_tables.append(dg.phase_errors(rec, sim, name).assign(model="other simulator"))
