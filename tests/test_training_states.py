@@ -105,3 +105,19 @@ def test_the_whole_record_gain_has_an_interval_and_a_worse_extension_is_not_a_ga
     same = judge_held_out([zz15], [zz15], [zz15])
     assert same["explains"] and same["whole"]["gain_pct"] == 0.0
     assert {r["quantity"] for r in same["characteristics"]} >= {"overshoot1_deg", "overshoot2_deg"}
+
+
+def test_the_headline_is_the_most_probable_verdict():
+    """When the records as measured name one cause but the reweightings name
+    another more often, the headline is the more probable one (as its table ranks it)."""
+    from types import SimpleNamespace
+
+    from studies.discover.inference import _most_probable
+
+    variants = [SimpleNamespace(cause=SimpleNamespace(id=cid)) for cid in ("current", "propeller_asymmetry")]
+    chosen = {"current": 0, "propeller_asymmetry": 1}
+    fits = {(): "none", (0,): "current", (1,): "propeller asymmetry"}
+    verdicts = {"propeller_asymmetry": 0.35, "current": 0.31, "none": 0.34}
+    assert _most_probable(variants, (0,), verdicts, chosen, fits) == (1,)
+    assert _most_probable(variants, (0,), {"none": 0.6, "current": 0.4}, chosen, fits) == ()
+    assert _most_probable(variants, (0,), {"current": 0.6, "none": 0.4}, chosen, fits) == (0,)

@@ -709,6 +709,7 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
         for cid in k.split("+"):
             if cid != "none":
                 inclusion[cid] = inclusion.get(cid, 0.0) + p
+    named = _most_probable(variants, named, verdicts, chosen, fits)
     index = np.concatenate([spans[i] for i in named]) if named else np.zeros(0, int)
     coefficients = res.fit(index)
     covariance = _jackknife(grams.folds(index[None]).beta[:, 0, :]) if named else np.zeros((0, 0))
@@ -735,6 +736,23 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
             out.beside[cid] = refine(every, _model_cause(variants, pair), start)
         seconds["beside"] = time.perf_counter() - t4
     return out
+
+
+def _most_probable(variants: list, named: tuple, verdicts: dict, chosen: dict, fits: dict) -> tuple:
+    """The verdict the reweightings name most often, as a model: the headline is the
+    most probable verdict, not the one the records as measured happen to name. A
+    pair whose fit was not refined (its first cause is not the measured verdict's) is
+    left to the measured verdict."""
+    if not verdicts:
+        return named
+    top = max(verdicts, key=verdicts.get)
+    if top == _verdict_id(variants, named) or verdicts[top] <= verdicts.get(_verdict_id(variants, named), 0.0):
+        return named
+    if top == "none":
+        return ()
+    if "+" not in top and top in chosen and (chosen[top],) in fits:
+        return (chosen[top],)
+    return named
 
 
 def _refined_gains(ctx: Context, fit: CauseFit, design: _Design, columns: np.ndarray, blocks: np.ndarray,
