@@ -121,3 +121,13 @@ def test_the_headline_is_the_most_probable_verdict():
     assert _most_probable(variants, (0,), verdicts, chosen, fits) == (1,)
     assert _most_probable(variants, (0,), {"none": 0.6, "current": 0.4}, chosen, fits) == ()
     assert _most_probable(variants, (0,), {"current": 0.6, "none": 0.4}, chosen, fits) == (0,)
+
+
+def test_a_rudder_the_training_reached_is_not_beyond_it(records, mariner):
+    """Trained on a 35/5 zig-zag, a 35 deg turn's rudder is where training went (the
+    turn's drift and its speed loss still are not)."""
+    _, turn, _ = records
+    train = [_record(ref.zigzag_record(35.0, 5.0, duration=400.0, dt=0.5), "zz35_5")]
+    found = beyond(turn, training_ranges(train, mariner), mariner)
+    assert "rudder_deg" not in found.states
+    assert {"drift_deg", "speed_ratio"} <= set(found.states)

@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 
 __all__ = ["STATES", "state_series", "training_ranges", "beyond", "Beyond", "RANGE_QUANTILES",
-           "SIGNIFICANT_SHARE"]
+           "SIGNIFICANT_SHARE", "MARGIN"]
 
 #: the states, with their unit and what they mean
 STATES = {
@@ -39,6 +39,9 @@ STATES = {
 RANGE_QUANTILES = (0.005, 0.995)
 #: a record goes beyond the envelope when at least this share of its samples does
 SIGNIFICANT_SHARE = 0.05
+#: a sample is beyond the envelope when it lies outside it by more than this share of its
+#: width (a rudder held at 35.01 deg is where training at 35 deg went)
+MARGIN = 0.05
 
 
 def state_series(record: pd.DataFrame, vessel) -> pd.DataFrame:
@@ -88,8 +91,8 @@ class Beyond:
         The record's name.
     states : dict
         ``{state: {"training": [low, high], "record": [low, high], "share": s, "excess": e}}``
-        for every state the record takes beyond the envelope on at least
-        :data:`SIGNIFICANT_SHARE` of its samples: its own range (the same
+        for every state the record takes beyond the envelope (by more than
+        :data:`MARGIN` of its width) on at least :data:`SIGNIFICANT_SHARE` of its samples: its own range (the same
         quantiles), the share of its samples outside, and how far its range
         reaches beyond the envelope as a fraction of the envelope's width.
     outside : np.ndarray
@@ -114,7 +117,8 @@ def beyond(record: pd.DataFrame, ranges: dict, vessel) -> Beyond:
         if name not in series:
             continue
         values = series[name].to_numpy(float)
-        out = np.isfinite(values) & ((values < low) | (values > high))
+        slack = MARGIN * (high - low)
+        out = np.isfinite(values) & ((values < low - slack) | (values > high + slack))
         share = float(np.mean(out)) if len(out) else 0.0
         if share < SIGNIFICANT_SHARE:
             continue
