@@ -77,6 +77,7 @@ from .band_calibration import write_band_calibration
 from .cross_validation import cross_validate, cv_table_markdown
 from .sparse_terms import sindy_beside_ls
 from .identified_model import IDENTIFIED_MODEL_FILE
+from .identifiability import identifiability
 from .settings import read_settings
 from .vessel_choice import settle_vessel
 
@@ -222,13 +223,15 @@ def _estimates(run: MMGRun) -> list:
     return _measured.estimate_all(run.records, derivative, kalman)
 
 
-def hull_problems(run: MMGRun, estimates=None):
+def hull_problems(run: MMGRun, estimates=None, records=None):
     """``problems(modules)``: the hull regression of the run's records (prior and captive rows
     as configured) for given propeller and rudder parameters; ``estimates`` the records'
-    smoothed states when already computed."""
+    smoothed states when already computed; ``records`` (with their ``estimates``) a subset
+    of the run's records instead of all of them."""
     cfg = run.cfg.model
     if estimates is None:
         estimates = _estimates(run)
+    records = run.records if records is None else records
     prior = dict(run.vessel.coefficients) if math.isfinite(cfg.prior_scale) else None
 
     captive = None
@@ -239,7 +242,7 @@ def hull_problems(run: MMGRun, estimates=None):
         captive = (model_scale, read_captive(model_scale.captive), cfg.captive_weight)
 
     def problems(modules):
-        return mmg_problems(run.model, run.vessel, modules, run.records, estimates, prior,
+        return mmg_problems(run.model, run.vessel, modules, records, estimates, prior,
                             cfg.prior_scale, cfg.prior_floor, cfg.weights, captive)
     return problems
 
@@ -277,6 +280,7 @@ def identify_mmg(run: MMGRun):
     result = identifier.fit(problems(modules), objective=objective)
     metrics["runtime/identify_s"] = time.perf_counter() - t0
     metrics.update(result.metrics)
+    run.estimates = estimates
     return result, modules, metrics
 
 
@@ -466,6 +470,19 @@ def _scale_note(run: MMGRun) -> str:
                       f"{', '.join(run.cfg.model.output_error) or 'none (published values)'}", ""])
 
 
+def _identifiability(run: MMGRun, modules, params: dict, out_dir: Path) -> dict:
+    """``identifiability.md``: the hull regression's conditioning, each coefficient's change with
+    each training record left out, the held-out records' states beyond the training records'."""
+    estimates = getattr(run, "estimates", None) or _estimates(run)
+
+    def build(indices):
+        return hull_problems(run, [estimates[i] for i in indices], [run.records[i] for i in indices])(modules)
+
+    scale = next((line[2:] for line in _scale_note(run).splitlines() if line.startswith("- scale:")), "")
+    return identifiability(hull_problems(run, estimates)(modules), build, params, run.records,
+                           run.validation_records, run.vessel, out_dir, scale[:1].upper() + scale[1:])
+
+
 def execute_mmg(run: MMGRun, out_dir: Path) -> dict:
     """Identify, validate and write the run's files; the metrics (also ``metrics.json``)."""
     out_dir = Path(out_dir)
@@ -488,6 +505,8 @@ def execute_mmg(run: MMGRun, out_dir: Path) -> dict:
         metrics["deviation/median_abs_pct"] = float(dev.median())
         metrics["deviation/max_abs_pct"] = float(dev.max())
     metrics.update(_manoeuvring._replay_training(run, params, out_dir))
+    if run.measured:
+        metrics.update(_identifiability(run, modules, params, out_dir))
     if run.validation_records:
         metrics.update(_manoeuvring._validate_records(run, params, out_dir, result))
         if run.cfg.model.compare_abkowitz and run.measured:
