@@ -198,9 +198,10 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
     ranking = result.ranking()
     confidence = result.confidence
     inferred = named
-    if beyond is not None and (best is baseline or not judged["explains"] or not whole
-                               or whole["interval"][0] <= 0.0):
-        # the departure lies where training never went and no extension predicts it better
+    if beyond is not None and (best is baseline or not whole or whole["gain_pct"] <= 0.0):
+        # the departure lies where training never went and no extension predicts the whole
+        # held-out records better: never an extension that predicts them worse (a
+        # characteristic it predicts worse is said, not overruling)
         named, best, e_rmse, e_window, e_train, explained = (
             OUTSIDE, baseline, b_rmse, b_window, b_train, False)
         whole_best = whole_base
