@@ -54,15 +54,19 @@ OUTSIDE_EXPLANATION = (
     "manoeuvre below to the training records.")
 
 
-def _outside_note(beyond: dict, inferred: str) -> str:
+def _outside_note(beyond: dict, inferred: str, whole: dict | None) -> str:
     """The ``outside_training_states`` verdict in one sentence, with the inference's own."""
-    ranges = "; ".join(f"{v['meaning']} {v['held_out'][0]:.3g} to {v['held_out'][1]:.3g} {v['unit']} held out "
+    def unit(v):
+        return "" if v["unit"] == "-" else f" {v['unit']}"
+    ranges = "; ".join(f"{v['meaning']} {v['held_out'][0]:.3g} to {v['held_out'][1]:.3g}{unit(v)} held out "
                        f"against {v['training'][0]:.3g} to {v['training'][1]:.3g} in training"
                        for v in beyond["states"].values())
+    named = "none" if inferred == "none" else (
+        f"{inferred}, whose extension does not predict the held-out records better"
+        + (f" (whole-record gain {whole['gain_pct']:.1f} %)" if whole else ""))
     return (f"{100 * beyond['departure_share']:.0f} % of the baseline's departure from the held-out records lies "
             f"beyond the training records' states ({ranges}); the inference on the training records alone "
-            f"named {inferred}, which does not predict the held-out records better: {beyond['manoeuvre']} "
-            "would cover them")
+            f"named {named}; {beyond['manoeuvre']} would cover them")
 
 
 def baseline_dynamics(prepared: PreparedDiscovery) -> MMGDynamics | None:
@@ -212,7 +216,7 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
     cause = best.cause if best is not baseline else NoCause()
     notes = list(prepared.notes)
     if named == OUTSIDE:
-        notes.append(_outside_note(beyond, inferred))
+        notes.append(_outside_note(beyond, inferred, whole))
     elif beyond is not None:
         notes.append(f"the held-out records go beyond the training records in "
                      f"{', '.join(beyond['states'])}, where {inferred} predicts them better all the same "
