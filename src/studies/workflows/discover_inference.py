@@ -201,7 +201,7 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
     beyond = outside_training(ctx.train, ctx.validation, whole_base["predictions"], prepared.vessel)
     ranking = result.ranking()
     confidence = result.confidence
-    inferred = named
+    inferred, inferred_whole = named, whole
     if beyond is not None and (best is baseline or not whole or whole["gain_pct"] <= 0.0):
         # the departure lies where training never went and no extension predicts the whole
         # held-out records better: never an extension that predicts them worse (a
@@ -210,13 +210,14 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
             OUTSIDE, baseline, b_rmse, b_window, b_train, False)
         whole_best = whole_base
         judged = judge_held_out(ctx.validation, whole_base["predictions"], whole_base["predictions"])
+        inferred_whole, whole = whole, judged["whole"]
         confidence = None        # a measurement of where the departure lies, not a probability
     undecided, next_manoeuvre = (_undecided(ranking, named, confidence, undecidable) if named != OUTSIDE
                                  else (None, beyond["manoeuvre"]))
     cause = best.cause if best is not baseline else NoCause()
     notes = list(prepared.notes)
     if named == OUTSIDE:
-        notes.append(_outside_note(beyond, inferred, whole))
+        notes.append(_outside_note(beyond, inferred, inferred_whole))
     elif beyond is not None:
         notes.append(f"the held-out records go beyond the training records in "
                      f"{', '.join(beyond['states'])}, where {inferred} predicts them better all the same "
