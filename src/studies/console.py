@@ -122,6 +122,10 @@ def discovery_lines(discovery: dict) -> list[str]:
     head = f"verdict: {cause}"
     if isinstance(confidence, (int, float)):
         head += f" (confidence {number(confidence)})"
+    elif isinstance(discovery.get("outside_training"), dict):
+        share = discovery["outside_training"].get("departure_share")
+        head += (f" (a measurement, not a probability: {number(100 * share)} % of the departure from the "
+                 "held-out records lies beyond the training records' states)")
     lines = [head]
     parameters = discovery.get("parameters") or {}
     uncertainty = discovery.get("uncertainty") or {}
