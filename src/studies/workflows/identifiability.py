@@ -9,7 +9,8 @@ regression behind it, and the page answers each with numbers:
    each coefficient's variance inflation factor (VIF: 1 for a column
    orthogonal to the others; above 10 the records barely separate it).
 2. **Does a coefficient depend on which record was used?** Every training
-   record is left out in turn and the hull regressed again on the others:
+   record's rows are left out in turn and the hull regressed again on the
+   others (the prior's pseudo-rows kept as weighted in the full fit):
    each coefficient's change [% of its value with every record] per record
    left out, and its largest.
 3. **Do the held-out records go where training went?** The training
@@ -28,6 +29,7 @@ Metrics: ``identifiability/<dof>/condition_number``,
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -72,14 +74,24 @@ def _conditioning(problems: dict) -> tuple[pd.DataFrame, dict]:
     return pd.DataFrame(rows).set_index("coefficient") if rows else pd.DataFrame(), metrics
 
 
-def _leave_one_out(build, records: list, params: dict) -> tuple[pd.DataFrame, dict]:
-    """Each coefficient's change [%] with each training record left out."""
-    if len(records) < 2:
+def _without_record(problem, k: int):
+    """``problem`` without the rows of record ``k`` (prior and captive rows kept)."""
+    keep = np.asarray(problem.record) != k
+    out = replace(problem, theta=problem.theta[keep], y=problem.y[keep], record=np.asarray(problem.record)[keep],
+                  time=None if problem.time is None else np.asarray(problem.time)[keep], states=None)
+    if hasattr(problem, "n_data"):
+        out.n_data = int(np.sum(keep[:problem.n_data]))
+    return out
+
+
+def _leave_one_out(problems: dict, records: list, params: dict) -> tuple[pd.DataFrame, dict]:
+    """Each coefficient's change [%] with each training record's rows left out of the
+    regression (the prior's pseudo-rows, weighted as in the full fit, kept)."""
+    if len(records) < 2 or any(p.record is None for p in problems.values()):
         return pd.DataFrame(), {}
     columns = {}
     for k, record in enumerate(records):
-        others = [i for i in range(len(records)) if i != k]
-        refit = LeastSquares().fit(build(others)).params
+        refit = LeastSquares().fit({dof: _without_record(p, k) for dof, p in problems.items()}).params
         columns[str(record.attrs.get("name", f"record {k + 1}"))] = {
             name: 100.0 * (refit[name] - value) / abs(value) if value else np.nan
             for name, value in params.items() if name in refit}
@@ -114,7 +126,7 @@ def _states(train: list, held_out: list, vessel) -> tuple[pd.DataFrame, pd.DataF
     return envelope, table, metrics, warnings
 
 
-def identifiability(problems: dict, build, params: dict, train: list, held_out: list, vessel,
+def identifiability(problems: dict, params: dict, train: list, held_out: list, vessel,
                     out_dir: Path, scale_note: str = "") -> dict:
     """Write ``identifiability.md`` beside the run's files; its metrics.
 
@@ -122,10 +134,7 @@ def identifiability(problems: dict, build, params: dict, train: list, held_out: 
     ----------
     problems : dict
         ``{dof: RegressionProblem}`` of the identification (records' rows first,
-        ``n_data`` of them, prior rows after).
-    build : callable
-        ``build(indices)``: the same problems from the training records at
-        ``indices`` alone (the leave-one-record-out refits).
+        ``n_data`` of them, prior rows after; ``record``: each row's record).
     params : dict
         The identified coefficients (prime).
     train, held_out : list of DataFrame
@@ -134,7 +143,7 @@ def identifiability(problems: dict, build, params: dict, train: list, held_out: 
         Length L [m], approach speed U0 [m/s] (and draught, rho for the thrust loading).
     """
     conditioning, metrics = _conditioning(problems)
-    drift, drift_metrics = _leave_one_out(build, train, params)
+    drift, drift_metrics = _leave_one_out(problems, train, params)
     metrics.update(drift_metrics)
     envelope, outside, state_metrics, warnings = _states(train, held_out, vessel)
     metrics.update(state_metrics)

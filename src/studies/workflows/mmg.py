@@ -223,15 +223,13 @@ def _estimates(run: MMGRun) -> list:
     return _measured.estimate_all(run.records, derivative, kalman)
 
 
-def hull_problems(run: MMGRun, estimates=None, records=None):
+def hull_problems(run: MMGRun, estimates=None):
     """``problems(modules)``: the hull regression of the run's records (prior and captive rows
     as configured) for given propeller and rudder parameters; ``estimates`` the records'
-    smoothed states when already computed; ``records`` (with their ``estimates``) a subset
-    of the run's records instead of all of them."""
+    smoothed states when already computed."""
     cfg = run.cfg.model
     if estimates is None:
         estimates = _estimates(run)
-    records = run.records if records is None else records
     prior = dict(run.vessel.coefficients) if math.isfinite(cfg.prior_scale) else None
 
     captive = None
@@ -242,7 +240,7 @@ def hull_problems(run: MMGRun, estimates=None, records=None):
         captive = (model_scale, read_captive(model_scale.captive), cfg.captive_weight)
 
     def problems(modules):
-        return mmg_problems(run.model, run.vessel, modules, records, estimates, prior,
+        return mmg_problems(run.model, run.vessel, modules, run.records, estimates, prior,
                             cfg.prior_scale, cfg.prior_floor, cfg.weights, captive)
     return problems
 
@@ -474,12 +472,8 @@ def _identifiability(run: MMGRun, modules, params: dict, out_dir: Path) -> dict:
     """``identifiability.md``: the hull regression's conditioning, each coefficient's change with
     each training record left out, the held-out records' states beyond the training records'."""
     estimates = getattr(run, "estimates", None) or _estimates(run)
-
-    def build(indices):
-        return hull_problems(run, [estimates[i] for i in indices], [run.records[i] for i in indices])(modules)
-
     scale = next((line[2:] for line in _scale_note(run).splitlines() if line.startswith("- scale:")), "")
-    return identifiability(hull_problems(run, estimates)(modules), build, params, run.records,
+    return identifiability(hull_problems(run, estimates)(modules), params, run.records,
                            run.validation_records, run.vessel, out_dir, scale[:1].upper() + scale[1:])
 
 
