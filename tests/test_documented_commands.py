@@ -8,8 +8,9 @@ test, or, when it takes minutes to hours (the presets over all the KVLCC2 record
 the discovery bench over seeds, a report of such a preset's runs), checked: every
 job's settings composed and validated as the command line does before it runs
 anything. Here all of them are checked, in process, in the folder a newcomer has
-(the examples' files beside the shared data), so that a documented command the
-current settings refuse fails the fast loop.
+(the examples' files beside the shared data): the commands the examples run in the
+fast loop, so that a documented command the current settings refuse fails it; the
+checked-only ones with the slow tests.
 """
 
 from __future__ import annotations
@@ -41,7 +42,14 @@ def test_the_pages_show_the_commands_this_test_knows():
         assert reason is None or len(reason) > 10, command
 
 
-@pytest.mark.parametrize("command", documented.documented_commands(), ids=str)
+def _params():
+    """Every documented command; those checked only (the long presets, the benches: seconds
+    each to compose) are slow tests, the ones the examples run are in the fast loop."""
+    return [pytest.param(c, id=str(c), marks=pytest.mark.slow) if documented.not_run(c) else pytest.param(c, id=str(c))
+            for c in documented.documented_commands()]
+
+
+@pytest.mark.parametrize("command", _params())
 def test_every_documented_command_passes_the_checks_as_written(command, project):
     documented.check(command, project)
 
