@@ -10,7 +10,11 @@ from __future__ import annotations
 
 import functools
 
-__all__ = ["pyplot", "readable_ticks"]
+__all__ = ["pyplot", "readable_ticks", "thinned", "MAX_POINTS"]
+
+#: points per drawn line: a 90-dpi panel is a few hundred pixels wide, so more points
+#: draw the same picture and only cost rendering time
+MAX_POINTS = 2000
 
 
 @functools.cache
@@ -49,3 +53,29 @@ def readable_ticks(ax, axis: str = "y") -> None:
     elif low > 0 and high / low < 10.0:
         target.set_major_formatter(FuncFormatter(label))
         target.set_minor_formatter(FuncFormatter(label))
+
+
+def thinned(x, y, max_points: int = MAX_POINTS):
+    """``(x, y)`` with at most about ``max_points`` points that draw the same
+    line: the samples are cut into ``max_points / 2`` consecutive buckets and
+    each keeps its lowest and highest ``y`` (in time order), so peaks,
+    overshoots and noise bands stay where they were. Shorter lines are
+    returned as they are."""
+    import numpy as np
+
+    x = np.asarray(x)
+    y = np.asarray(y)
+    n = len(y)
+    buckets = max(max_points // 2, 1)
+    if n <= max_points:
+        return x, y
+    size = -(-n // buckets)
+    pad = size * buckets - n
+    values = np.concatenate([y.astype(float), np.full(pad, np.nan)]).reshape(buckets, size)
+    finite = np.isfinite(values)
+    low = np.where(finite, values, np.inf).argmin(axis=1)
+    high = np.where(finite, values, -np.inf).argmax(axis=1)
+    starts = np.arange(buckets) * size
+    keep = np.unique(np.concatenate([starts + low, starts + high, [n - 1]]))
+    keep = keep[keep < n]
+    return x[keep], y[keep]

@@ -39,12 +39,20 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import savgol_filter
 
 from .resample import uniform_step
 
 __all__ = ["DerivativeEstimate", "estimate_derivatives", "noise_ratio", "choose_window",
            "MODEL_FREE_METHODS", "STATE_COLUMNS"]
+
+
+def savgol_filter(*args, **kwargs):
+    """:func:`scipy.signal.savgol_filter`, imported on first use (importing
+    ``scipy.signal`` loads ``scipy.stats``: 1-2 s a run without measured
+    records does not need)."""
+    from scipy.signal import savgol_filter as _savgol_filter
+    return _savgol_filter(*args, **kwargs)
+
 
 #: the velocities whose time derivatives are estimated
 STATE_COLUMNS = ("u", "v", "r")

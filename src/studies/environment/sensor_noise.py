@@ -78,7 +78,6 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-from scipy.signal import lfilter, savgol_filter
 
 from ..errors import ConfigError
 from .noise import add_measurement_noise
@@ -126,6 +125,7 @@ def ar1_noise(shape: tuple[int, int], dt: float, tau: float, rng: np.random.Gene
     a = np.exp(-dt / tau)
     w = rng.standard_normal(shape)
     w[1:] *= np.sqrt(1.0 - a * a)       # the first sample from the stationary distribution
+    from scipy.signal import lfilter  # loads scipy.stats: only when this noise is drawn
     return lfilter([1.0], [1.0, -a], w, axis=0)
 
 
@@ -177,6 +177,7 @@ def _quantised_rudder(record, level, speed0, rng, dt):
 def _moving_average(x: np.ndarray, window: int) -> np.ndarray:
     """Centred moving average over ``window`` samples along axis 0 (Savitzky-Golay of order 1:
     the ends from a straight line fitted to the first and last window); ``window`` 0: unchanged."""
+    from ..data.derivatives import savgol_filter
     return savgol_filter(x, window, 1, axis=0, mode="interp") if window else x
 
 

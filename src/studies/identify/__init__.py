@@ -11,23 +11,35 @@ training records, and returns an :class:`~studies.identify.base.Identification`.
 from __future__ import annotations
 
 from ..errors import ConfigError
-from .base import Identification
-from .bayes import BayesianRegression
-from .ga import GeneticRefinement
-from .ls import LeastSquares
-from .sindy import SparseRegression
-from .svm import SupportVectorRegression
-from .regression import RegressionProblem, build_problems
+from ..lazy import LazyClasses, load
 
 __all__ = ["Identification", "RegressionProblem", "build_problems", "LeastSquares",
            "GeneticRefinement", "BayesianRegression", "SupportVectorRegression",
            "SparseRegression", "MANOEUVRING_METHODS", "make_identifier"]
 
-#: manoeuvring identifiers by config name
-MANOEUVRING_METHODS = {"ls": LeastSquares, "svm": SupportVectorRegression,
-                       "ls_ga": GeneticRefinement, "svm_ga": GeneticRefinement,
-                       "bayes": BayesianRegression, "sindy": SparseRegression}
+#: where each public name lives: imported on first use (``import studies.identify`` is
+#: cheap; a least-squares run never loads emcee, pygad or pysindy)
+_EXPORTS = {"Identification": "studies.identify.base:Identification",
+            "RegressionProblem": "studies.identify.regression:RegressionProblem",
+            "build_problems": "studies.identify.regression:build_problems",
+            "LeastSquares": "studies.identify.ls:LeastSquares",
+            "GeneticRefinement": "studies.identify.ga:GeneticRefinement",
+            "BayesianRegression": "studies.identify.bayes.estimator:BayesianRegression",
+            "SupportVectorRegression": "studies.identify.svm:SupportVectorRegression",
+            "SparseRegression": "studies.identify.sindy:SparseRegression"}
 
+#: manoeuvring identifiers by config name (classes imported when looked up)
+MANOEUVRING_METHODS = LazyClasses({name: _EXPORTS[cls] for name, cls in (
+    ("ls", "LeastSquares"), ("svm", "SupportVectorRegression"), ("ls_ga", "GeneticRefinement"),
+    ("svm_ga", "GeneticRefinement"), ("bayes", "BayesianRegression"), ("sindy", "SparseRegression"))})
+
+
+def __getattr__(name: str):
+    if name in _EXPORTS:
+        value = load(_EXPORTS[name])
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 def make_identifier(name: str, options: dict | None = None):
     """Instantiate the identifier registered as ``name`` with ``options`` (the name is checked

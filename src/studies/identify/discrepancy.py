@@ -133,7 +133,6 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pandas as pd
 from scipy.optimize import minimize
-from scipy.signal import lfilter
 
 from ..errors import ConfigError
 from ..simulate.simulator import acceleration_forces
@@ -231,6 +230,8 @@ class Discrepancy:
         depend on the step, also when ``tau`` is shorter than it. The first
         step starts in the stationary distribution.
         """
+        from scipy.signal import lfilter  # loads scipy.stats: only when a discrepancy is drawn
+
         taus = self.taus
         phi = np.exp(-step / taus)
         ratio = taus / step

@@ -82,9 +82,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 from numba import njit
-from scipy.signal import savgol_filter
 
-from ..data.derivatives import MODEL_FREE_METHODS, DerivativeEstimate
+from ..data.derivatives import MODEL_FREE_METHODS, DerivativeEstimate, savgol_filter
 from ..data.derivatives import estimate_derivatives as model_free_derivatives
 from ..data.resample import uniform_step
 from ..errors import ConfigError

@@ -10,13 +10,16 @@ from __future__ import annotations
 
 from typing import Sequence
 
-from studies.roll.bayes import BayesRollEstimator
-from studies.roll.estimators import ESTIMATORS
+from studies.lazy import LazyClasses
 
 __all__ = ["ROLL_METHODS", "make_method"]
 
 #: every roll identification method by its ``method=`` name
-ROLL_METHODS = {**ESTIMATORS, BayesRollEstimator.name: BayesRollEstimator}
+#: (imported when looked up: the Bayesian one loads emcee)
+ROLL_METHODS = LazyClasses({"nls": "studies.roll.estimators:NLSEstimator",
+                            "fls": "studies.roll.estimators:FLSEstimator",
+                            "nls_svm": "studies.roll.estimators:NLSSVMEstimator",
+                            "bayes": "studies.roll.bayes:BayesRollEstimator"})
 
 
 def make_method(method: str, terms: Sequence[str] = ("b1", "b2"), seed: int = 0, **settings):

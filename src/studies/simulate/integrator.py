@@ -198,6 +198,8 @@ def _integrate(cm, k, x0, dt, cmd, mode, params, wp, ext, out):
     h = 0.5 * dt
     sixth = dt / 6.0
     euler = k[19] == 1.0
+    n_stages = 1 if euler else 4
+    weight = dt if euler else sixth
     for i in range(n - 1):
         dc, memory = _command(mode, cmd[i], s5, s2, psi0, p0, p1, p2, memory)
         rate = 0.0
@@ -210,36 +212,35 @@ def _integrate(cm, k, x0, dt, cmd, mode, params, wp, ext, out):
         # one cosine/sine per step: the stages rotate it by their small heading increments
         cp = math.cos(s5)
         sp = math.sin(s5)
-        k1 = _derivatives(s0, s1, s2, cp, sp, s6, dc, rate, prescribed, c, k, wp,
-                          e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
-        if euler:
-            s0 += dt * k1[0]
-            s1 += dt * k1[1]
-            s2 += dt * k1[2]
-            s3 += dt * k1[3]
-            s4 += dt * k1[4]
-            s5 += dt * k1[5]
-            s6 += dt * k1[6]
-        else:
-            ca, sa = _small_rotation(h * k1[5])
-            k2 = _derivatives(s0 + h * k1[0], s1 + h * k1[1], s2 + h * k1[2], cp * ca - sp * sa,
-                              sp * ca + cp * sa, s6 + h * k1[6], dc, rate, prescribed, c, k, wp,
-                              e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
-            ca, sa = _small_rotation(h * k2[5])
-            k3 = _derivatives(s0 + h * k2[0], s1 + h * k2[1], s2 + h * k2[2], cp * ca - sp * sa,
-                              sp * ca + cp * sa, s6 + h * k2[6], dc, rate, prescribed, c, k, wp,
-                              e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
-            ca, sa = _small_rotation(dt * k3[5])
-            k4 = _derivatives(s0 + dt * k3[0], s1 + dt * k3[1], s2 + dt * k3[2], cp * ca - sp * sa,
-                              sp * ca + cp * sa, s6 + dt * k3[6], dc, rate, prescribed, c, k, wp,
-                              e0, e1, e2, e3, e4, e5, g0, g1, g2, has_ext)
-            s0 += sixth * (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0])
-            s1 += sixth * (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1])
-            s2 += sixth * (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2])
-            s3 += sixth * (k1[3] + 2.0 * (k2[3] + k3[3]) + k4[3])
-            s4 += sixth * (k1[4] + 2.0 * (k2[4] + k3[4]) + k4[4])
-            s5 += sixth * (k1[5] + 2.0 * (k2[5] + k3[5]) + k4[5])
-            s6 += sixth * (k1[6] + 2.0 * (k2[6] + k3[6]) + k4[6])
+        # the stages in one loop: the force evaluation is compiled once, not once per stage
+        a0 = a1 = a2 = a3 = a4 = a5 = a6 = 0.0
+        d0 = d1 = d2 = d3 = d4 = d5 = d6 = 0.0
+        for stage in range(n_stages):
+            if stage == 0:
+                w, hs = 1.0, 0.0
+            elif stage == 3:
+                w, hs = 1.0, dt
+            else:
+                w, hs = 2.0, h
+            ca, sa = _small_rotation(hs * d5)
+            d0, d1, d2, d3, d4, d5, d6 = _derivatives(
+                s0 + hs * d0, s1 + hs * d1, s2 + hs * d2, cp * ca - sp * sa, sp * ca + cp * sa,
+                s6 + hs * d6, dc, rate, prescribed, c, k, wp, e0, e1, e2, e3, e4, e5, g0, g1, g2,
+                has_ext)
+            a0 += w * d0
+            a1 += w * d1
+            a2 += w * d2
+            a3 += w * d3
+            a4 += w * d4
+            a5 += w * d5
+            a6 += w * d6
+        s0 += weight * a0
+        s1 += weight * a1
+        s2 += weight * a2
+        s3 += weight * a3
+        s4 += weight * a4
+        s5 += weight * a5
+        s6 += weight * a6
         if prescribed:
             s6 = cmd[i + 1]
         u_tot = k[0] + s0

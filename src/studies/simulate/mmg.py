@@ -200,30 +200,35 @@ def _integrate(c, k, a, g, x0, dt, cmd, mode, params, rps, limit, ext, eg, out):
             cr = math.cos(s6)
             sr = math.sin(s6)
             held = s6
-        k1 = _derivatives(s0, s1, s2, cp, sp, s6, sr, cr, dc, rate, prescribed, n_a, c, k, a, g,
-                         e0, e1, e2, eg)
-        ca, sa = _small_rotation(h * k1[5])
-        cb, sb = _turned(cr, sr, h * k1[6])
-        k2 = _derivatives(s0 + h * k1[0], s1 + h * k1[1], s2 + h * k1[2], cp * ca - sp * sa,
-                          sp * ca + cp * sa, s6 + h * k1[6], sb, cb, dc, rate, prescribed, n_m,
-                          c, k, a, g, e0, e1, e2, eg)
-        ca, sa = _small_rotation(h * k2[5])
-        cb, sb = _turned(cr, sr, h * k2[6])
-        k3 = _derivatives(s0 + h * k2[0], s1 + h * k2[1], s2 + h * k2[2], cp * ca - sp * sa,
-                          sp * ca + cp * sa, s6 + h * k2[6], sb, cb, dc, rate, prescribed, n_m,
-                          c, k, a, g, e0, e1, e2, eg)
-        ca, sa = _small_rotation(dt * k3[5])
-        cb, sb = _turned(cr, sr, dt * k3[6])
-        k4 = _derivatives(s0 + dt * k3[0], s1 + dt * k3[1], s2 + dt * k3[2], cp * ca - sp * sa,
-                          sp * ca + cp * sa, s6 + dt * k3[6], sb, cb, dc, rate, prescribed, n_b,
-                          c, k, a, g, e0, e1, e2, eg)
-        s0 += sixth * (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0])
-        s1 += sixth * (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1])
-        s2 += sixth * (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2])
-        s3 += sixth * (k1[3] + 2.0 * (k2[3] + k3[3]) + k4[3])
-        s4 += sixth * (k1[4] + 2.0 * (k2[4] + k3[4]) + k4[4])
-        s5 += sixth * (k1[5] + 2.0 * (k2[5] + k3[5]) + k4[5])
-        s6 += sixth * (k1[6] + 2.0 * (k2[6] + k3[6]) + k4[6])
+        # the four stages in one loop: the forces are compiled once, not once per stage
+        a0 = a1 = a2 = a3 = a4 = a5 = a6 = 0.0
+        d0 = d1 = d2 = d3 = d4 = d5 = d6 = 0.0
+        for stage in range(4):
+            if stage == 0:
+                w, hs, n_s = 1.0, 0.0, n_a
+            elif stage == 3:
+                w, hs, n_s = 1.0, dt, n_b
+            else:
+                w, hs, n_s = 2.0, h, n_m
+            ca, sa = _small_rotation(hs * d5)
+            cb, sb = _turned(cr, sr, hs * d6)
+            d0, d1, d2, d3, d4, d5, d6 = _derivatives(
+                s0 + hs * d0, s1 + hs * d1, s2 + hs * d2, cp * ca - sp * sa, sp * ca + cp * sa,
+                s6 + hs * d6, sb, cb, dc, rate, prescribed, n_s, c, k, a, g, e0, e1, e2, eg)
+            a0 += w * d0
+            a1 += w * d1
+            a2 += w * d2
+            a3 += w * d3
+            a4 += w * d4
+            a5 += w * d5
+            a6 += w * d6
+        s0 += sixth * a0
+        s1 += sixth * a1
+        s2 += sixth * a2
+        s3 += sixth * a3
+        s4 += sixth * a4
+        s5 += sixth * a5
+        s6 += sixth * a6
         if prescribed:
             s6 = cmd[i + 1]
         if not (s0 > 0.0 and s0 < limit and abs(s1) < limit and abs(s2) < 1.0

@@ -10,6 +10,9 @@ roll_decay     roll                               :mod:`studies.roll.workflow.ru
                                                   :mod:`studies.roll.workflow.discover`
 =============  =================================  ==========================================
 
+Each kind imports its pipeline when it is used (a manoeuvring run does not load
+the roll or discovery code, nor what they import).
+
 A new kind is a class with the methods of
 :class:`studies.workflows.protocol.StudyKind` and one entry in :data:`KINDS`,
 and names the settings its runs depend on in :data:`PARAM_GROUPS` (the
@@ -22,13 +25,6 @@ from pathlib import Path
 
 from ..config import DiscoverConfig, RunConfig
 from ..errors import ConfigError
-from . import discover as _discover
-from . import discover_inference as _inference
-from . import manoeuvring as _manoeuvring
-from . import mmg as _mmg
-from ..roll.records import load_roll_decay
-from ..roll.workflow import discover as _roll_discover
-from ..roll.workflow import run as _roll_run
 from .settings import as_path_list
 from .protocol import PreparedDiscovery, PreparedRun, Recorder, StudyKind
 from .vessel_choice import simulated_vessel
@@ -43,12 +39,16 @@ class ManoeuvringKind:
     kind = "manoeuvring"
 
     def prepare(self, cfg: RunConfig, root: Path, record: Recorder | None = None) -> PreparedRun:
+        from . import mmg as _mmg
         if _mmg.is_mmg(cfg):
             return _mmg.prepare_mmg(cfg, root, record)
+        from . import manoeuvring as _manoeuvring
         return _manoeuvring.prepare(cfg, root, record)
 
     def prepare_discovery(self, cfg: DiscoverConfig, root: Path,
                           record: Recorder | None = None) -> PreparedDiscovery:
+        from . import discover as _discover
+        from . import discover_inference as _inference
         prepared = _discover.prepare_discovery(cfg, root, self, record)
         paths = as_path_list(cfg.data.path) + as_path_list(cfg.validate.path)
         contexts = ["training"] * len(as_path_list(cfg.data.path)) + ["validation"] * len(paths)
@@ -61,6 +61,7 @@ class ManoeuvringKind:
         return prepared
 
     def discover(self, prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
+        from . import discover_inference as _inference
         return _inference.execute_inference(prepared, out_dir)
 
 
@@ -70,10 +71,13 @@ class RollDecayKind:
     kind = "roll_decay"
 
     def prepare(self, cfg: RunConfig, root: Path, record: Recorder | None = None) -> PreparedRun:
+        from ..roll.workflow import run as _roll_run
         return _roll_run.prepare_roll(cfg)
 
     def prepare_discovery(self, cfg: DiscoverConfig, root: Path,
                           record: Recorder | None = None) -> PreparedDiscovery:
+        from ..roll.records import load_roll_decay
+        from ..roll.workflow import discover as _roll_discover
         prepared = _roll_discover.prepare_roll_discovery(cfg, root, self, record)
         given = ([(p, "training") for p in as_path_list(cfg.data.path)]
                  + [(p, "validation") for p in as_path_list(cfg.validate.path)]
@@ -82,6 +86,7 @@ class RollDecayKind:
         return prepared
 
     def discover(self, prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
+        from ..roll.workflow import discover as _roll_discover
         return _roll_discover.execute_roll_discovery(prepared, out_dir)
 
 

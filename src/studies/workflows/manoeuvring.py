@@ -67,7 +67,6 @@ from ..vessels.base import Vessel
 from . import measured as _measured
 from .identified_model import IDENTIFIED_MODEL_FILE, IdentifiedModel
 from .settings import Settings, named_manoeuvre, read_settings
-from .simplify import ensure_definition
 from .methods import check_method
 from .protocol import Recorder
 from .vessel_choice import settle_vessel
@@ -198,6 +197,7 @@ def get_study_model(cfg: RunConfig, root: Path | None = None,
     name = str(cfg.model.name)
     if name == "simplified":
         root = Path(root or Path.cwd())
+        from .simplify import ensure_definition  # SALib and pygad: only for the simplified model
         return get_model(name, ensure_definition(cfg, root, record))
     return get_model(name)
 
