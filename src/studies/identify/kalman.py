@@ -362,21 +362,25 @@ def _jacobian(x, delta, n, mode, c, k, mp, J):
         for j in range(3):
             base = x[3 + j]
             h = 1e-6 * max(abs(base), 1.0) if j < 2 else 1e-7
-            xp = x[3:6].copy()
-            xm = x[3:6].copy()
-            xp[j] = base + h
-            xm[j] = base - h
-            ap = _process_acc(xp[0], xp[1], xp[2], delta, n, mode, c, k, mp)
-            am = _process_acc(xm[0], xm[1], xm[2], delta, n, mode, c, k, mp)
+            up, vp, rp = x[3], x[4], x[5]
+            um, vm, rm = x[3], x[4], x[5]
+            if j == 0:
+                up, um = base + h, base - h
+            elif j == 1:
+                vp, vm = base + h, base - h
+            else:
+                rp, rm = base + h, base - h
+            ap = _process_acc(up, vp, rp, delta, n, mode, c, k, mp)
+            am = _process_acc(um, vm, rm, delta, n, mode, c, k, mp)
             dg = 0.0
             if varying:
-                dg = _gain(xp[0], xp[1], xp[2], k) - _gain(xm[0], xm[1], xm[2], k)
+                dg = _gain(up, vp, rp, k) - _gain(um, vm, rm, k)
             for i in range(3):
                 J[3 + i, 3 + j] = (ap[i] - am[i] + dg * x[6 + i]) / (2.0 * h)
 
 
 @njit(cache=True)
-def _rk4(x, d0, d1, n0, n1, dt, mode, c, k, mp):
+def _rk4(x, d0, d1, n0, n1, dt, mode, c, k, mp, work):
     """One RK4 step of the filter's state (:func:`_f`), the rudder and the
     propeller rate linear over the step (``d0``, ``n0`` at its start, ``d1``,
     ``n1`` at its end).
@@ -388,18 +392,26 @@ def _rk4(x, d0, d1, n0, n1, dt, mode, c, k, mp):
     no single step exposed. The filter's twelve states (kinematic or model
     process, acceleration and bias states) do not fit it without changing
     the filter's numbers.
+
+    Written out in loops over a workspace ``work`` (5, NS), ``x`` updated in
+    place: array expressions would allocate per step, and compiling their
+    shape checks is most of the filter's compile time.
     """
-    k1 = np.empty(NS)
-    k2 = np.empty(NS)
-    k3 = np.empty(NS)
-    k4 = np.empty(NS)
+    k1, k2, k3, k4, stage = work[0], work[1], work[2], work[3], work[4]
     dm = 0.5 * (d0 + d1)
     nm = 0.5 * (n0 + n1)
     _f(x, d0, n0, mode, c, k, mp, k1)
-    _f(x + 0.5 * dt * k1, dm, nm, mode, c, k, mp, k2)
-    _f(x + 0.5 * dt * k2, dm, nm, mode, c, k, mp, k3)
-    _f(x + dt * k3, d1, n1, mode, c, k, mp, k4)
-    return x + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    for i in range(NS):
+        stage[i] = x[i] + 0.5 * dt * k1[i]
+    _f(stage, dm, nm, mode, c, k, mp, k2)
+    for i in range(NS):
+        stage[i] = x[i] + 0.5 * dt * k2[i]
+    _f(stage, dm, nm, mode, c, k, mp, k3)
+    for i in range(NS):
+        stage[i] = x[i] + dt * k3[i]
+    _f(stage, d1, n1, mode, c, k, mp, k4)
+    for i in range(NS):
+        x[i] = x[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
 
 @njit(cache=True, nogil=True)
@@ -420,23 +432,37 @@ def _filter_smooth(z, R, sel, bsel, delta, rps, dt, x0, P0, qc, mode, c, k, mp, 
     Pp = np.empty((n, NS, NS))
     Fs = np.empty((n, NS, NS))
     J = np.empty((NS, NS))
-    Qc = np.diag(qc)
-    eye = np.eye(NS)
+    F = np.empty((NS, NS))
+    Qd = np.empty((NS, NS))
+    T = np.empty((NS, NS))
+    ph = np.empty(NS)
+    work = np.empty((5, NS))
     x = x0.copy()
     P = P0.copy()
     loglik = 0.0
+    dt2 = dt * dt
+    dt3 = dt2 * dt / 3.0
     for i in range(n):
         if i > 0:
             _jacobian(x, delta[i - 1], rps[i - 1], mode, c, k, mp, J)
-            Jdt = J * dt
-            F = eye + Jdt + 0.5 * (Jdt @ Jdt)
-            JQ = J @ Qc
-            Qd = Qc * dt + 0.5 * (JQ + JQ.T) * dt * dt + (JQ @ J.T) * dt ** 3 / 3.0
-            x = _rk4(x, delta[i - 1], delta[i], rps[i - 1], rps[i], dt, mode, c, k, mp)
-            P = F @ P @ F.T + Qd
-            Fs[i - 1] = F
-        xp[i] = x
-        Pp[i] = P
+            # F = I + J dt + (J dt)^2 / 2; Qd = Qc dt + (J Qc + Qc J^T) dt^2 / 2 + J Qc J^T dt^3 / 3
+            for a in range(NS):
+                for b in range(NS):
+                    jj = 0.0
+                    jqj = 0.0
+                    for q in range(NS):
+                        jj += J[a, q] * J[q, b]
+                        jqj += J[a, q] * qc[q] * J[b, q]
+                    F[a, b] = (1.0 if a == b else 0.0) + J[a, b] * dt + 0.5 * dt2 * jj
+                    Qd[a, b] = ((qc[a] * dt if a == b else 0.0)
+                                + 0.5 * (J[a, b] * qc[b] + J[b, a] * qc[a]) * dt2 + jqj * dt3)
+            _rk4(x, delta[i - 1], delta[i], rps[i - 1], rps[i], dt, mode, c, k, mp, work)
+            _sandwich(F, P, T)
+            for a in range(NS):
+                for b in range(NS):
+                    P[a, b] += Qd[a, b]
+                    Fs[i - 1, a, b] = F[a, b]
+        _store(x, P, xp, Pp, i)
         # sequential scalar updates (R diagonal)
         for j in range(m):
             y = z[i, j]
@@ -444,21 +470,27 @@ def _filter_smooth(z, R, sel, bsel, delta, rps, dt, x0, P0, qc, mode, c, k, mp, 
                 continue
             s_idx = sel[j]
             b_idx = bsel[j]
+            for a in range(NS):
+                ph[a] = P[a, s_idx] + (P[a, b_idx] if b_idx >= 0 else 0.0)
             if b_idx >= 0:
-                ph = P[:, s_idx] + P[:, b_idx]
                 S = ph[s_idx] + ph[b_idx] + R[i, j]
                 e = y - x[s_idx] - x[b_idx]
             else:
-                ph = P[:, s_idx].copy()
                 S = ph[s_idx] + R[i, j]
                 e = y - x[s_idx]
             loglik += -0.5 * (math.log(2.0 * math.pi * S) + e * e / S)
-            K = ph / S
-            x = x + K * e
-            P = P - np.outer(K, ph)
-        P = 0.5 * (P + P.T)
-        xf[i] = x
-        Pf[i] = P
+            for a in range(NS):
+                x[a] += ph[a] / S * e
+            for a in range(NS):
+                ka = ph[a] / S
+                for b in range(NS):
+                    P[a, b] -= ka * ph[b]
+        for a in range(NS):
+            for b in range(a + 1, NS):
+                mean = 0.5 * (P[a, b] + P[b, a])
+                P[a, b] = mean
+                P[b, a] = mean
+        _store(x, P, xf, Pf, i)
     var = np.empty((n, NS))
     if not smooth:
         for i in range(n):
@@ -467,14 +499,70 @@ def _filter_smooth(z, R, sel, bsel, delta, rps, dt, x0, P0, qc, mode, c, k, mp, 
         return xf, var, loglik
     xs = xf.copy()
     Ps = Pf.copy()
+    C = np.empty((NS, NS))
+    D = np.empty((NS, NS))
+    dx = np.empty(NS)
     for i in range(n - 2, -1, -1):
-        C = Pf[i] @ Fs[i].T @ np.linalg.inv(Pp[i + 1])
-        xs[i] = xf[i] + C @ (xs[i + 1] - xp[i + 1])
-        Ps[i] = Pf[i] + C @ (Ps[i + 1] - Pp[i + 1]) @ C.T
+        # C = Pf F^T Pp^-1
+        inverse = np.linalg.inv(Pp[i + 1])
+        for a in range(NS):
+            for b in range(NS):
+                acc = 0.0
+                for q in range(NS):
+                    acc += Pf[i, a, q] * Fs[i, b, q]
+                T[a, b] = acc
+        for a in range(NS):
+            for b in range(NS):
+                acc = 0.0
+                for q in range(NS):
+                    acc += T[a, q] * inverse[q, b]
+                C[a, b] = acc
+        for a in range(NS):
+            dx[a] = xs[i + 1, a] - xp[i + 1, a]
+        for a in range(NS):
+            acc = 0.0
+            for q in range(NS):
+                acc += C[a, q] * dx[q]
+            xs[i, a] = xf[i, a] + acc
+        # Ps = Pf + C (Ps' - Pp') C^T
+        for a in range(NS):
+            for b in range(NS):
+                D[a, b] = Ps[i + 1, a, b] - Pp[i + 1, a, b]
+        _sandwich(C, D, T)
+        for a in range(NS):
+            for b in range(NS):
+                Ps[i, a, b] = Pf[i, a, b] + D[a, b]
     for i in range(n):
         for j in range(NS):
             var[i, j] = Ps[i, j, j]
     return xs, var, loglik
+
+
+@njit(cache=True)
+def _store(x, P, xs, Ps, i):
+    """``xs[i] = x``, ``Ps[i] = P`` element by element."""
+    for a in range(NS):
+        xs[i, a] = x[a]
+        for b in range(NS):
+            Ps[i, a, b] = P[a, b]
+
+
+@njit(cache=True)
+def _sandwich(A, B, work):
+    """``B <- A B A^T`` in place (``work`` a matrix of the same size)."""
+    size = B.shape[0]
+    for a in range(size):
+        for b in range(size):
+            acc = 0.0
+            for q in range(size):
+                acc += A[a, q] * B[q, b]
+            work[a, b] = acc
+    for a in range(size):
+        for b in range(size):
+            acc = 0.0
+            for q in range(size):
+                acc += work[a, q] * A[b, q]
+            B[a, b] = acc
 
 
 @njit(cache=True)
