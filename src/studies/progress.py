@@ -15,6 +15,8 @@ import time
 
 from hydra.experimental.callback import Callback
 
+from .stages import QUIET_ENV
+
 __all__ = ["SweepProgress", "count_jobs"]
 
 ENV_TOTAL = "STUDIES_SWEEP_JOBS"
@@ -47,6 +49,8 @@ class SweepProgress(Callback):
         overrides += [f"{k}={v}" for k, v in params.items()
                       if not any(o.split("=")[0].lstrip("+~") == k for o in overrides)]
         total = count_jobs(overrides)
+        # the jobs print their start and end, not their stages
+        os.environ[QUIET_ENV] = "1"
         if total:
             os.environ[ENV_TOTAL] = str(total)
             print(f"[studies] sweep of {total} jobs", file=sys.stderr, flush=True)

@@ -16,7 +16,7 @@ from pathlib import Path
 __all__ = ["NAMES", "shared_data"]
 
 #: the benchmark modules, by the names ``studies bench`` takes
-NAMES = ("simulator", "ga", "bayes", "kvlcc2", "sindy", "discovery_time", "sweep")
+NAMES = ("simulator", "ga", "bayes", "kvlcc2", "sindy", "discovery_time", "sweep", "cli")
 
 
 def shared_data(folder: str) -> Path:

@@ -106,6 +106,34 @@ def requirements() -> list[str]:
 
 
 @contextlib.contextmanager
+def _own_requirements_only():
+    """Let MLflow check the model's requirements without scanning the environment.
+
+    The requirements are explicit (:func:`requirements`: this ``studies`` and
+    this MLflow, both running), yet MLflow checks them against the
+    environment by first mapping every installed distribution to its
+    modules (``importlib.metadata.packages_distributions``: 0.5-1 s, once per
+    process). For the call, its module map holds just the two packages
+    named; the map is reset afterwards, so that MLflow builds the full one
+    for anything else the process logs. When MLflow has already built the
+    map, or no longer keeps it where this expects, nothing is changed.
+    """
+    try:
+        from mlflow.utils import requirements_utils as known
+    except ImportError:
+        known = None
+    if known is None or getattr(known, "_MODULES_TO_PACKAGES", False) is not None:
+        yield
+        return
+    known._MODULES_TO_PACKAGES = {"studies": ["studies"], "mlflow": ["mlflow"]}
+    try:
+        yield
+    finally:
+        known._MODULES_TO_PACKAGES = None
+        known._PACKAGES_TO_MODULES = None
+
+
+@contextlib.contextmanager
 def _quiet():
     """MLflow's notes while logging and loading (no input example, type hints,
     registration progress) are not the user's business: warnings off, its
@@ -146,7 +174,7 @@ def log_identified_model(client, run_id: str, path: str | Path, register: str | 
     source = identified.source
     params = {"model": identified.model.name, "vessel": str(source.get("vessel", identified.vessel.name)),
               "method": str(source.get("method", "")), "simulator": "mmg" if identified.is_mmg else "abkowitz"}
-    with _quiet(), tempfile.TemporaryDirectory() as tmp:
+    with _quiet(), _own_requirements_only(), tempfile.TemporaryDirectory() as tmp:
         code = Path(tmp) / "identified_model.py"
         code.write_text(MODEL_CODE)
         logged = client.create_logged_model(experiment_id, name=MODEL_NAME, source_run_id=run_id,

@@ -32,6 +32,7 @@ from ..discover.track_inference import infer_on_tracks
 from ..discover.training_states import outside_training
 from ..discover.report import plot_evidence, plot_predictions, write_discovery, write_report
 from ..discover.verdict import Discovery
+from ..stages import say
 from ..threads import single_thread_blas
 from ..vessels import has_mmg_particulars, mmg_vessel_at_speed
 from .discover import DEPARTURES, departures, on_record_time
@@ -160,6 +161,7 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
     dynamics = baseline_dynamics(prepared)
     model = dynamics.model if dynamics is not None else prepared.model
     raw = list(prepared.train) + list(prepared.validation)
+    say(f"discover: smoothing {len(raw)} records (kinematic, then with the {model.name} baseline)")
     first = Context(prepared.vessel, model, list(prepared.train), list(prepared.validation), "recorded",
                     dynamics=dynamics)
     smoothed = smooth_with_baseline(first, raw)
@@ -172,6 +174,7 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
                    if c.undecidable(ctx) is not None]
     judge = str(getattr(opts, "judge", "auto"))
     on_tracks = judge == "tracks" or (judge == "auto" and dynamics is None)
+    say(f"discover: comparing the causes on {len(prepared.train)} training records")
     if on_tracks:
         result = infer_on_tracks(ctx, smoothed, raw, pairs=opts.second_cause)
     else:
@@ -182,8 +185,11 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
     # the verdict and its parameters come from every record; the held-out gain from the named
     # model and the baseline refitted on the training records alone
     baseline = baseline_fit(ctx)
+    if result.named:
+        say(f"discover: refining {result.fit.cause}")
     best = refine(ctx, result.fit.cause, result.fit.theta) if result.named else baseline
     t_infer = time.perf_counter() - t0 - t_smooth
+    say(f"discover: predicting {len(ctx.validation)} held-out records")
     validate(ctx, baseline)
     if best is not baseline:
         validate(ctx, best)
@@ -342,6 +348,7 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
         discovery.splits = held_out_in_turn(prepared, smoothed, raw, model, dynamics,
                                             result.fit if result.named else None, inferred)
     out = discovery.to_dict()
+    say("discover: writing the report and its figures")
     sections, figures = _sections(ctx, result, whole_base, whole_best, named, out_dir, on_tracks, other, departed,
                                   discovery.splits, judged, beyond)
     write_discovery(out_dir / "discovery.json", out)

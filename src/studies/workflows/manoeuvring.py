@@ -47,6 +47,7 @@ from ..analysis.metrics import error_metrics
 from ..data import load_manoeuvres
 from ..data.derivatives import STATE_COLUMNS, noise_ratio
 from ..errors import ConfigError
+from ..stages import say
 from ..environment.conditions import Environment
 from ..environment.noise import add_measurement_noise, disturbance_forces, record_wind
 from ..identify import build_problems, make_identifier
@@ -784,6 +785,7 @@ def execute(study: ManoeuvringRun, out_dir: Path) -> dict:
     identifier = make_identifier(study.method, _method_options(cfg))
     objective = trajectory_objective(study.model, study.vessel, study.records, cfg.objective.simulation)
     info = {}
+    say(f"run: identifying {study.model.name} by {study.method} on {len(study.records)} record(s)")
     if study.measured:
         derivative = measured_derivative(study.records, derivative)
         kalman, iterations = _measured.kalman_options(cfg)
@@ -819,6 +821,7 @@ def execute(study: ManoeuvringRun, out_dir: Path) -> dict:
         for k, (man, rec) in enumerate(zip(training_manoeuvres(cfg), study.records)):
             pred = simulate(study.model, params, study.vessel, man, study.settings.environment)
             metrics.update(error_metrics(pred, rec, "training" if k == 0 else f"training_{man.name}"))
+    say("run: predicting the validation manoeuvres and records")
     if study.measured:
         metrics.update(_replay_training(study, params, out_dir))
     if study.validation_records:
