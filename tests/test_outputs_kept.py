@@ -11,6 +11,9 @@ fresh folder, and fails naming whatever is gone (new outputs are allowed).
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
 
 import pytest
 
@@ -29,8 +32,38 @@ def _kept(name: str, args: list, project) -> None:
     assert not gone, f"{name}: outputs missing since the stored manifest: {gone}"
 
 
-def test_the_main_job_writes_everything_it_wrote(tmp_path):
-    _kept("main_job", ["run"], tmp_path)
+#: modules a least-squares run on simulated data does not use: each costs 0.3-2 s to import
+HEAVY = ("emcee", "scipy.stats", "scipy.signal", "pygad", "pysindy", "sklearn", "SALib", "corner")
+
+
+@pytest.fixture(scope="module")
+def main_job(tmp_path_factory):
+    """The README's main job run once as a user runs it, with Python's import log."""
+    project = tmp_path_factory.mktemp("main_job")
+    env = dict(os.environ, MLFLOW_DISABLE_TELEMETRY="true")
+    proc = subprocess.run([sys.executable, "-X", "importtime", "-m", "studies", "run"], cwd=project,
+                          capture_output=True, text=True, timeout=900, env=env)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    imported = {line.rsplit("|", 1)[-1].strip() for line in proc.stderr.splitlines()
+                if line.startswith("import time:")}
+    return project, imported
+
+
+def test_the_main_job_writes_everything_it_wrote(main_job):
+    project, _ = main_job
+    stored = json.loads((MANIFESTS / "main_job.json").read_text())
+    gone = missing(stored, manifest(project))
+    assert not gone, f"main_job: outputs missing since the stored manifest: {gone}"
+
+
+def test_the_main_job_imports_only_what_it_uses(main_job):
+    """The estimators, the discovery and the roll pipeline are imported when used
+    (``studies.lazy``, :mod:`studies.workflows.kinds`): the main job loads none of their
+    libraries."""
+    _, imported = main_job
+    assert "studies.identify.ls" in imported and "mlflow" in imported     # the log is read
+    loaded = sorted(m for m in HEAVY if m in imported)
+    assert not loaded, f"the main job imported {loaded}"
 
 
 @pytest.mark.slow
