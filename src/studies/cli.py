@@ -347,7 +347,7 @@ def _report_task(cfg) -> None:
 
     from .report.builder import build_report
     from .runtime import tracking
-    from .workflows.settings import output_path
+    from .config.paths import output_path
 
     root = Path(get_original_cwd())
     verbose = cfg.get("verbose", False) is True

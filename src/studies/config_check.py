@@ -319,7 +319,7 @@ def _paths_exist(settings, root: Path) -> None:
 
 def _check_run(cfg, root: Path) -> None:
     from .workflows.methods import check_method
-    from .workflows.settings import check_output_paths
+    from .config.paths import check_output_paths
     from .workflows.vessel_choice import settle_vessel
 
     settings = _typed(cfg)
@@ -330,7 +330,7 @@ def _check_run(cfg, root: Path) -> None:
 
 
 def _check_report(cfg, root: Path) -> None:
-    from .workflows.settings import check_output_paths
+    from .config.paths import check_output_paths
 
     check_output_paths(_typed(cfg), root)
 

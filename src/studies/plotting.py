@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import functools
 
-__all__ = ["pyplot", "readable_ticks", "thinned", "MAX_POINTS"]
+__all__ = ["pyplot", "readable_ticks", "thinned", "thinned_track", "MAX_POINTS"]
 
 #: points per drawn line: a 90-dpi panel is a few hundred pixels wide, so more points
 #: draw the same picture and only cost rendering time
@@ -79,3 +79,15 @@ def thinned(x, y, max_points: int = MAX_POINTS):
     keep = np.unique(np.concatenate([starts + low, starts + high, [n - 1]]))
     keep = keep[keep < n]
     return x[keep], y[keep]
+
+
+def thinned_track(east, north, max_points: int = MAX_POINTS):
+    """A track with at most about ``max_points`` points: every k-th sample and
+    the last (a track is smooth at the scale of a panel; its turns span
+    hundreds of samples)."""
+    import numpy as np
+
+    east, north = np.asarray(east), np.asarray(north)
+    step = max(1, -(-len(east) // max_points))
+    keep = np.unique(np.r_[np.arange(0, len(east), step), len(east) - 1]) if len(east) else np.arange(0)
+    return east[keep], north[keep]

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..plotting import pyplot, thinned
+from ..plotting import pyplot, thinned, thinned_track
 
 __all__ = ["plot_overlay", "plot_deviations"]
 
@@ -30,7 +30,7 @@ def plot_overlay(records: dict, path: str | Path, title: str) -> None:
     specs = [("u", "u [m/s]", 1.0), ("v", "v [m/s]", 1.0), ("r", "r [deg/s]", 180 / np.pi),
              ("psi", "psi [deg]", 180 / np.pi), ("delta", "delta [deg]", 180 / np.pi)]
     for label, rec in records.items():
-        ax_traj.plot(*_thinned_path(rec["y0"], rec["x0"]), label=label)
+        ax_traj.plot(*thinned_track(rec["y0"], rec["x0"]), label=label)
         for ax, (col, name, k) in zip(axes, specs):
             ax.plot(*thinned(rec["t"], rec[col] * k), label=label)
             ax.set_ylabel(name)
@@ -43,15 +43,6 @@ def plot_overlay(records: dict, path: str | Path, title: str) -> None:
     fig.suptitle(title)
     fig.savefig(path, dpi=90)
     plt.close(fig)
-
-
-def _thinned_path(east, north, max_points: int = 2000):
-    """A track with at most about ``max_points`` points: every k-th sample and the last
-    (a track is smooth at the scale of a panel; its turns span hundreds of samples)."""
-    east, north = np.asarray(east), np.asarray(north)
-    step = max(1, -(-len(east) // max_points))
-    keep = np.unique(np.r_[np.arange(0, len(east), step), len(east) - 1]) if len(east) else np.arange(0)
-    return east[keep], north[keep]
 
 
 def plot_deviations(table: pd.DataFrame, path: str | Path, title: str) -> None:

@@ -43,7 +43,7 @@ from jinja2 import Environment, select_autoescape
 from markdown_it import MarkdownIt
 
 from ..analysis.metrics import DIVERGED_PENALTY
-from ..plotting import pyplot, readable_ticks
+from ..plotting import pyplot, readable_ticks, thinned, thinned_track
 from .calibration import LEVELS, band_rows, calibration_sentences, plot_calibration, pooled_calibration
 from .tables import (condition_label, condition_number_table, condition_order, deviation_table,
                      divergence_table, fitness_table, mae_display, mae_table, markdown_table, method_label,
@@ -176,7 +176,9 @@ def _plot_fitness(table: pd.DataFrame, key: str | None, manoeuvre: str, path: Pa
     ax.set_ylabel("fitness (eq. 3.43)")
     ax.set_title(f"System performance: {manoeuvre}")
     ax.legend(fontsize=8)
-    fig.tight_layout()
+    # margins set once (a layout engine draws the figure twice)
+    longest = max((len(str(label)) for label in labels), default=1)
+    fig.subplots_adjust(left=0.15, right=0.97, top=0.9, bottom=min(0.4, 0.12 + 0.012 * max(0, longest - 8)))
     fig.savefig(path, dpi=90)
     plt.close(fig)
 
@@ -226,27 +228,26 @@ def _plot_overlays(curves: dict, title: str, path: Path) -> None:
     """Trajectory and u, v, r of the reference and every method's prediction."""
     plt = pyplot()
     fig = plt.figure(figsize=(12, 6))
-    grid = fig.add_gridspec(3, 2)
+    grid = fig.add_gridspec(3, 2, left=0.07, right=0.98, bottom=0.09, top=0.91, wspace=0.2, hspace=0.3)
     ax_traj = fig.add_subplot(grid[:, 0])
     axes = [fig.add_subplot(grid[i, 1]) for i in range(3)]
     first = next(iter(curves.values()))
-    ax_traj.plot(first["reference_y0"], first["reference_x0"], "k", lw=2, label="reference")
+    ax_traj.plot(*thinned_track(first["reference_y0"], first["reference_x0"]), "k", lw=2, label="reference")
     for ax, col, unit in zip(axes, ("u", "v", "r"), ("m/s", "m/s", "deg/s")):
         k = 180 / np.pi if col == "r" else 1.0
-        ax.plot(first["t"], first[f"reference_{col}"] * k, "k", lw=2)
+        ax.plot(*thinned(first["t"], first[f"reference_{col}"] * k), "k", lw=2)
         ax.set_ylabel(f"{col} [{unit}]")
     for method, table in curves.items():
-        ax_traj.plot(table["predicted_y0"], table["predicted_x0"], label=method_label(method))
+        ax_traj.plot(*thinned_track(table["predicted_y0"], table["predicted_x0"]), label=method_label(method))
         for ax, col in zip(axes, ("u", "v", "r")):
             k = 180 / np.pi if col == "r" else 1.0
-            ax.plot(table["t"], table[f"predicted_{col}"] * k)
+            ax.plot(*thinned(table["t"], table[f"predicted_{col}"] * k))
     axes[-1].set_xlabel("t [s]")
     ax_traj.set_xlabel("y0 (east) [m]")
     ax_traj.set_ylabel("x0 (north) [m]")
     ax_traj.set_aspect("equal", adjustable="datalim")
     ax_traj.legend(fontsize=8)
     fig.suptitle(title)
-    fig.tight_layout()
     fig.savefig(path, dpi=85)
     plt.close(fig)
 

@@ -1,0 +1,36 @@
+"""Figures draw fewer points, not a different line: the thinning keeps every extreme."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from studies.plotting import thinned, thinned_track
+
+
+def test_thinning_keeps_the_extremes_and_bounds_the_points():
+    rng = np.random.default_rng(3)
+    t = np.arange(40001) * 0.1
+    y = np.sin(t / 30) + 0.05 * rng.standard_normal(t.size)
+    y[12345] = 5.0                       # a spike (a sensor glitch) must stay visible
+    tx, ty = thinned(t, y, max_points=2000)
+    assert len(ty) <= 2001 and np.all(np.diff(tx) > 0)
+    assert ty.max() == 5.0 and ty.min() == y.min()
+    # the envelope: over any stretch, the thinned line reaches the record's extremes of
+    # that stretch less one bucket (41 samples) at each end
+    bucket = -(-t.size // 1000)
+    for lo in range(0, t.size - 4000, 3000):
+        inner = y[lo + bucket:lo + 4000 - bucket]
+        part = ty[(tx >= t[lo]) & (tx <= t[lo + 4000])]
+        assert part.max() >= inner.max() and part.min() <= inner.min()
+
+
+def test_short_lines_and_missing_values():
+    t, y = np.arange(10.0), np.arange(10.0)
+    assert np.array_equal(thinned(t, y)[1], y)
+    y = np.sin(np.arange(50000) / 100.0)
+    y[:100] = np.nan                      # a diverged start stays a gap; the rest keeps its extremes
+    _, ty = thinned(np.arange(50000), y)
+    assert np.nanmax(ty) == np.nanmax(y) and np.nanmin(ty) == np.nanmin(y)
+    assert np.isnan(ty).sum() <= 4
+    east, north = thinned_track(np.arange(40001.0), np.arange(40001.0) ** 0.5)
+    assert len(east) <= 2002 and east[-1] == 40000.0
