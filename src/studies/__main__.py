@@ -1,7 +1,6 @@
 """``python -m studies`` is the ``studies`` command."""
 
-import sys
+from .cli import console_main  # sets the BLAS thread count before numpy loads
 
-from .cli import main  # sets the BLAS thread count before numpy loads
-
-sys.exit(main())
+if __name__ == "__main__":      # not when a worker process (figures) imports this as its main module
+    console_main()

@@ -195,11 +195,8 @@ def _resumable(settings, params: dict, root):
 
 def _study(cfg, root: Path, out_dir: Path, on_create) -> dict:
     """One `studies run` job: check, (skip,) prepare, open the run, execute, log."""
-    from .console import run_lines
+    from .config.paths import check_output_paths
     from .runtime import tracking
-    from .workflows.identified_model import IDENTIFIED_MODEL_FILE
-    from .workflows.kinds import logged_params, kind_for
-    from .workflows.settings import check_output_paths
 
     settings = _settings(cfg)
     params = _params(cfg)
@@ -208,6 +205,18 @@ def _study(cfg, root: Path, out_dir: Path, on_create) -> dict:
     digest, done = _resumable(settings, params, root)
     if done:
         return {"status": "skipped", "run_id": done, "config_hash": digest}
+    with _figures_beside():
+        return _study_body(settings, params, digest, root, out_dir, on_create)
+
+
+def _study_body(settings, params, digest, root: Path, out_dir: Path, on_create) -> dict:
+    """Prepare, open the run, execute, log (the figures finished before the files are logged)."""
+    from .console import run_lines
+    from .plotting import DRAWER
+    from .runtime import tracking
+    from .workflows.identified_model import IDENTIFIED_MODEL_FILE
+    from .workflows.kinds import logged_params, kind_for
+
     prepared = kind_for(settings).prepare(settings, root, _recorder(settings, root))
     name, tags = prepared.name, dict(prepared.tags)
     tags["config_hash"] = digest
@@ -223,6 +232,7 @@ def _study(cfg, root: Path, out_dir: Path, on_create) -> dict:
         model = out_dir / IDENTIFIED_MODEL_FILE        # manoeuvring models; not roll decays
         linked = {k: v for k, v in summary.items() if not k.startswith("runtime/")}
         logged = run.log_model(model, settings.tracking.register, linked) if model.is_file() else None
+        DRAWER.finish()
         run.log_outputs(metrics, out_dir)
     print(f"run '{name}' ({run.run_id}) -> {out_dir}")
     print(_browse(settings, root))
@@ -233,6 +243,25 @@ def _study(cfg, root: Path, out_dir: Path, on_create) -> dict:
     trained_on = set(settings.train.manoeuvres or [settings.manoeuvre.name]) if simulated else set()
     print("\n".join(run_lines(metrics, trained_on)))
     return {"status": "finished", "run_id": run.run_id, "config_hash": digest}
+
+
+@contextlib.contextmanager
+def _figures_beside():
+    """One job's figures drawn by a second process while it computes
+    (:class:`studies.plotting.Drawer`); in a sweep's jobs they are drawn in the
+    job's own process (the sweep already keeps every core busy)."""
+    from hydra.core.hydra_config import HydraConfig
+    from hydra.types import RunMode
+
+    from .plotting import DRAWER
+
+    single = not HydraConfig.initialized() or HydraConfig.get().mode != RunMode.MULTIRUN
+    if single:
+        DRAWER.start()
+    try:
+        yield
+    finally:
+        DRAWER.close()
 
 
 def _browse(settings, root: Path) -> str:
@@ -277,14 +306,24 @@ def _simplify_task(cfg):
 
 def _discover(cfg, root: Path, out_dir: Path, on_create) -> dict:
     """One `studies discover` job: load and check inputs, then one tracked run."""
-    from .console import discovery_lines
+    from .config.paths import check_output_paths
     from .runtime import tracking
-    from .workflows.kinds import execute_discover, logged_params, prepare_discover
-    from .workflows.settings import as_path_list, check_output_paths
 
     settings = _settings(cfg)
     check_output_paths(settings, root, out_dir)
     tracking.check_store(settings.tracking.uri, root)
+    with _figures_beside():
+        return _discover_body(cfg, settings, root, out_dir, on_create)
+
+
+def _discover_body(cfg, settings, root: Path, out_dir: Path, on_create) -> dict:
+    """Load and check the records, then the tracked discovery (figures finished before the files are logged)."""
+    from .console import discovery_lines
+    from .plotting import DRAWER
+    from .runtime import tracking
+    from .workflows.kinds import execute_discover, logged_params, prepare_discover
+    from .workflows.settings import as_path_list
+
     study = prepare_discover(settings, root, _recorder(settings, root))
     params = _params(cfg)
     stems = ", ".join(Path(p).stem for p in as_path_list(settings.data.path))
@@ -296,6 +335,7 @@ def _discover(cfg, root: Path, out_dir: Path, on_create) -> dict:
                             logged_params(settings, params), tags, on_create=on_create) as run:
         run.log_records(study.inputs)
         discovery, metrics = execute_discover(study, out_dir)
+        DRAWER.finish()
         run.log_outputs(metrics, out_dir)
         named = discovery.get("vessel")            # a roll discovery names the ship from its records
         run.set_tags({"cause": discovery["cause"],
@@ -629,6 +669,33 @@ def main(argv: list[str] | None = None) -> int:
     return 2
 
 
+def console_main() -> None:
+    """The ``studies`` console script (and ``python -m studies``): :func:`main`,
+    then the process ends with its status once its exit handlers have run.
+
+    Python's own teardown of the imported modules (numba, MLflow, SQLAlchemy,
+    matplotlib) took 1.5-2 s after every command and writes nothing: after
+    one job (not a sweep, whose launcher keeps worker processes), the exit
+    handlers run (threads joined, Hydra's job log and every logging handler
+    flushed and closed) and the process leaves without it.
+    """
+    argv = sys.argv[1:]
+    status = main(argv)
+    if any(a in ("-m", "--multirun") for a in argv):
+        sys.exit(status)
+    import atexit
+    import threading
+
+    shutdown = getattr(threading, "_shutdown", None)
+    if shutdown is None:                    # an interpreter without it: the normal way
+        sys.exit(status)
+    shutdown()                              # what the interpreter does first: join the threads
+    atexit._run_exitfuncs()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(status if isinstance(status, int) else 1)
+
+
 def _bench(rest: list) -> int:
     """``studies bench [NAME ...]`` and ``studies bench discover [key=value ...]``."""
     from .bench import BENCH_HELP, run_benchmarks
@@ -659,4 +726,4 @@ def _bench(rest: list) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    console_main()

@@ -1,4 +1,4 @@
-"""The one place that chooses matplotlib's backend.
+"""The one place that chooses matplotlib's backend, and where figures are drawn.
 
 Every figure `studies` writes is a PNG file made without a screen, so the
 non-interactive Agg backend is selected once, here, before pyplot is first
@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import functools
 
-__all__ = ["pyplot", "readable_ticks", "thinned", "thinned_track", "MAX_POINTS"]
+__all__ = ["pyplot", "readable_ticks", "thinned", "thinned_track", "MAX_POINTS", "Drawer", "DRAWER", "draw"]
 
 #: points per drawn line: a 90-dpi panel is a few hundred pixels wide, so more points
 #: draw the same picture and only cost rendering time
@@ -91,3 +91,90 @@ def thinned_track(east, north, max_points: int = MAX_POINTS):
     step = max(1, -(-len(east) // max_points))
     keep = np.unique(np.r_[np.arange(0, len(east), step), len(east) - 1]) if len(east) else np.arange(0)
     return east[keep], north[keep]
+
+
+class Drawer:
+    """Draws a command's figures in a second process while the command goes on.
+
+    A figure is a module-level function and its arguments (``draw(fn,
+    *args)``). Until :meth:`start` is called, or after :meth:`close`, figures
+    are drawn at once in this process (what a test or a notebook gets). After
+    :meth:`start`, one worker process (started with its plotting imports
+    while the command computes) draws them in order; :meth:`finish` waits
+    for them (and raises the first error a figure raised) before the
+    command logs its files. A worker that dies leaves its figures to be
+    drawn here. On two or more cores this takes the figures (1-3 s of a
+    run) and matplotlib's import off the command's path.
+    """
+
+    def __init__(self):
+        self._pool = None
+        self._pending: list = []
+
+    def start(self) -> None:
+        """Start the worker (a fresh interpreter) and its imports, when there is a core for it."""
+        import os
+
+        if self._pool is not None or (os.cpu_count() or 1) < 2:
+            return
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        self._pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"))
+        self._pending.append((self._pool.submit(_warm_up), _warm_up, (), {}))
+
+    def draw(self, fn, *args, **kwargs) -> None:
+        """Draw ``fn(*args, **kwargs)`` now, or in the worker once started."""
+        if self._pool is None:
+            fn(*args, **kwargs)
+            return
+        import pickle
+
+        # pickled now: the figure shows the data as they are at this call
+        payload = pickle.dumps((fn, args, kwargs), protocol=pickle.HIGHEST_PROTOCOL)
+        self._pending.append((self._pool.submit(_draw_pickled, payload), fn, args, kwargs))
+
+    def finish(self) -> None:
+        """Wait for every figure handed to the worker (drawing here those a dead worker left)."""
+        from concurrent.futures.process import BrokenProcessPool
+
+        pending, self._pending = self._pending, []
+        broken = False
+        for future, fn, args, kwargs in pending:
+            try:
+                future.result()
+            except BrokenProcessPool:
+                broken = True
+                fn(*args, **kwargs)
+        if broken:
+            self.close()
+
+    def close(self) -> None:
+        """Stop the worker (figures not finished are dropped: call :meth:`finish` first)."""
+        pool, self._pool = self._pool, None
+        self._pending = []
+        if pool is not None:
+            pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _draw_pickled(payload: bytes) -> None:
+    import pickle
+
+    fn, args, kwargs = pickle.loads(payload)
+    fn(*args, **kwargs)
+
+
+def _warm_up() -> None:
+    """The worker's first task: load what drawing needs before the first figure arrives."""
+    import pandas  # noqa: F401  (the records come as DataFrames)
+
+    pyplot()
+
+
+#: the figures of this process (see :class:`Drawer`)
+DRAWER = Drawer()
+
+
+def draw(fn, *args, **kwargs) -> None:
+    """Draw one figure through :data:`DRAWER` (at once unless a command started it)."""
+    DRAWER.draw(fn, *args, **kwargs)

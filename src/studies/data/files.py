@@ -110,6 +110,22 @@ def decode_text(data: bytes) -> str:
         return data.decode("latin-1")
 
 
+def _number_rows_at_once(lines: list[str], first_line: int, width: int):
+    """:func:`number_rows` for a well-formed file, converted by numpy in one go
+    (about ten times faster); None when anything is off, so that the row by
+    row reading finds and names the fault."""
+    kept = [(n, tokens) for n, tokens in enumerate((line.split() for line in lines), start=first_line) if tokens]
+    if not kept or any(len(tokens) != width for _, tokens in kept):
+        return None
+    try:
+        values = np.array([token for _, tokens in kept for token in tokens], dtype=np.float64)
+    except ValueError:
+        return None
+    if not np.isfinite(values).all():
+        return None
+    return values.reshape(len(kept), width), np.asarray([n for n, _ in kept])
+
+
 def number_rows(label: str, lines: list[str], first_line: int, columns, layout: str
                 ) -> tuple[np.ndarray, np.ndarray]:
     """Rows of whitespace-separated numbers of a test facility's ``.dat`` file.
@@ -121,6 +137,9 @@ def number_rows(label: str, lines: list[str], first_line: int, columns, layout: 
     is not finite, or no row at all is a :class:`DataError` naming the line,
     the column and the zero-based data row (``layout`` says what is expected).
     """
+    fast = _number_rows_at_once(lines, first_line, len(columns))
+    if fast is not None:
+        return fast
     rows, numbers = [], []
     for line_number, line in enumerate(lines, start=first_line):
         tokens = line.split()

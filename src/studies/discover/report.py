@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..plotting import pyplot
+from ..plotting import pyplot, thinned, thinned_track
 from ..markdown import markdown_table
 
 __all__ = ["write_discovery", "write_report", "plot_predictions", "plot_ranking", "plot_evidence", "plot_residuals"]
@@ -53,16 +53,16 @@ def plot_predictions(record, predictions: dict, title: str, path: Path) -> None:
     """Track and u, v, r of the measurement against each model's prediction."""
     plt = pyplot()
     fig = plt.figure(figsize=(12, 6))
-    grid = fig.add_gridspec(3, 2)
+    grid = fig.add_gridspec(3, 2, left=0.07, right=0.98, bottom=0.09, top=0.91, wspace=0.2, hspace=0.3)
     ax = fig.add_subplot(grid[:, 0])
     axes = [fig.add_subplot(grid[i, 1]) for i in range(3)]
-    ax.plot(record["y0"], record["x0"], "k", lw=2, label="measured")
+    ax.plot(*thinned_track(record["y0"], record["x0"]), "k", lw=2, label="measured")
     for label, pred in predictions.items():
-        ax.plot(pred["y0"], pred["x0"], label=label)
+        ax.plot(*thinned_track(pred["y0"], pred["x0"]), label=label)
     for a, (c, unit, k) in zip(axes, (("u", "m/s", 1), ("v", "m/s", 1), ("r", "deg/s", 180 / np.pi))):
-        a.plot(record["t"], record[c] * k, "k", lw=1.5)
+        a.plot(*thinned(record["t"], record[c] * k), "k", lw=1.5)
         for pred in predictions.values():
-            a.plot(pred["t"], pred[c] * k)
+            a.plot(*thinned(pred["t"], pred[c] * k))
         a.set_ylabel(f"{c} [{unit}]")
     axes[-1].set_xlabel("t [s]")
     ax.set_xlabel("y0 (east) [m]")
@@ -70,7 +70,6 @@ def plot_predictions(record, predictions: dict, title: str, path: Path) -> None:
     ax.set_aspect("equal", adjustable="datalim")
     ax.legend(fontsize=8)
     fig.suptitle(title)
-    fig.tight_layout()
     fig.savefig(path, dpi=85)
     plt.close(fig)
 

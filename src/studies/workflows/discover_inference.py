@@ -32,6 +32,7 @@ from ..discover.track_inference import infer_on_tracks
 from ..discover.training_states import outside_training
 from ..discover.report import plot_evidence, plot_predictions, write_discovery, write_report
 from ..discover.verdict import Discovery
+from ..plotting import draw
 from ..stages import say
 from ..threads import single_thread_blas
 from ..vessels import has_mmg_particulars, mmg_vessel_at_speed
@@ -482,7 +483,7 @@ def _sections(ctx, result, whole_base: dict, whole_best: dict, named: str, out_d
         if sim is not None:
             preds["other simulator"] = sim
         fig = f"prediction_{name}.png"
-        plot_predictions(rec, preds, f"{name}: measured vs predicted", out_dir / fig)
+        draw(plot_predictions, rec, preds, f"{name}: measured vs predicted", out_dir / fig)
         figures.append(fig)
         phase_tables.append(dg.phase_errors(rec, pb, name).assign(model="baseline"))
         if named not in ("none", OUTSIDE):
@@ -496,7 +497,7 @@ def _sections(ctx, result, whole_base: dict, whole_best: dict, named: str, out_d
     for table in char_tables:
         if not table.empty:
             sections.append((f"Manoeuvre characteristics: {table.index.name}", table))
-    plot_evidence(result.evidence, result.threshold, result.second_threshold, named, out_dir / "ranking.png",
+    draw(plot_evidence, result.evidence, result.threshold, result.second_threshold, named, out_dir / "ranking.png",
                   _measure(on_tracks))
     figures.append("ranking.png")
     return sections, figures

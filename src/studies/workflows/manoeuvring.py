@@ -61,6 +61,7 @@ from ..models.registry import get_model
 from ..models.terms import DOFS, candidate_terms
 from .sparse_terms import ls_problems, sindy_beside_ls
 from ..analysis.figures import plot_deviations, plot_overlay
+from ..plotting import draw
 from ..simulate import replay, simulate
 from ..simulate.manoeuvres import zigzag_of_record
 from ..vessels import get_vessel, has_mmg_particulars
@@ -365,11 +366,11 @@ def compare_simulated(name: str, manoeuvre, pred: pd.DataFrame, ref: pd.DataFram
         diverged = "diverged_at" in pred.attrs or not np.all(np.isfinite(pred[["u", "v", "r"]].to_numpy()))
         metrics = {f"{name}/diverged": float(diverged)}
         metrics.update(_characteristic_errors(pred, None, name, kind, heading))
-        plot_overlay({"identified": pred}, out_dir / f"validation_{name}.png", title)
+        draw(plot_overlay, {"identified": pred}, out_dir / f"validation_{name}.png", title)
         return metrics
     metrics = error_metrics(pred, ref, name)
     metrics.update(_characteristic_errors(pred, ref, name, kind, heading))
-    plot_overlay({"reference": ref, "identified": pred}, out_dir / f"validation_{name}.png", title)
+    draw(plot_overlay, {"reference": ref, "identified": pred}, out_dir / f"validation_{name}.png", title)
     if table:
         write_overlay_table(ref, pred, out_dir / f"validation_{name}.csv")
     return metrics
@@ -448,7 +449,7 @@ def _validate_records(study: ManoeuvringRun, params: dict, out_dir: Path, result
             closed = _closed_loop_zigzag(study, params, rec)
             metrics.update(closed)
             rows += _characteristic_rows(name, "closed_loop", closed, prefix="closed_loop/")
-        plot_overlay({"measured": rec, "predicted": pred}, out_dir / f"validation_{name}.png",
+        draw(plot_overlay, {"measured": rec, "predicted": pred}, out_dir / f"validation_{name}.png",
                      f"{name}: prediction ({study.method}) vs measurement")
         write_overlay_table(rec, pred, out_dir / f"validation_{name}.csv")
         if vectors is not None:
@@ -629,7 +630,7 @@ def _replay_training(study: ManoeuvringRun, params: dict, out_dir: Path) -> dict
             heading = characteristics(rec, kind).get("execute_heading_deg")
             heading = None if heading is None else np.deg2rad(heading)
         metrics.update(_characteristic_errors(pred, rec, f"training/{name}", kind, heading, measured=True))
-        plot_overlay({"measured": rec, "replayed": pred}, out_dir / f"training_{name}.png",
+        draw(plot_overlay, {"measured": rec, "replayed": pred}, out_dir / f"training_{name}.png",
                      f"{name} (training): replay ({study.method}) vs measurement")
     return metrics
 
@@ -815,7 +816,7 @@ def execute(study: ManoeuvringRun, out_dir: Path) -> dict:
         dev = table["deviation_pct"].abs()
         metrics["deviation/median_abs_pct"] = float(dev.median())
         metrics["deviation/max_abs_pct"] = float(dev.max())
-        plot_deviations(table, out_dir / "deviations.png",
+        draw(plot_deviations, table, out_dir / "deviations.png",
                         f"{study.method}: deviation from the reference coefficients")
         # training fit: the identified model repeats the training manoeuvre(s)
         for k, (man, rec) in enumerate(zip(training_manoeuvres(cfg), study.records)):
