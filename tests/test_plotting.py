@@ -34,3 +34,27 @@ def test_short_lines_and_missing_values():
     assert np.isnan(ty).sum() <= 4
     east, north = thinned_track(np.arange(40001.0), np.arange(40001.0) ** 0.5)
     assert len(east) <= 2002 and east[-1] == 40000.0
+
+
+def test_a_second_process_draws_the_figures_and_reports_their_errors(tmp_path):
+    import pandas as pd
+    import pytest
+
+    from studies.analysis.figures import plot_deviations
+    from studies.plotting import Drawer
+
+    table = pd.DataFrame({"name": ["Xu", "Yv", "Nr"], "deviation_pct": [1.0, -20.0, 300.0]})
+    drawer = Drawer()
+    drawer.start()
+    try:
+        drawer.draw(plot_deviations, table, tmp_path / "deviations.png", "in the worker")
+        table.loc[0, "deviation_pct"] = float("nan")   # changed after the call: the figure keeps its data
+        drawer.draw(plot_deviations, table.drop(columns="name"), tmp_path / "broken.png", "no names")
+        with pytest.raises(KeyError):
+            drawer.finish()
+    finally:
+        drawer.close()
+    assert (tmp_path / "deviations.png").stat().st_size > 1000
+    # without start (a test, a notebook): drawn at once in this process
+    Drawer().draw(plot_deviations, table, tmp_path / "here.png", "here")
+    assert (tmp_path / "here.png").is_file()
