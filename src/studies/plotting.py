@@ -128,11 +128,12 @@ class Drawer:
         if self._pool is None:
             fn(*args, **kwargs)
             return
-        import pickle
+        import copy
 
-        # pickled now: the figure shows the data as they are at this call
-        payload = pickle.dumps((fn, args, kwargs), protocol=pickle.HIGHEST_PROTOCOL)
-        self._pending.append((self._pool.submit(_draw_pickled, payload), fn, args, kwargs))
+        # copied now: the figure shows the data as they are at this call (the worker
+        # receives them later, when the executor sends them)
+        args, kwargs = copy.deepcopy(args), copy.deepcopy(kwargs)
+        self._pending.append((self._pool.submit(fn, *args, **kwargs), fn, args, kwargs))
 
     def finish(self) -> None:
         """Wait for every figure handed to the worker (drawing here those a dead worker left)."""
@@ -155,13 +156,6 @@ class Drawer:
         self._pending = []
         if pool is not None:
             pool.shutdown(wait=True, cancel_futures=True)
-
-
-def _draw_pickled(payload: bytes) -> None:
-    import pickle
-
-    fn, args, kwargs = pickle.loads(payload)
-    fn(*args, **kwargs)
 
 
 def _warm_up() -> None:
