@@ -97,6 +97,7 @@ def _bad_binary(f, p):
     pytest.param(m, marks=pytest.mark.slow)
     for m in (_bad_nan, _bad_time, _bad_degrees, _bad_empty, _bad_binary)],
     ids=lambda m: m.__name__[5:])
+@pytest.mark.slow
 def test_bad_input_is_one_line_nonzero_and_no_run(tmp_path, good_frame, maker):
     path, expected = maker(good_frame, tmp_path / "bad_record.csv")
     proc = run_studies(["run", f"data.path={path}", "vessel=mariner", f"hydra.run.dir={tmp_path / 'run'}"], cwd=tmp_path)
@@ -110,6 +111,7 @@ def test_bad_input_is_one_line_nonzero_and_no_run(tmp_path, good_frame, maker):
     assert mlflow_runs(tmp_path) == []
 
 
+@pytest.mark.slow
 def test_missing_data_file_and_impossible_values_are_refused(tmp_path, refused_in_process):
     # end to end through the console script: exit status 2, one line, no run
     proc = run_studies(["run", f"data.path={tmp_path / 'nope.csv'}", f"hydra.run.dir={tmp_path / 'run'}"],
@@ -132,6 +134,7 @@ def test_an_appended_key_the_schema_does_not_know_is_refused(tmp_path, refused_i
     refused_in_process("discover", ["+discover.nosuch=1"], tmp_path, "discover", "discover.nosuch: unknown key")
 
 
+@pytest.mark.slow
 def test_studies_bench_runs_from_anywhere_and_refuses_an_unknown_name(tmp_path):
     """The benchmarks ship in the package: run from a folder with no benchmarks/ beside it."""
     import json as _json

@@ -98,6 +98,7 @@ def test_report_config(hydra):
     assert _typed("report", ["report.experiment=thesis_noise"]).report.experiment == "thesis_noise"
 
 
+@pytest.mark.slow
 def test_defaults_are_the_yaml_values(hydra):
     """The dataclasses' defaults are the values of the YAML files, key for key."""
     run = _typed("config")
@@ -136,6 +137,7 @@ def test_excitation_preset_keeps_its_method_and_manoeuvre_settings(hydra):
     assert cfg.validate.manoeuvres == ["zigzag_20_20", "zigzag_like", "random", "circle"]
 
 
+@pytest.mark.slow
 def test_the_thesis_conventions_make_its_data_as_mss_does(hydra):
     """conventions=zhu2021: the thesis' wind and GA fitness, and its records as MSS
     zigzag.m makes them (Euler steps, the rudder laid at 9.5 s, starboard first)

@@ -42,6 +42,7 @@ def _missing_acceleration(model, truth, wrong, ship, rec) -> np.ndarray:
                                  mmg_acceleration(u, v, r, d, n, c0, k, a, g)) for u, v, r, d, n in rows])
 
 
+@pytest.mark.slow
 def test_the_mean_is_the_missing_speed_loss(ship):
     model = mmg()
     rps = self_propulsion_rps(model, KVLCC2_HULL, ship)

@@ -123,6 +123,7 @@ def test_sampler_that_does_not_mix_is_reported(clean_problems, caplog, settings)
     assert warned, "no warning logged for a sampler that has not converged"
 
 
+@pytest.mark.slow
 def test_corner_plot_shows_the_least_certain(clean_problems, tmp_path):
     result = BayesianRegression(n_samples=640, burn_in=100, thin=2, seed=0).fit_one(
         clean_problems["N"])

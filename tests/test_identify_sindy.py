@@ -46,6 +46,7 @@ def test_model_library_recovers_all_40_like_ls(problems_4000, vessel):
         assert result.metrics[f"sindy/{dof}/converged"] == 1
 
 
+@pytest.mark.slow
 def test_threshold_is_the_relative_rms_contribution(problems_4000, vessel):
     """Terms contributing less than ``threshold`` of the RMS force are pruned
     and reported as 0.0: between Yvdd (4.2e-4) and the next weakest term

@@ -150,6 +150,7 @@ def test_propulsion_is_named_for_a_ship_with_a_propeller_at_constant_rpm(tmp_pat
     assert any("run the discovery with model=mmg" in n for n in d["notes"]), d["notes"]
 
 
+@pytest.mark.slow
 def test_a_record_without_the_propeller_rate_is_refused(tmp_path):
     record = pd.DataFrame({"t": np.arange(200) * 0.5, "x0": np.arange(200) * 4.0, "y0": 0.0,
                            "psi": 0.0, "u": 8.0, "v": 0.0, "r": 0.0,

@@ -80,6 +80,7 @@ def test_the_runs_model_simulates_its_validation_manoeuvres_as_the_run_did(regis
                                        rtol=1e-12, atol=1e-12, err_msg=col)
 
 
+@pytest.mark.slow
 def test_the_registered_model_is_the_runs_model(registered, mlflow_store):
     client = mlflow_store.MlflowClient()
     version = client.get_model_version(NAME, "1")

@@ -49,6 +49,7 @@ def main_job(tmp_path_factory):
     return project, imported
 
 
+@pytest.mark.slow
 def test_the_main_job_writes_everything_it_wrote(main_job):
     project, _ = main_job
     stored = json.loads((MANIFESTS / "main_job.json").read_text())
@@ -56,6 +57,7 @@ def test_the_main_job_writes_everything_it_wrote(main_job):
     assert not gone, f"main_job: outputs missing since the stored manifest: {gone}"
 
 
+@pytest.mark.slow
 def test_the_main_job_imports_only_what_it_uses(main_job):
     """The estimators, the discovery and the roll pipeline are imported when used
     (``studies.lazy``, :mod:`studies.workflows.kinds`): the main job loads none of their

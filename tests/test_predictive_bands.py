@@ -129,6 +129,7 @@ def _synthetic(n=2000, draws=300, spread=1.0, offset=0.0, seed=0):
     return states, np.full(draws, -1), record
 
 
+@pytest.mark.slow
 def test_calibrated_overconfident_and_useless_bands_are_told_apart(tmp_path):
     states, div, record = _synthetic()
     good = band_statistics(states, div, record, noise=False)

@@ -91,6 +91,7 @@ def test_malformed_record_is_refused_by_the_loader(tmp_path, good_frame, maker):
 
 
 @pytest.mark.parametrize("method", ["ls", pytest.param("bayes", marks=pytest.mark.slow)])
+@pytest.mark.slow
 def test_too_few_samples_for_the_method(tmp_path, good_frame, method):
     path = tmp_path / "short.csv"
     good_frame.iloc[:30].to_csv(path, index=False)
@@ -147,6 +148,7 @@ def test_config_error_from_the_console_script(tmp_path, args, text):
     _one_line_refusal(proc, tmp_path, text)
 
 
+@pytest.mark.slow
 def test_bad_value_in_one_job_of_a_sweep_refuses_the_whole_sweep(tmp_path, refused_in_process):
     """Every job's config is checked before the first job starts."""
     proc = run_studies(["run", "-m", "wind.speed=4,-8", "method=ls,nope",

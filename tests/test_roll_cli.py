@@ -20,6 +20,7 @@ def test_roll_run_on_synthetic_decay_recovers_b1_b2(tmp_path):
     assert len(runs) == 1 and runs[0][1] == "FINISHED"
 
 
+@pytest.mark.slow
 def test_roll_run_refuses_a_record_that_is_not_a_decay(tmp_path):
     t = np.arange(0, 30, 0.01)
     path = tmp_path / "not_a_decay.csv"

@@ -112,6 +112,7 @@ def test_damping_table_gives_zeta_b44_and_periods_at_both_scales():
 
 # ---------------------------------------------------- hidden, one record at speed
 @pytest.mark.parametrize("cause,seed", [("roll_linear_damping", 3), (PAIR, 1)])
+@pytest.mark.slow
 def test_one_decay_at_speed_names_what_potential_flow_misses(tmp_path, cause, seed):
     paths, sim, truth = hidden_roll_decays_at_speed(cause, tmp_path, seed=seed, noise=0.01)
     t0 = time.perf_counter()
@@ -150,6 +151,7 @@ def test_one_decay_too_short_to_hold_out_cycles_is_refused(tmp_path):
 
 
 # ------------------------------------------------------------------ speed
+@pytest.mark.slow
 def test_damping_against_speed_is_fitted_and_a_decay_simulated_at_an_untested_speed(tmp_path):
     paths, truth = hidden_roll_speed_series(tmp_path, seed=3, noise=0.01)
     d = _discover(tmp_path, paths)

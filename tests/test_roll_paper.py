@@ -80,6 +80,7 @@ def test_every_methods_errors_are_computed_the_same_way(decay):
     assert "fitted" in table.attrs["initial_state_source"]["nls"]
 
 
+@pytest.mark.slow
 def test_the_run_metrics_are_the_same_errors_for_every_method(decay, tmp_path):
     """run_roll_study writes, per method, the errors of the same replays as
     compare_methods, under keys that name the start (NLS: its own start fitted;

@@ -280,6 +280,7 @@ def test_speed_mae_counts_diverged_predictions_and_averages_the_bounded():
     assert out == {"validation/validated": 3.0, "validation/diverged": 3.0}
 
 
+@pytest.mark.slow
 def test_report_shows_the_diverged_count_and_the_mean_over_bounded_runs(tmp_path):
     runs = [("abkowitz", 0, 2.0, 0.30), ("abkowitz", 1, 0.0, 0.10), ("simplified", 0, 0.0, 0.05),
             ("simplified", 1, 3.0, None)]

@@ -154,6 +154,7 @@ def test_each_record_gets_the_coefficients_of_the_others():
     assert out_of_sample_values({"Y": no_index}, values, 4) is None
 
 
+@pytest.mark.slow
 def test_the_discrepancy_takes_one_coefficient_set_per_record(ship):
     from studies.simulate import zigzag
     from studies.simulate.mmg import self_propulsion_rps, simulate_mmg

@@ -13,6 +13,7 @@ from conftest import mlflow_runs, run_studies
 SHORT_RUN = ["manoeuvre.duration=200", "validate.manoeuvres=[zigzag_10_10]", "validate.duration=100"]
 
 
+@pytest.mark.slow
 def test_an_unreachable_server_is_one_line_and_exit_2_within_seconds(tmp_path):
     started = time.perf_counter()
     proc = run_studies(["run", "tracking.uri=http://127.0.0.1:1", *SHORT_RUN], tmp_path, timeout=60)
@@ -24,6 +25,7 @@ def test_an_unreachable_server_is_one_line_and_exit_2_within_seconds(tmp_path):
     assert not (tmp_path / "mlruns").exists() and not (tmp_path / "outputs").exists()
 
 
+@pytest.mark.slow
 def test_a_postgresql_store_without_driver_or_database_is_one_line(tmp_path):
     """Without the driver (``pip install 'studies[postgres]'``) or with a
     database that does not answer: one line naming what to do, exit 2."""
@@ -36,6 +38,7 @@ def test_a_postgresql_store_without_driver_or_database_is_one_line(tmp_path):
     assert not (tmp_path / "outputs").exists()
 
 
+@pytest.mark.slow
 def test_an_unreachable_server_refuses_a_sweep_before_any_job(tmp_path):
     proc = run_studies(["run", "-m", "seed=0,1", "tracking.uri=http://127.0.0.1:1", *SHORT_RUN],
                        tmp_path, timeout=60)
@@ -67,6 +70,7 @@ def test_report_writes_no_log_file_in_the_working_directory(tmp_path):
     assert not list(tmp_path.glob("*.log"))
 
 
+@pytest.mark.slow
 def test_command_help_lists_the_settings_with_units(tmp_path):
     proc = run_studies(["run", "--help"], tmp_path, timeout=60)
     assert proc.returncode == 0, proc.stderr
