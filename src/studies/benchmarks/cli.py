@@ -7,8 +7,9 @@ afresh in a new project folder, as a user runs it:
   scipy.optimize, matplotlib.pyplot, mlflow"``, what any such script pays
   before it does anything (the yardstick of the others: compare ratios);
 - ``cli_run_first_s`` / ``cli_run_s``: ``studies run`` (the README's main
-  job) with an empty compile cache (the first run after an install: numba
-  compiles) and then with the cache it left (median of the repeats);
+  job) in a new folder with an empty compile cache (the first run after an
+  install: numba compiles, the store is created) and then in the same
+  folder (median of the repeats);
   ``cli_run_ratio`` is ``cli_run_s / cli_import_reference_s``;
 - ``cli_discover_marin_first_s`` / ``cli_discover_marin_s``: the tour's
   ``studies discover`` on MARIN's records, the same way (absent when the
@@ -20,7 +21,7 @@ afresh in a new project folder, as a user runs it:
 - ``cli_report_s``: ``studies report`` on that sweep's experiment.
 
 The compile cache of the "first" runs is a fresh ``NUMBA_CACHE_DIR``; the
-later runs share one that the first run filled. ``source`` (a ``src``
+later runs use the one the first run filled, and its project folder. ``source`` (a ``src``
 folder) times another checkout of `studies` with this bench.
 """
 
@@ -69,17 +70,14 @@ def _studies(*args) -> list:
 
 
 def _first_and_then(argv: list, root: Path, source: str | None, repeats: int, name: str) -> dict:
-    """``{name}_first_s`` with an empty compile cache, ``{name}_s`` the median of
-    ``repeats`` runs with the cache the first left, each in a fresh folder."""
-    cache = root / f"cache_{name}"
-    env = _env(cache, source)
-
-    def fresh() -> Path:
-        folder = Path(tempfile.mkdtemp(dir=root))
-        return folder
-
-    first = _timed(argv, fresh(), env)
-    then = [_timed(argv, fresh(), env) for _ in range(repeats)]
+    """``{name}_first_s`` in a new project folder with an empty compile cache (the
+    first run after an install: a new store, numba compiles), ``{name}_s`` the
+    median of ``repeats`` runs after it in the same folder (the store and the
+    cache the first left), as a user's later runs."""
+    env = _env(root / f"cache_{name}", source)
+    folder = Path(tempfile.mkdtemp(dir=root))
+    first = _timed(argv, folder, env)
+    then = [_timed(argv, folder, env) for _ in range(repeats)]
     return {f"{name}_first_s": first, f"{name}_s": statistics.median(then)}
 
 
