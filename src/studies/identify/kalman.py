@@ -504,19 +504,8 @@ def _filter_smooth(z, R, sel, bsel, delta, rps, dt, x0, P0, qc, mode, c, k, mp, 
     dx = np.empty(NS)
     for i in range(n - 2, -1, -1):
         # C = Pf F^T Pp^-1
-        inverse = np.linalg.inv(Pp[i + 1])
-        for a in range(NS):
-            for b in range(NS):
-                acc = 0.0
-                for q in range(NS):
-                    acc += Pf[i, a, q] * Fs[i, b, q]
-                T[a, b] = acc
-        for a in range(NS):
-            for b in range(NS):
-                acc = 0.0
-                for q in range(NS):
-                    acc += T[a, q] * inverse[q, b]
-                C[a, b] = acc
+        _times_transposed(Pf[i], Fs[i], T)
+        _times(T, np.linalg.inv(Pp[i + 1]), C)
         for a in range(NS):
             dx[a] = xs[i + 1, a] - xp[i + 1, a]
         for a in range(NS):
@@ -548,21 +537,34 @@ def _store(x, P, xs, Ps, i):
 
 
 @njit(cache=True)
-def _sandwich(A, B, work):
-    """``B <- A B A^T`` in place (``work`` a matrix of the same size)."""
-    size = B.shape[0]
+def _times(A, B, out):
+    """``out = A B`` (square matrices of one size)."""
+    size = A.shape[0]
     for a in range(size):
         for b in range(size):
             acc = 0.0
             for q in range(size):
                 acc += A[a, q] * B[q, b]
-            work[a, b] = acc
+            out[a, b] = acc
+
+
+@njit(cache=True)
+def _times_transposed(A, B, out):
+    """``out = A B^T`` (square matrices of one size)."""
+    size = A.shape[0]
     for a in range(size):
         for b in range(size):
             acc = 0.0
             for q in range(size):
-                acc += work[a, q] * A[b, q]
-            B[a, b] = acc
+                acc += A[a, q] * B[b, q]
+            out[a, b] = acc
+
+
+@njit(cache=True)
+def _sandwich(A, B, work):
+    """``B <- A B A^T`` in place (``work`` a matrix of the same size)."""
+    _times(A, B, work)
+    _times_transposed(work, A, B)
 
 
 @njit(cache=True)
