@@ -120,7 +120,8 @@ class Drawer:
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
-        self._pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"))
+        self._pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
+                                         initializer=_leave_interrupts_to_the_command)
         self._pending.append((self._pool.submit(_warm_up), _warm_up, (), {}))
 
     def draw(self, fn, *args, **kwargs) -> None:
@@ -156,6 +157,14 @@ class Drawer:
         self._pending = []
         if pool is not None:
             pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _leave_interrupts_to_the_command() -> None:
+    """The worker ignores Ctrl+C (SIGINT reaches the whole process group): the
+    command handles it, marks its run KILLED and stops the worker."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _warm_up() -> None:
