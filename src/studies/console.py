@@ -115,6 +115,16 @@ def _parameter(name: str, value, unit: str | None) -> str:
     return f"{name} = {value}"
 
 
+def _limit(name: str, value, unit: str | None) -> str:
+    """A detection limit's parameter: its size, angles in degrees, other units as the catalogue's first word."""
+    if isinstance(value, dict):
+        return ", ".join(f"{k} = {number(abs(v))}" for k, v in value.items())
+    short = (unit or "").split(",")[0].split(";")[0].strip()
+    if short == "rad" or name == "delta0":
+        return f"{name} = {number(abs(math.degrees(value)))} deg"
+    return f"{name} = {number(abs(value))}" + (f" {short}" if short and short != "-" else "")
+
+
 def discovery_lines(discovery: dict) -> list[str]:
     """The end of a `studies discover`: the verdict, its confidence, units, the gain, the scale."""
     cause = discovery.get("cause")
@@ -136,6 +146,17 @@ def discovery_lines(discovery: dict) -> list[str]:
         if isinstance(interval, (list, tuple)) and len(interval) == 2:
             text += f", 90 % interval [{number(interval[0])}, {number(interval[1])}]"
         lines.append(text)
+    members = discovery.get("class") or []
+    if len(members) > 1:
+        lines.append(f"  the records cannot tell it from {', '.join(members[1:])} (one class, probability "
+                     f"{number(discovery.get('class_probability'))}; each member's fit in discovery.json)")
+    limits = {cid: p for cid, p in (discovery.get("detection_limits") or {}).items() if p}
+    if limits:
+        units = discovery.get("detection_units") or {}
+        lines.append("smallest effect these records would show: " + "; ".join(
+            f"{cid} " + ", ".join(_limit(name, value, (units.get(cid) or {}).get(name)) for name, value in p.items()
+                                  if value is not None and name != "direction")
+            for cid, p in limits.items()))
     second = (discovery.get("second_cause") or {}).get("cause")
     if second:
         lines.append(f"  a second cause on top: {second}")

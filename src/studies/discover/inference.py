@@ -83,6 +83,7 @@ from ..identify.filter_error import side_by_side
 from ..identify.kalman import KalmanSettings, kalman_smooth, smoothed_record
 from ..models.terms import DOFS
 from .alike import signature_alike
+from .look_alike import BlockSeparation, Detectability
 from .causes import Combined, Current, MissingTerm, WindUnmodelled, extended_library, manoeuvring_causes
 from .causes.base import Cause, Setup
 from .fitting import (CauseFit, Context, _score, integrated_time, kinematic_smoothing, regression_fit,
@@ -192,6 +193,11 @@ class Inference:
     probability_floor: float = 1.0 / (DRAWS + 1)
     #: how alike every pair of causes' signatures is on these records (:func:`.alike.signature_alike`)
     alike: dict = field(default_factory=dict)
+    #: the records' evidence between candidates (:mod:`.look_alike`): ``"first"`` between the
+    #: single causes, ``"second"`` between the second causes beside the first
+    separations: dict = field(default_factory=dict)
+    #: ``{cause id: Detectability}``: each single cause's evidence over none and what naming needs
+    detectability: dict = field(default_factory=dict)
 
     def verdict_of(self, model: tuple) -> str:
         """The verdict id of a model: its causes' ids joined by ``+`` in catalogue order, or ``none``."""
@@ -593,6 +599,11 @@ def _jackknife(beta: np.ndarray) -> np.ndarray:
     return (k - 1) / k * dev.T @ dev if k > 1 else np.full((beta.shape[1],) * 2, np.nan)
 
 
+#: what the evidence between two causes is with block cross-validation (:mod:`.look_alike`)
+BLOCK_SEPARATION = ("paired held-out gain of the named cause over the rival, block by block, over its standard "
+                    "error (the naming statistic)")
+
+
 def infer(ctx: Context, records: list | None = None, causes: list | None = None, pairs: bool = True,
           seed: int = 0) -> Inference:
     """Name the verdict that predicts unseen stretches of the records (module docstring).
@@ -662,6 +673,8 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
     first = None if draw_verdict[0] == "none" else str(draw_verdict[0])
     beats_none = dict(zip(gains.ids, np.mean(weights[1:] @ gains.held.T > 0.0, axis=0).tolist()))
     evidence = dict(zip(gains.ids, t_values(gains.held).tolist()))
+    separations = {"first": BlockSeparation(list(gains.ids), threshold, BLOCK_SEPARATION, held=gains.held.copy())}
+    detectability = {cid: Detectability(float(evidence[cid]), threshold, 1) for cid in gains.ids}
 
     # 2. a second cause beside the first, judged the same way on the first's refined model
     named, held2, threshold2 = (), None, float("nan")
@@ -686,6 +699,8 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
                 held2.held = held2.held - grams2.folds(own[None]).held[:, 0][None, :]
                 evidence.update({_pair_id(first, cid): t for cid, t in zip(held2.ids, t_values(held2.held))})
                 threshold2 = _threshold(len(held2.ids), grams.n_blocks)
+                separations["second"] = BlockSeparation(list(held2.ids), threshold2, BLOCK_SEPARATION,
+                                                        held=held2.held.copy())
                 extended = np.array([first] + [_pair_id(first, cid) for cid in held2.ids], dtype=object)
                 pick2 = extended[name_per_draw(held2.held, weights, threshold2,
                                                np.log([len(others[cid]) for cid in held2.ids])) + 1]
@@ -721,7 +736,7 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
                     gains=mean_gain, beats_none=beats_none, threshold=threshold,
                     evidence=evidence, second_threshold=threshold2,
                     n_blocks=grams.n_blocks, block_seconds=_block_seconds(records, design, block_rows),
-                    alike=alike)
+                    alike=alike, separations=separations, detectability=detectability)
     out.fits = fits
     out.fit = fits.get(named)
     out.beside = {}

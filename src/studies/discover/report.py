@@ -11,6 +11,7 @@ import pandas as pd
 
 from ..plotting import pyplot, thinned, thinned_track
 from ..markdown import markdown_table
+from .causes.base import compact_parameters
 
 __all__ = ["write_discovery", "write_report", "plot_predictions", "plot_ranking", "plot_evidence", "plot_residuals"]
 
@@ -235,9 +236,16 @@ def write_report(out_dir: Path, discovery: dict, explanation: str, sections: lis
         others = ", ".join(f"**{c}**" for c in d["indistinguishable_from"])
         verdict.append(f"\nThe training data do not tell it apart from {others} (scores within "
                        f"{INDISTINGUISHABLE:g}): the choice between them is not established by these records.")
+    members = d.get("class") or []
+    if len(members) > 1:
+        verdict.append(f"\n{_class_sentence(d)}")
     if d.get("confidence") is not None and np.isfinite(d["confidence"]):
-        verdict.append(f"\nConfidence in **{d['cause']}**: {d['confidence']:.2f} "
+        what = (f"the class {', '.join(f'**{m}**' for m in members)}" if len(members) > 1 and
+                d["cause"] != "outside_training_states" else f"**{d['cause']}**")
+        verdict.append(f"\nConfidence in {what}: {d['confidence']:.2f} "
                        f"({d.get('confidence_basis', 'posterior probability from the scores')}).")
+    if d.get("detection_limits"):
+        verdict.append(f"\n{detection_sentence(d)}")
     if d["cause"] == "outside_training_states" and d.get("next_manoeuvre"):
         verdict.append(f"\nWhat would cover those states: {d['next_manoeuvre']}.")
     elif d.get("next_manoeuvre") and d.get("undecided"):
@@ -281,3 +289,27 @@ def write_report(out_dir: Path, discovery: dict, explanation: str, sections: lis
         html.append(f"<p><img src='{escape(f)}' alt='{escape(f)}'></p>")
     html.append("</body></html>")
     (out_dir / "report.html").write_text("\n".join(html))
+
+
+def _class_sentence(d: dict) -> str:
+    """The class of look-alikes: its members with their parameters, and why they are one class."""
+    members = d["class"]
+    params = d.get("class_parameters") or {}
+    listed = "; ".join(f"**{m}** ({compact_parameters(params[m])})" if params.get(m) else f"**{m}**"
+                       for m in members)
+    evidence = (d.get("class_evidence") or {})
+    named = "what the inference named on the training records" if d["cause"] == "outside_training_states" else \
+        "the verdict"
+    return (f"These records cannot tell apart {listed}: {named} is a class of look-alikes, each fitted as given "
+            f"(the records' evidence for the first over each other is below {evidence.get('threshold', float('nan')):.2f}, "
+            f"{evidence.get('measure', '')}); class probability {d.get('class_probability', float('nan')):.2f}.")
+
+
+def detection_sentence(d: dict) -> str:
+    """The smallest effect of each cause these records would show, in the causes' units."""
+    limits = d.get("detection_limits") or {}
+    shown = "; ".join(f"{cid} {compact_parameters(p)}" for cid, p in limits.items() if p)
+    hidden = [cid for cid, p in limits.items() if not p]
+    return ("Smallest effect of each cause these records would show (its fit on these records scaled, in the "
+            f"direction fitted, to where its evidence reaches the naming threshold; each cause's units): {shown}"
+            + (f"; not estimable for {', '.join(hidden)} (its fit explains nothing)" if hidden else "") + ".")

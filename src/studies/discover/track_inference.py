@@ -74,6 +74,7 @@ from scipy.optimize import least_squares
 from scipy.special import expit
 
 from .alike import signature_alike
+from .look_alike import Detectability, LikelihoodSeparation
 from .causes import Combined, MissingTerm, NoCause, manoeuvring_causes
 from .causes.base import Cause
 from .fitting import CauseFit, Context, calibrate
@@ -93,6 +94,11 @@ MAX_EVALUATIONS = 40
 REFINE_TOLERANCE = 0.01
 #: a second cause is refined beside the first only when its first-order score is above minus this
 PAIR_SCREEN = 20.0
+
+
+#: what the evidence between two causes is on the tracks (:mod:`.look_alike`)
+TRACK_SEPARATION = ("difference of the two fitted models' likelihood evidence over none (twice the log-likelihood "
+                    "ratio of the tracks, no penalty on parameters)")
 
 
 def _score_of(evidence: float, n_params: int, n: int, n_variants: int) -> float:
@@ -143,6 +149,8 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
     none = refine_on_tracks(design, every, NoCause(), np.zeros(0), {})
     against = _innovations_of(design, none)
     fits, best, scores = {(): none}, {}, {"none": 0.0}
+    # each verdict's likelihood evidence (no penalty): what the records say between two causes
+    raw, raw2 = {}, {}
     at_fits = []
     for cid, idx in singles.items():
         i, j = max(((i, judge(design, variants[i].columns)) for i in idx), key=lambda ij: ij[1].evidence)
@@ -156,8 +164,9 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
     for cid, idx in singles.items():
         i = best[cid]
         fit = fits[(i,)]
-        scores[cid] = _score_of(_evidence_at(design, nested, _innovations_of(design, fit))
-                                if fit.cause.acts(fit.theta) else 0.0, variants[i].n_params, design.n, len(idx))
+        raw[cid] = (_evidence_at(design, nested, _innovations_of(design, fit))
+                    if fit.cause.acts(fit.theta) else 0.0)
+        scores[cid] = _score_of(raw[cid], variants[i].n_params, design.n, len(idx))
     evidence = {cid: scores[cid] for cid in singles}
     seconds["comparison"] = time.perf_counter() - t2
     propulsion = [c for c in causes if c.replaces_dynamics] if ctx.dynamics is None else []
@@ -172,6 +181,7 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
             singles[fit.cause.id] = [i]
             fits[(i,)], best[fit.cause.id] = fit, i
             scores[fit.cause.id] = evidence[fit.cause.id] = score
+            raw[fit.cause.id] = score - _score_of(0.0, fit.cause.n_params(), design.n, 1)
         seconds["propulsion"] = time.perf_counter() - t4
 
     # 2. a second cause beside the most probable single one, the two refined together
@@ -209,6 +219,7 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
                 # its first-order evidence is far below what naming it would take: not refined
                 scores[_pair_id(first, cid)] = scores[first] + linear
                 evidence[_pair_id(first, cid)] = linear
+                raw2[cid] = float(j.evidence)
                 continue
             _, theta2, terms2 = _start(second, (i,), j.coefficients[own.shape[1]:])
             fit = refine_on_tracks(plain2, every, *_join(fit1.cause, fit1.theta, terms1, second[i].cause,
@@ -222,8 +233,8 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
             after = _innovations_of(plain2, fit)
             log.debug("pair %s: first alone %.2f, pair %.2f", cid, 0.5 * float(nested @ nested),
                       0.5 * float(after @ after))
-            s2 = _score_of(_evidence_at(design2, nested, after) if fit.cause.acts(fit.theta) else 0.0,
-                           second[i].n_params, design.n, len(idx))
+            raw2[cid] = _evidence_at(design2, nested, after) if fit.cause.acts(fit.theta) else 0.0
+            s2 = _score_of(raw2[cid], second[i].n_params, design.n, len(idx))
             scores[pair] = scores[first] + s2
             evidence[pair] = s2
             pair_fits[cid], pair_variants[pair] = fit, second[i]
@@ -254,6 +265,13 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
                     evidence=evidence, second_threshold=0.0 if pair_variants else float("nan"),
                     n_blocks=design.n_blocks, block_seconds=float(BLOCK_SECONDS), probability_floor=1e-300,
                     alike=alike)
+    # two causes are told apart when one's likelihood evidence exceeds the other's by what one
+    # parameter must earn to be named over none (the BIC's ln n)
+    separate = float(np.log(design.n))
+    out.separations = {"first": LikelihoodSeparation(list(raw), separate, TRACK_SEPARATION, values=raw)}
+    if raw2:
+        out.separations["second"] = LikelihoodSeparation(list(raw2), separate, TRACK_SEPARATION, values=raw2)
+    out.detectability = {cid: Detectability(float(raw[cid]), float(raw[cid] - scores[cid]), 2) for cid in raw}
     out.fits = fits
     out.fit = fits.get(tuple(named))
     # the filter and the records every verdict was judged on (an effect stated beforehand is scored
@@ -265,6 +283,8 @@ def infer_on_tracks(ctx: Context, smoothed: list, measured: list, causes: list |
                           "correlation_time_s": float(scorer.tau)}
     # what every other cause would be beside a named single one (refined together)
     out.beside = dict(pair_fits) if len(named) == 1 else {}
+    #: every second cause refined beside the first (a pair's class of look-alikes)
+    out.pair_fits = dict(pair_fits)
     log.info("discovery on the tracks: %s (scores %s)", out.verdict_of(out.named),
              ", ".join(f"{k} {v:.1f}" for k, v in sorted(scores.items(), key=lambda kv: -kv[1])[:6]))
     return out

@@ -82,6 +82,30 @@ class Discovery:
     inference_verdict : str or None
         What the inference over the catalogue named on the training records
         (differs from ``cause`` when that is ``outside_training_states``).
+    look_alikes : list or None
+        Written as ``class``: the verdicts the records cannot tell from the
+        named one, the named first (:mod:`studies.discover.look_alike`); one
+        member when the records separate it from every rival; None for
+        ``none``. ``confidence`` is then the class's probability. With
+        ``outside_training_states``, the class of what the inference named
+        on the training records (``inference_verdict``).
+    class_parameters : dict
+        ``{member: parameters}`` of the class's members (units: each cause's
+        ``units`` in the catalogue; a pair's by cause id).
+    class_probability : float or None
+        Probability that the records' verdict is one of the class.
+    class_evidence : dict
+        ``evidence``: ``{rival: the records' evidence for the named verdict
+        over it}``, ``threshold`` (at or above it the rival is told apart) and
+        ``measure`` (what the evidence is).
+    detection_limits : dict
+        ``{cause id: parameters}``: the smallest effect of each cause these
+        records would show, in the direction it was fitted (its
+        ``candidates`` entry scaled until its evidence over none reaches the
+        naming threshold; units as the cause's); None where its fit explains
+        nothing to scale. Given beside every verdict, ``none`` included.
+    detection_units : dict
+        ``{cause id: {parameter: unit}}``.
     explanation : str
         The named cause's physical explanation.
     baseline_model : str
@@ -167,7 +191,15 @@ class Discovery:
     held_out: dict = field(default_factory=dict)
     outside_training: dict | None = None
     inference_verdict: str | None = None
+    look_alikes: list | None = None
+    class_parameters: dict = field(default_factory=dict)
+    class_probability: float | None = None
+    class_evidence: dict = field(default_factory=dict)
+    detection_limits: dict = field(default_factory=dict)
+    detection_units: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
-        """The value written to ``discovery.json``."""
-        return asdict(self)
+        """The value written to ``discovery.json`` (``look_alikes`` as ``class``, DESIGN.md)."""
+        out = asdict(self)
+        out["class"] = out.pop("look_alikes")
+        return out

@@ -27,6 +27,7 @@ from ..discover.confidence import separating_manoeuvre
 from ..discover.fitting import Context, calibrate, training_error, validate
 from ..discover.held_out import judge_held_out
 from ..discover.inference import baseline_fit, infer, intervals, refine, smooth_with_baseline
+from ..discover.look_alike import detection_limits, verdict_class
 from ..discover.stated_effect import score_stated, stated_causes
 from ..discover.track_inference import infer_on_tracks
 from ..discover.training_states import outside_training
@@ -101,10 +102,14 @@ def _scale(prepared: PreparedDiscovery, dynamics) -> str:
     return "model" if any(r.attrs.get("model_scale") for r in prepared.records) else "full"
 
 
-def _undecided(ranking: list, named: str, confidence: float, undecidable: list) -> tuple:
-    rivals = [r["cause"] for r in ranking if r["cause"] != named
-              and r["probability"] >= RIVAL_FRACTION * max(confidence, 1e-12)]
-    if confidence >= UNDECIDED_BELOW and not undecidable:
+def _undecided(ranking: list, named: str, confidence: float, undecidable: list, members=()) -> tuple:
+    """``(undecided, next_manoeuvre)``: the named verdict, the look-alikes of its
+    class (``members`` after the named one), the rivals of some probability, the
+    causes the records cannot decide; and what would separate them."""
+    alike = [m for m in members if m != named]
+    rivals = alike + [r["cause"] for r in ranking if r["cause"] != named and r["cause"] not in alike
+                      and r["probability"] >= RIVAL_FRACTION * max(confidence, 1e-12)]
+    if confidence >= UNDECIDED_BELOW and not undecidable and not alike:
         return None, None
     if not rivals and not undecidable:
         return None, None
@@ -210,6 +215,18 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
     beyond = outside_training(ctx.train, ctx.validation, whole_base["predictions"], prepared.vessel)
     ranking = result.ranking()
     confidence = result.confidence
+    candidates = {f.cause.id: f.cause.parameters(f.theta, f.params) for m, f in result.fits.items() if len(m) == 1}
+    look_alikes = verdict_class(result, candidates, {
+        cid: (f.cause.parameters(f.theta, f.params) or {}).get(cid)
+        for cid, f in (getattr(result, "pair_fits", None) or {}).items()})
+    if look_alikes is not None and named != "none":
+        look_alikes["parameters"].setdefault(named, result.fit.cause.parameters(result.fit.theta, result.fit.params))
+        # the probability that the records' cause is one of those they cannot tell apart
+        confidence = look_alikes["probability"] if len(look_alikes["class"]) > 1 else confidence
+    else:
+        look_alikes = None
+    by_id = {v.cause.id: v.cause for v in result.variants}
+    limits = detection_limits(by_id, candidates, result.detectability)
     inferred, inferred_whole = named, whole
     better = whole["gain_pct"] > 0.0 if whole else gain_pct(b_window, e_window) > 0.0
     if beyond is not None and (best is baseline or not better):
@@ -222,17 +239,19 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
         judged = judge_held_out(ctx.validation, whole_base["predictions"], whole_base["predictions"])
         inferred_whole, whole = whole, judged["whole"]
         confidence = None        # a measurement of where the departure lies, not a probability
-    undecided, next_manoeuvre = (_undecided(ranking, named, confidence, undecidable) if named != OUTSIDE
-                                 else (None, beyond["manoeuvre"]))
+    undecided, next_manoeuvre = (_undecided(ranking, named, confidence, undecidable,
+                                            look_alikes["class"] if look_alikes else ())
+                                 if named != OUTSIDE else (None, beyond["manoeuvre"]))
     cause = best.cause if best is not baseline else NoCause()
     notes = list(prepared.notes)
     if named == OUTSIDE:
         notes.append(_outside_note(beyond, inferred, inferred_whole))
     elif beyond is not None:
+        gained = (f"whole-record gain {whole['gain_pct']:.1f} %, 90 % interval "
+                  f"[{whole['interval'][0]:.1f}, {whole['interval'][1]:.1f}] %" if whole else
+                  f"windowed gain {gain_pct(b_window, e_window):.1f} %: every held-out record is a zig-zag")
         notes.append(f"the held-out records go beyond the training records in "
-                     f"{', '.join(beyond['states'])}, where {inferred} predicts them better all the same "
-                     f"(whole-record gain {whole['gain_pct']:.1f} %, 90 % interval "
-                     f"[{whole['interval'][0]:.1f}, {whole['interval'][1]:.1f}] %)")
+                     f"{', '.join(beyond['states'])}, where {inferred} predicts them better all the same ({gained})")
     if on_tracks:
         notes.append(f"{len(result.variants)} single-cause variants compared by their likelihood on the "
                      f"tracks of {len(raw)} records (the baseline's Kalman filter's one-step-ahead "
@@ -267,6 +286,8 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
     said = _alike_note(named, result.alike)
     if said:
         notes.append(said)
+    if look_alikes is not None and len(look_alikes["class"]) > 1:
+        notes.append(_class_note(look_alikes))
     for cid, manoeuvre in undecidable:
         notes.append(f"{cid} is not compared: the training records cannot decide it ({manoeuvre} would)")
     if best is not baseline and best.validation.get("diverged"):
@@ -304,7 +325,10 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
         parameters=parameters,
         parameter_units=units, fixed_parameters=fixed,
         uncertainty=uncertainty, confidence=confidence,
-        confidence_basis=(("none: the verdict is a measurement, the share of the baseline's departure from the "
+        confidence_basis=(("probability that the records' cause is one of the class (the sum of its members' "
+                           "probabilities, each: " + _basis(on_tracks) + ")")
+                          if look_alikes is not None and len(look_alikes["class"]) > 1 else
+                          ("none: the verdict is a measurement, the share of the baseline's departure from the "
                            "held-out records that lies beyond the training records' states "
                            f"({100 * beyond['departure_share']:.0f} %)") if named == OUTSIDE else
                           ("posterior probability of the verdict from the BIC of the tracks' likelihood "
@@ -326,13 +350,18 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
                   "judged": judged["judged"], "zigzags_left_to_the_windowed_error": judged["not_judged"]},
         units=error_units,
         outside_training=beyond, inference_verdict=inferred,
+        look_alikes=look_alikes["class"] if look_alikes else None,
+        class_parameters=look_alikes["parameters"] if look_alikes else {},
+        class_probability=look_alikes["probability"] if look_alikes else None,
+        class_evidence=({k: look_alikes[k] for k in ("evidence", "threshold", "measure")} if look_alikes else {}),
+        detection_limits=limits,
+        detection_units={cid: dict(by_id[cid].units) for cid in limits if cid in by_id},
         explanation=(OUTSIDE_EXPLANATION if named == OUTSIDE else
                      cause.explanation if named != "none" else NoCause.explanation),
         baseline_model=str(prepared.cfg.model.name), scale=_scale(prepared, dynamics),
         method="tracks" if on_tracks else "inference",
         undecided=undecided, next_manoeuvre=next_manoeuvre, notes=notes,
-        candidates={f.cause.id: f.cause.parameters(f.theta, f.params) for m, f in result.fits.items()
-                    if len(m) == 1},
+        candidates=candidates,
         candidates_beside={cid: (f.cause.parameters(f.theta, f.params) or {}).get(cid, {})
                            for cid, f in result.beside.items()},
         evidence={"margin": {k: float(v) for k, v in result.evidence.items()}, "measure": _measure(on_tracks),
@@ -399,6 +428,21 @@ def held_out_in_turn(prepared: PreparedDiscovery, smoothed: list, raw: list, mod
                      "diverges": list(ext.validation.get("diverged") or [])})
         log.info("holding out %s: %s gains %.1f %%", rows[-1]["held_out"], named, rows[-1]["gain_pct"])
     return rows
+
+
+def _class_note(look_alikes: dict) -> str:
+    """The class of look-alikes in one sentence: who is in it, and by how much the records fall short."""
+    members = look_alikes["class"]
+    gaps = ", ".join(f"{m} {look_alikes['evidence'][m]:+.2f}" for m in members[1:] if m in look_alikes["evidence"])
+    return (f"the records cannot tell {members[0]} from {', '.join(members[1:])}: its evidence over each ({gaps}) "
+            f"is below the {look_alikes['threshold']:.2f} that tells two causes apart ({look_alikes['measure']}); "
+            f"the class's probability is {look_alikes['probability']:.2f}")
+
+
+def _basis(on_tracks: bool) -> str:
+    """How a member's probability is computed, in a few words."""
+    return ("its BIC weight on the tracks" if on_tracks else
+            "the share of the bootstrap reweightings of the blocks that name it")
 
 
 def _injected_note(injected: dict) -> str:

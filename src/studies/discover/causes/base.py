@@ -97,8 +97,15 @@ class Setup:
 def compact_parameters(params: dict) -> str:
     """A cause's parameters (:meth:`Cause.parameters`) on one line, added terms by name."""
     flat = {}
-    for key, value in params.items():
-        flat.update(value if isinstance(value, dict) else {key: value})
+
+    def add(mapping):
+        for key, value in mapping.items():
+            if isinstance(value, dict):
+                add(value)
+            else:
+                flat[key] = value
+
+    add(params)
     return ", ".join(f"{k} = {v:.4g}" if isinstance(v, float) else f"{k} = {v}" for k, v in flat.items())
 
 
@@ -253,3 +260,27 @@ class Cause:
     def n_params(self) -> int:
         """Number of parameters the cause adds (for the complexity penalty)."""
         return len(self.params)
+
+    #: how the effect grows with each parameter, by name: the effect is proportional to the
+    #: parameter to this power (1 by default; 0: a direction, which sets no size)
+    effect_power: dict = {}
+
+    def at_effect(self, parameters: dict, factor: float) -> dict | None:
+        """``parameters`` (as :meth:`parameters` writes them) with the effect's size
+        scaled by ``factor`` and its direction kept: each parameter times
+        ``factor ** (1 / power)`` (:attr:`effect_power`); a nested mapping
+        (a missing term's ``terms``) scaled value by value; None when a
+        parameter is not a number (the size is not defined)."""
+        out = {}
+        for name, value in parameters.items():
+            power = float(self.effect_power.get(name, 1.0))
+            scale = 1.0 if power == 0.0 else float(factor) ** (1.0 / power)
+            if value is None:
+                out[name] = None
+            elif isinstance(value, dict):
+                out[name] = {k: float(v) * scale for k, v in value.items()}
+            elif isinstance(value, (int, float)) and not isinstance(value, bool):
+                out[name] = float(value) * scale
+            else:
+                return None
+        return out

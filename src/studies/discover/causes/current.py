@@ -35,6 +35,8 @@ class Current(Cause):
 
     id = "current"
     params = ("speed", "direction")
+    #: the track drifts in proportion to the speed; the direction sets no size
+    effect_power = {"speed": 1.0, "direction": 0.0}
     no_effect = {"speed": 0.0, "direction": 0.0}
     units = {"speed": "m/s, at the records' scale",
              "direction": "rad, earth-fixed, where the current flows to (0 = north, pi/2 = east)"}

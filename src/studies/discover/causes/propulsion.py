@@ -236,6 +236,10 @@ class Propulsion(Cause):
         self._extra = 0
         self._dynamics = None
 
+    def at_effect(self, parameters, factor):
+        """None: the extension is another model, with no size to scale."""
+        return None
+
     def applicable(self, ctx) -> bool:
         name = str(getattr(ctx.vessel, "name", ""))
         records = list(ctx.train) + list(ctx.validation)

@@ -35,6 +35,8 @@ class WindUnmodelled(Cause):
 
     id = "wind_unmodelled"
     params = ("speed", "direction")
+    #: wind loads grow as the square of the speed; the direction sets no size
+    effect_power = {"speed": 2.0, "direction": 0.0}
     no_effect = {"speed": 0.0, "direction": 0.0}
     units = {"speed": "m/s, true wind speed",
              "direction": "rad, earth-fixed, where the wind comes from (0 = north, pi/2 = east)"}
