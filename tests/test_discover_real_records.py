@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from studies.bench_discovery import MARIN, judge_real, real_case
+from studies.bench_discovery import MARIN, REAL_SETS, judge_real, real_case
 from studies.scenarios.injected import Injection
 
 FOLDER = Path(__file__).resolve().parents[2] / "shared" / "data" / "kvlcc2_free_running"
@@ -34,6 +34,9 @@ def test_nothing_injected_names_neither_an_offset_nor_a_current(reference):
     assert judged["right"], (reference["named"], reference["parameters"])
     # the basin's own asymmetry is fitted (and reported) although not named
     assert "rudder_offset" in reference["candidates"] and "current" in reference["candidates"]
+    # beside none, the smallest effect these records would show: a 0.5 m/s current is above it (and
+    # is named: below)
+    assert 0.0 < reference["detection_limits"]["current"]["speed"] < 0.5
 
 
 def test_in_zig_zags_an_offset_is_nearly_what_a_constant_yaw_moment_does(reference):
@@ -76,3 +79,24 @@ def test_on_the_tracks_an_injected_offset_moves_the_fitted_offset_by_itself(refe
     case = real_case(str(FOLDER), Injection(rudder_offset=np.deg2rad(offset_deg)), "marin", ON_TRACKS)
     moved = case["candidates"]["rudder_offset"]["delta0"] - reference_on_tracks["candidates"]["rudder_offset"]["delta0"]
     assert np.rad2deg(moved) == pytest.approx(offset_deg, abs=0.1)
+
+
+HSVA_FOLDER = FOLDER.parent / "kvlcc2_hsva"
+
+
+@pytest.mark.skipif(not all((HSVA_FOLDER / f).is_file() for f in sum(REAL_SETS["hsva"], ())),
+                    reason="the shared HSVA records are not beside the repository")
+def test_an_injected_offset_in_hsva_zig_zags_is_named_with_the_causes_the_records_cannot_tell_from_it():
+    """A 3 deg rudder-sensor offset added to HSVA's zig-zags (records no code of
+    the project made): the verdict holds the offset, and the causes whose
+    evidence falls short of it by less than naming needs are named with it as
+    one class, each with its own fit; the confidence is the class's probability,
+    and the rivals told apart are not in it."""
+    case = real_case(str(HSVA_FOLDER), Injection(rudder_offset=np.deg2rad(3.0)), "hsva")
+    members = case["class"]
+    assert all("rudder_offset" in m.split("+") for m in members), members
+    assert len(members) > 1, (case["named"], case["confidence"])
+    assert case["confidence"] == pytest.approx(case["class_probability"])
+    # the offset's smallest showable size on these records lies below what was injected
+    assert 0.0 < case["detection_limits"]["rudder_offset"]["delta0"] < np.deg2rad(3.0) + abs(
+        case["candidates"]["rudder_offset"]["delta0"])

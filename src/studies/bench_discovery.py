@@ -305,7 +305,10 @@ def real_case(folder: str, injection: Injection, real_set: str = "marin", overri
                    "named": d["cause"], "confidence": d.get("confidence"), "parameters": d.get("parameters") or {},
                    "candidates": d.get("candidates") or {},
                    "candidates_beside": d.get("candidates_beside") or {}, "alike": d.get("alike") or {},
-                   "gain_pct": d.get("gain_pct"), "elapsed": elapsed})
+                   "gain_pct": d.get("gain_pct"), "class": d.get("class") or [],
+                   "class_probability": d.get("class_probability"),
+                   "detection_limits": d.get("detection_limits") or {},
+                   "inference_verdict": d.get("inference_verdict"), "elapsed": elapsed})
 
 
 def judge_real(case: dict, reference: dict) -> dict:
@@ -349,8 +352,13 @@ def judge_real(case: dict, reference: dict) -> dict:
         # nothing injected may cross it once the injected effect is fitted)
         found = measured and not ((names - set(hidden.split("+"))) & injectable)
     strict = names == set(hidden.split("+"))
+    # judged by class: every injected cause is in some member of the class the records cannot
+    # tell apart (the verdict as the inference named it on the training records)
+    members = case.get("class") or [case.get("inference_verdict") or named]
+    held = set().union(*(set(m.split("+")) for m in members))
+    in_class = right if hidden == "none" else set(hidden.split("+")) <= held
     return {**case, "hidden": hidden, "truth": _clean(truth), "right": bool(right), "cause_right": bool(same),
-            "found": bool(found), "exactly_injected": bool(strict)}
+            "found": bool(found), "exactly_injected": bool(strict), "in_class": bool(in_class)}
 
 
 # --------------------------------------------------------------- the bench
@@ -392,7 +400,9 @@ def _summary(results: list) -> dict:
             out[f"real_injected_found_{real_set}"] = rate([r["found"] for r in injected
                                                            if r.get("set", "marin") == real_set])
         out["real_injected_found"] = rate([r["found"] for r in injected])
-        out["real_cases"] = [{k: r.get(k) for k in ("set", "injection", "named", "right", "found", "confidence",
+        out["real_injected_in_class"] = rate([r.get("in_class", False) for r in injected])
+        out["real_cases"] = [{k: r.get(k) for k in ("set", "injection", "named", "class", "in_class", "right", "found",
+                                                    "confidence",
                                                     "parameters", "truth")} for r in real]
     judged = [r for r in results if r.get("confidence") is not None]
     out["reliability"] = reliability(judged)
@@ -460,7 +470,7 @@ def run_discovery_bench(settings: DiscoveryBench) -> dict:
                  for f in settings.families for c in HIDDEN_CAUSES]
     if settings.real:        # before the pairs: a bench stopped early still has the singles and the real records
         for real_set in settings.real_sets:
-            key = "real_folder" if real_set == "marin" else "hsva_folder"
+            key = "real_folder" if real_set.startswith("marin") else "hsva_folder"
             folder = Path(getattr(settings, key))
             missing = [f for f in sum(REAL_SETS[real_set], ()) if not (folder / f).is_file()]
             if missing:
