@@ -71,6 +71,7 @@ model selection. Statistics Surveys 4, 40-79.
 
 from __future__ import annotations
 
+import copy
 import logging
 import time
 from dataclasses import dataclass, field
@@ -674,7 +675,11 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
     beats_none = dict(zip(gains.ids, np.mean(weights[1:] @ gains.held.T > 0.0, axis=0).tolist()))
     evidence = dict(zip(gains.ids, t_values(gains.held).tolist()))
     separations = {"first": BlockSeparation(list(gains.ids), threshold, BLOCK_SEPARATION, held=gains.held.copy())}
-    detectability = {cid: Detectability(float(evidence[cid]), threshold, 1) for cid in gains.ids}
+    t5 = time.perf_counter()
+    detectability = {cid: Detectability(float(evidence[cid]), threshold, 1,
+                                        factor=_limit_factor(res, blocks, spans[chosen[cid]], threshold))
+                     for cid in gains.ids}
+    seconds["detection_limits"] = time.perf_counter() - t5
 
     # 2. a second cause beside the first, judged the same way on the first's refined model
     named, held2, threshold2 = (), None, float("nan")
@@ -751,6 +756,42 @@ def infer(ctx: Context, records: list | None = None, causes: list | None = None,
             out.beside[cid] = refine(every, _model_cause(variants, pair), start)
         seconds["beside"] = time.perf_counter() - t4
     return out
+
+
+def _limit_factor(res: "_Residualised", blocks: np.ndarray, index: np.ndarray, threshold: float) -> float | None:
+    """The size, as a multiple of the cause's linear fit on the records, at which the
+    cause added to the records without it would just be named: its fitted effect
+    ``e = X b`` taken out of the residualised target and put back ``s`` times,
+    ``s`` raised until the held-out gain of its columns (leave-one-block-out) is
+    ``threshold`` standard errors (:func:`.selection.t_values`). Defined whatever
+    the records' own evidence for the cause (which may be none); None when the fit
+    is exactly zero or no size up to a thousand times it is named."""
+    x = res.x[:, index]
+    beta = res.fit(index)
+    effect = x @ beta
+    if not np.any(effect):
+        return None
+    columns = np.arange(len(index))[None]
+    # the blocks' Gram matrices once: their right-hand sides are linear in the size
+    base = BlockGrams(x, res.y - effect, blocks)
+    added = BlockGrams(x, effect, blocks)
+    grams = copy.copy(base)
+
+    def t_at(size: float) -> float:
+        grams.b = base.b + size * added.b
+        grams.bk = base.bk + size * added.bk
+        held = grams.folds(columns).held[:, 0]
+        return float(t_values(held[None])[0])
+
+    low, high = 0.0, 1.0
+    while t_at(high) < threshold:
+        low, high = high, 2.0 * high
+        if high > 1e3:
+            return None
+    for _ in range(30):
+        mid = 0.5 * (low + high)
+        low, high = (mid, high) if t_at(mid) < threshold else (low, mid)
+    return float(high)
 
 
 def _most_probable(variants: list, named: tuple, verdicts: dict, chosen: dict, fits: dict) -> tuple:

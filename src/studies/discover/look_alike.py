@@ -26,10 +26,15 @@ short of it by less than the records need to name a cause at all.
   probability that the records' cause is one of them.
 - **Detection limit** of a cause: its effect, in the direction it was fitted,
   scaled to where its evidence over ``none`` would just reach the naming
-  threshold. The judges' evidence grows as the effect (the held-out gain over
-  its standard error: in proportion) or as its square (a log-likelihood
-  ratio), so the scale is ``(needed / evidence) ** (1 / order)``. Below it
-  an effect of that cause may act without these records showing it.
+  threshold. With block cross-validation it is computed directly: the
+  cause's fitted effect is taken out of the records and put back at the size
+  that is just named (:func:`studies.discover.inference._limit_factor`), so
+  it exists whatever the records' own evidence for the cause. On the tracks
+  (a filter run per trial would be needed) the evidence is scaled: it grows
+  as the square of the effect (a log-likelihood ratio), so the limit is the
+  fit times ``sqrt(needed / evidence)``, and none is given when the fit has no
+  evidence. Below the limit an effect of that cause may act without these
+  records showing it.
 """
 
 from __future__ import annotations
@@ -133,6 +138,9 @@ class Detectability:
     evidence: float
     needed: float
     order: int
+    #: the limit as a multiple of the fitted effect, where the judge computes it directly
+    #: (it then overrides ``(needed / evidence) ** (1 / order)``)
+    factor: float | None = None
 
 
 def detection_limits(causes: dict, candidates: dict, detectability: dict) -> dict:
@@ -157,10 +165,15 @@ def detection_limits(causes: dict, candidates: dict, detectability: dict) -> dic
     out = {}
     for cid, d in detectability.items():
         cause, params = causes.get(cid), candidates.get(cid)
-        if cause is None or not params or not np.isfinite(d.evidence) or d.evidence <= 0 or d.needed <= 0:
+        if d.factor is not None:
+            factor = float(d.factor)
+        elif np.isfinite(d.evidence) and d.evidence > 0 and d.needed > 0:
+            factor = float((d.needed / d.evidence) ** (1.0 / max(d.order, 1)))
+        else:
+            factor = None
+        if cause is None or not params or factor is None:
             out[cid] = None
             continue
-        factor = float((d.needed / d.evidence) ** (1.0 / max(d.order, 1)))
         out[cid] = cause.at_effect(params, factor)
     return out
 
