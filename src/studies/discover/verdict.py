@@ -106,6 +106,12 @@ class Discovery:
         nothing to scale. Given beside every verdict, ``none`` included.
     detection_units : dict
         ``{cause id: {parameter: unit}}``.
+    settling : dict or None
+        For a class of more than one member: the standard manoeuvre that would
+        tell its members apart best, computed by simulating every member
+        (:mod:`studies.discover.settling`): ``manoeuvre``, ``evidence``
+        (``{rival: expected evidence}``, twice a log-likelihood ratio),
+        ``needed``, ``menu`` (every manoeuvre's), ``noise``, ``correlation_s``.
     explanation : str
         The named cause's physical explanation.
     baseline_model : str
@@ -197,6 +203,7 @@ class Discovery:
     class_evidence: dict = field(default_factory=dict)
     detection_limits: dict = field(default_factory=dict)
     detection_units: dict = field(default_factory=dict)
+    settling: dict | None = None
 
     def to_dict(self) -> dict:
         """The value written to ``discovery.json`` (``look_alikes`` as ``class``, DESIGN.md)."""

@@ -311,6 +311,10 @@ def history_metrics(path: str | os.PathLike) -> list:
             for step, value in points if math.isfinite(float(value))]
 
 
+#: output folders logged as artifacts under their own names (beside the files and ``.hydra/``):
+#: a discovery's members' predictions of the manoeuvre that would settle its class
+LOGGED_FOLDERS = ("settling",)
+
 class RunLogger:
     """Writes one run's results to the store under the store lock."""
 
@@ -345,6 +349,8 @@ class RunLogger:
                     self.client.log_artifact(self.run_id, str(path))
                 elif path.is_dir() and path.name == ".hydra":
                     self.client.log_artifacts(self.run_id, str(path), artifact_path="hydra")
+                elif path.is_dir() and path.name in LOGGED_FOLDERS:
+                    self.client.log_artifacts(self.run_id, str(path), artifact_path=path.name)
             table = directory / "coefficients.csv"
             if table.is_file():                 # also as a table the UI can show and compare
                 import pandas as pd

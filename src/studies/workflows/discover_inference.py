@@ -28,6 +28,7 @@ from ..discover.fitting import Context, calibrate, training_error, validate
 from ..discover.held_out import judge_held_out
 from ..discover.inference import baseline_fit, infer, intervals, refine, smooth_with_baseline
 from ..discover.look_alike import detection_limits, verdict_class
+from ..discover.settling import settle
 from ..discover.stated_effect import score_stated, stated_causes
 from ..discover.track_inference import infer_on_tracks
 from ..discover.training_states import outside_training
@@ -242,6 +243,27 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
     undecided, next_manoeuvre = (_undecided(ranking, named, confidence, undecidable,
                                             look_alikes["class"] if look_alikes else ())
                                  if named != OUTSIDE else (None, beyond["manoeuvre"]))
+    settling = None
+    if look_alikes is not None and len(look_alikes["class"]) > 1:
+        say(f"discover: simulating the {len(look_alikes['class'])} look-alikes over the standard manoeuvres")
+        t_settle = time.perf_counter()
+        members = look_alikes["class"]
+        first = members[0].split("+")
+        observed = {m: look_alikes["evidence"].get(m if len(first) == 1 else
+                                                   next(iter(set(m.split("+")) - {first[0]}), m), 0.0)
+                    for m in members[1:]}
+        settling = settle(ctx, baseline, _member_fits(result, members), members[0], result.block_seconds / 4.0,
+                          observed, look_alikes["threshold"], 1 if on_tracks else 2)
+        result.seconds["settling"] = time.perf_counter() - t_settle
+        if settling is not None:
+            settling["predictions"] = _write_predictions(settling.pop("predictions"), out_dir)
+        if settling is not None and named != OUTSIDE:
+            closest = min(settling["evidence"].values())
+            gain = min(settling["ratio"][settling["manoeuvre"]].values())
+            next_manoeuvre = (f"{settling['manoeuvre']} (computed by simulating every member: it separates them "
+                              f"{gain:.1f} times as much as the training records do; expected evidence "
+                              f"{closest:.2f} over the closest look-alike once added, {settling['needed']:.2f} "
+                              "tells two causes apart)")
     cause = best.cause if best is not baseline else NoCause()
     notes = list(prepared.notes)
     if named == OUTSIDE:
@@ -350,7 +372,7 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
                   "judged": judged["judged"], "zigzags_left_to_the_windowed_error": judged["not_judged"]},
         units=error_units,
         outside_training=beyond, inference_verdict=inferred,
-        look_alikes=look_alikes["class"] if look_alikes else None,
+        look_alikes=look_alikes["class"] if look_alikes else None, settling=settling,
         class_parameters=look_alikes["parameters"] if look_alikes else {},
         class_probability=look_alikes["probability"] if look_alikes else None,
         class_evidence=({k: look_alikes[k] for k in ("evidence", "threshold", "measure")} if look_alikes else {}),
@@ -428,6 +450,37 @@ def held_out_in_turn(prepared: PreparedDiscovery, smoothed: list, raw: list, mod
                      "diverges": list(ext.validation.get("diverged") or [])})
         log.info("holding out %s: %s gains %.1f %%", rows[-1]["held_out"], named, rows[-1]["gain_pct"])
     return rows
+
+
+#: the columns of a member's prediction of the recommended manoeuvre (the data contract's)
+PREDICTION_COLUMNS = ("t", "x0", "y0", "psi", "u", "v", "r", "delta", "n")
+
+
+def _write_predictions(predictions: dict, out_dir: Path) -> dict:
+    """Each member's prediction of the recommended manoeuvre as a record under
+    ``settling/`` (a test run of it is compared with them); ``{member: file}``."""
+    folder = out_dir / "settling"
+    folder.mkdir(parents=True, exist_ok=True)
+    out = {}
+    for member, record in predictions.items():
+        path = folder / f"{member.replace('+', '_and_')}.csv"
+        record[[c for c in PREDICTION_COLUMNS if c in record]].to_csv(path, index=False)
+        out[member] = f"settling/{path.name}"
+    return out
+
+
+def _member_fits(result, members: list) -> dict:
+    """``{member verdict id: CauseFit}`` of the class's members the judge refined."""
+    from ..discover.inference import _pair_id
+
+    fits = {f.cause.id: f for m, f in result.fits.items() if len(m) == 1}
+    if result.fit is not None:
+        fits[result.verdict_of(result.named)] = result.fit
+    if len(result.named) == 2:
+        first = result.variants[result.named[0]].cause.id
+        for cid, fit in (getattr(result, "pair_fits", None) or {}).items():
+            fits.setdefault(_pair_id(first, cid), fit)
+    return {m: fits[m] for m in members if m in fits}
 
 
 def _class_note(look_alikes: dict) -> str:
