@@ -113,6 +113,8 @@ keys (defaults):
   hsva_folder=../shared/data/kvlcc2_hsva
   real_overrides=[]       settings of the real records' discoveries besides vessel=kvlcc2 model=mmg
                           (e.g. [model.asymmetry=true])
+  settle=false            put every class of look-alikes the single causes' discoveries name to its
+                          recommended test: simulated with the true effect, added, discovered again
   jobs=2                  parallel discoveries
   out=bench_discover.jsonl  every case's line (JSON), appended as it finishes
 """
@@ -134,6 +136,7 @@ class DiscoveryBench:
     real_folder: str = "../shared/data/kvlcc2_free_running"
     hsva_folder: str = "../shared/data/kvlcc2_hsva"
     real_overrides: list = field(default_factory=list)
+    settle: bool = False
     jobs: int = 2
     out: str = "bench_discover.jsonl"
 
@@ -194,7 +197,7 @@ def _single_or_pair(hidden: str, d: dict, truth: dict, elapsed: float, kind: str
     stated = d.get("injected") or {}
     return {"kind": kind, "hidden": hidden, "named": named, "right": right,
             "cause_right": bool(same), "spurious_second": bool(first_right and "+" in named),
-            "confidence": d.get("confidence"), "parameters": params, "truth": truth,
+            "confidence": d.get("confidence"), "class": d.get("class"), "parameters": params, "truth": truth,
             "gain_pct": d.get("gain_pct"), "elapsed": elapsed,
             "injected_score": stated.get("score"), "injected_shown": stated.get("shown"),
             "injected_members": stated.get("members"), **extra}
@@ -223,10 +226,13 @@ def _discover(paths_train, paths_val, overrides, tmp: Path) -> tuple[dict, float
     return d, time.perf_counter() - t0
 
 
-def simulated_case(hidden: str, family: str, seed: int, noise: float, kind: str, state: bool = True) -> dict:
+def simulated_case(hidden: str, family: str, seed: int, noise: float, kind: str, state: bool = True,
+                   settle: bool = False) -> dict:
     """One discovery on simulated Mariner records with ``hidden`` in them;
     with ``state``, the hidden effect stated at its true parameters
-    (``discover.injected``: its own score on the records, beside the verdict)."""
+    (``discover.injected``: its own score on the records, beside the verdict);
+    with ``settle``, a class of look-alikes is put to its recommended test
+    (:func:`_settled`)."""
     import numba
 
     numba.set_num_threads(1)
@@ -241,8 +247,41 @@ def simulated_case(hidden: str, family: str, seed: int, noise: float, kind: str,
         tmp = Path(tmp)
         paths = write_records(records, tmp)
         d, elapsed = _discover(paths[:-1], paths[-1:], [f"seed={seed}", *model, *injected], tmp)
+        settled = (_settled(d, hidden, family, seed, noise, scenario, records, paths, [f"seed={seed}", *model], tmp)
+                   if settle else None)
     return _clean(_single_or_pair(hidden, d, truth, elapsed, kind, family=family, seed=seed,
-                                  scenario=repr(scenario)))
+                                  scenario=repr(scenario), settled=settled))
+
+
+def _settled(d: dict, hidden: str, family: str, seed: int, noise: float, scenario, records: list, paths: list,
+             overrides: list, tmp: Path) -> dict | None:
+    """A named class put to its test: the manoeuvre the discovery recommends
+    (``settling``), simulated with the true hidden effect (the same draws,
+    its own sensor noise), added to the training records, and the discovery
+    run again. ``resolved``: the true cause named with no look-alike beside it.
+    None when no class of more than one member was named."""
+    from .discover.settling import menu
+    from .vessels import get_vessel
+
+    plan = d.get("settling")
+    if not plan or len(d.get("class") or []) < 2:
+        return None
+    train = records[:-1]
+    duration = max(float(r["t"].iloc[-1] - r["t"].iloc[0]) for r in train)
+    dt = float(np.median(np.diff(train[0]["t"].to_numpy(float))))
+    found = [m for m, extra in menu(duration, dt, False) if m.name == plan["manoeuvre"]]
+    if not found:
+        return {"manoeuvre": plan["manoeuvre"], "class": d["class"], "simulated": False, "resolved": False}
+    extended, _ = hidden_records(get_vessel("mariner"), hidden, seed=seed, noise=noise, noise_family=family,
+                                 missing="any", manoeuvres=scenario.manoeuvres() + found)
+    test = extended[-1]
+    test.attrs["name"] = "settling_test"
+    (tmp / "settled").mkdir(exist_ok=True)
+    added = write_records([test], tmp / "settled")
+    again, _ = _discover(paths[:-1] + added, paths[-1:], overrides, tmp / "settled")
+    return {"manoeuvre": plan["manoeuvre"], "class": d["class"], "simulated": True,
+            "named": again["cause"], "class_after": again.get("class"),
+            "resolved": bool(again["cause"] == hidden and len(again.get("class") or [hidden]) == 1)}
 
 
 def injected_override(hidden: str, truth: dict) -> list[str]:
@@ -374,6 +413,12 @@ def _summary(results: list) -> dict:
                                    for c in dict.fromkeys(r["hidden"] for r in causes)}
         out["singles"] = rate([r["right"] for r in causes])
         out["none_stays_none"] = rate([r["named"] == "none" for r in singles if r["hidden"] == "none"])
+        # classes of look-alikes: how often the true cause is in the class named, and how often the
+        # recommended test, simulated with the true cause and added, names it alone
+        out["singles_in_class"] = rate([r["hidden"] in (r.get("class") or [r["named"]]) for r in causes])
+        settled = [r["settled"] for r in causes if r.get("settled")]
+        if settled:
+            out["settling_resolves"] = rate([t["resolved"] for t in settled])
         out["spurious_second"] = rate([r["spurious_second"] for r in causes
                                        if r["hidden"] in r["named"].split("+")])
         out["confusion_singles"] = confusion(singles)
@@ -466,7 +511,7 @@ def run_discovery_bench(settings: DiscoveryBench) -> dict:
     jobs = []
     seeds = range(settings.seed_base, settings.seed_base + settings.seeds)
     if settings.singles:
-        jobs += [(simulated_case, (c, f, s, settings.noise, "single")) for s in seeds
+        jobs += [(simulated_case, (c, f, s, settings.noise, "single", True, settings.settle)) for s in seeds
                  for f in settings.families for c in HIDDEN_CAUSES]
     if settings.real:        # before the pairs: a bench stopped early still has the singles and the real records
         for real_set in settings.real_sets:

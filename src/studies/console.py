@@ -150,6 +150,8 @@ def discovery_lines(discovery: dict) -> list[str]:
     if len(members) > 1:
         lines.append(f"  the records cannot tell it from {', '.join(members[1:])} (one class, probability "
                      f"{number(discovery.get('class_probability'))}; each member's fit in discovery.json)")
+    if len(members) > 1 and discovery.get("next_manoeuvre"):
+        lines.append(f"  to tell them apart: {discovery['next_manoeuvre']}")
     limits = {cid: p for cid, p in (discovery.get("detection_limits") or {}).items() if p}
     if limits:
         units = discovery.get("detection_units") or {}
@@ -183,8 +185,6 @@ def discovery_lines(discovery: dict) -> list[str]:
         lines.append(f"  would cover them: {beyond.get('manoeuvre')}")
         if discovery.get("inference_verdict"):
             lines.append(f"  (the inference on the training records alone named {discovery['inference_verdict']})")
-    elif discovery.get("gain_pct") is not None:
-        lines.append(f"held-out gain {number(discovery.get('gain_pct'))} %")
     scale = discovery.get("scale")
     if isinstance(scale, str) and scale:
         lines.append(f"records studied at {scale} scale")

@@ -402,7 +402,7 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
     out = discovery.to_dict()
     say("discover: writing the report and its figures")
     sections, figures = _sections(ctx, result, whole_base, whole_best, named, out_dir, on_tracks, other, departed,
-                                  discovery.splits, judged, beyond)
+                                  discovery.splits, judged, beyond, settling)
     write_discovery(out_dir / "discovery.json", out)
     write_report(out_dir, out, out["explanation"], sections, figures)
     metrics = {"discover/gain_pct": gain, **({"discover/confidence": confidence} if confidence is not None else {}),
@@ -526,7 +526,8 @@ def _copy(fit):
 
 def _sections(ctx, result, whole_base: dict, whole_best: dict, named: str, out_dir: Path,
               on_tracks: bool = False, other: list | None = None, departed: pd.DataFrame | None = None,
-              splits: list | None = None, judged: dict | None = None, beyond: dict | None = None):
+              splits: list | None = None, judged: dict | None = None, beyond: dict | None = None,
+              settling: dict | None = None):
     """The report's tables and figures: verdicts, inclusion probabilities,
     where the replays depart most from the held-out records, every record
     held out in turn, predictions of every held-out record (with another
@@ -549,6 +550,13 @@ def _sections(ctx, result, whole_base: dict, whole_best: dict, named: str, out_d
     if result.alike:
         sections.append((f"How alike the causes' signatures are on these records ({ALIKE_READING}; a cause "
                          "with variants at its variant most alike)", alike_table(result.alike)))
+    if settling:
+        table = pd.DataFrame(settling["ratio"]).T
+        table.index.name = "manoeuvre"
+        sections.append((f"The test that would settle the class: each standard manoeuvre's separation of the named "
+                         f"member from each look-alike, over the training records' own (every member replays the "
+                         f"manoeuvre as the baseline steers it); recommended: {settling['manoeuvre']}; each member's "
+                         "prediction of it in settling/", table.round(2)))
     if departed is not None and not departed.empty:
         sections.append(("Where the simulation departs most from the held-out records (whole replays; u, v in "
                          "m/s, r in deg/s; ranked by the prime RMSE)", departed.set_index("model")))
