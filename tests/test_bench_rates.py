@@ -1,5 +1,7 @@
 """Rates of the discovery bench: Wilson intervals, confusion, reliability."""
 
+import numpy as np
+import pytest
 from hypothesis import given, strategies as st
 
 from studies.scenarios.rates import confusion, rate, reliability, wilson
@@ -136,3 +138,14 @@ def test_an_injected_effect_found_beside_more_of_the_records_own_error_is_found_
     assert not wrong["found"]
     nothing = judge_real({"injected": {}, "named": "environmental_bias", "parameters": {}}, reference)
     assert nothing["found"] and nothing["right"]
+
+
+def test_calibration_error_weights_each_bin_by_its_verdicts():
+    from studies.scenarios.rates import calibration_error
+
+    results = ([{"confidence": 0.95, "right": True}] * 9 + [{"confidence": 0.95, "right": False}]
+               + [{"confidence": 0.55, "right": True}] * 2 + [{"confidence": 0.55, "right": False}] * 8)
+    rows = reliability(results)
+    # 10 verdicts at 0.95, 9 right: 0.05 off; 10 at 0.55, 2 right: 0.35 off
+    assert calibration_error(rows) == pytest.approx((10 * 0.05 + 10 * 0.35) / 20)
+    assert np.isnan(calibration_error(reliability([])))

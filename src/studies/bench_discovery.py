@@ -86,7 +86,7 @@ from .scenarios.hidden import (HIDDEN_CAUSES, draw_scenario, hidden_pairs, hidde
                                write_records)
 from .identify import filter_error
 from .scenarios.injected import Injection, inject, injection_grid
-from .scenarios.rates import confusion, rate, reliability
+from .scenarios.rates import calibration_error, confusion, rate, reliability
 from .environment.sensor_noise import NOISE_FAMILIES, check_sensor_noise
 
 __all__ = ["DiscoveryBench", "run_discovery_bench", "judge_real", "HELP"]
@@ -195,7 +195,11 @@ def _single_or_pair(hidden: str, d: dict, truth: dict, elapsed: float, kind: str
         else parameters_match(named, params, {k: truth[k] for k in named.split("+")}))))
     first_right = hidden != "none" and "+" not in hidden and hidden in named.split("+")
     stated = d.get("injected") or {}
-    return {"kind": kind, "hidden": hidden, "named": named, "right": right,
+    # the confidence is that of the class when one is named: right when the class holds the truth
+    members = d.get("class") or [named]
+    class_right = bool(any(set(m.split("+")) == set(hidden.split("+")) for m in members)) if hidden != "none" \
+        else named == "none"
+    return {"kind": kind, "hidden": hidden, "named": named, "right": right, "class_right": class_right,
             "cause_right": bool(same), "spurious_second": bool(first_right and "+" in named),
             "confidence": d.get("confidence"), "class": d.get("class"), "parameters": params, "truth": truth,
             "gain_pct": d.get("gain_pct"), "elapsed": elapsed,
@@ -457,6 +461,14 @@ def _summary(results: list) -> dict:
     # 20 % is a second question, so the same tables on the causes alone
     out["reliability_causes"] = reliability(judged, right_key="cause_right")
     out["causes_right_when_confidence_at_least_0.9"] = rate([r["cause_right"] for r in confident])
+    # and by class (the confidence's own claim: the records' cause is one of the class named)
+    by_class = [r for r in judged if "class_right" in r]
+    if by_class:
+        out["reliability_class"] = reliability(by_class, right_key="class_right")
+        out["class_right_when_confidence_at_least_0.9"] = rate([r["class_right"] for r in by_class
+                                                                 if r["confidence"] >= 0.9])
+        out["calibration_error_class"] = calibration_error(out["reliability_class"])
+    out["calibration_error"] = calibration_error(out["reliability"])
     for kind, key in (("single", "discover_single_s"), ("pair", "discover_pair_s"), ("real", "discover_kvlcc2_s")):
         times = [r["elapsed"] for r in results if r["kind"] == kind]
         if times:

@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 
-__all__ = ["wilson", "rate", "confusion", "reliability", "RELIABILITY_BINS", "Z90"]
+__all__ = ["wilson", "rate", "confusion", "reliability", "RELIABILITY_BINS", "Z90", "calibration_error"]
 
 #: the standard normal quantile of a two-sided 90 % interval
 Z90 = 1.6448536269514722
@@ -79,3 +79,13 @@ def reliability(results, bins=RELIABILITY_BINS, confidence_key: str = "confidenc
                      else float("nan"),
                      "share_right": stats["rate"], "share_low": stats["low"], "share_high": stats["high"]})
     return rows
+
+
+def calibration_error(rows: list) -> float:
+    """Mean calibration error of a reliability table (:func:`reliability`): the
+    verdicts' mean |stated confidence - share right| per bin, weighted by the
+    bin's verdicts (the expected calibration error); NaN without verdicts."""
+    n = sum(r["n"] for r in rows)
+    if not n:
+        return float("nan")
+    return float(sum(r["n"] * abs(r["mean_confidence"] - r["share_right"]) for r in rows if r["n"]) / n)
