@@ -103,19 +103,14 @@ def test_nothing_injected_names_nothing(tmp_path, still_water, level):
     assert all(np.isfinite(r["score"]) and r["score"] >= 0.0 for r in d["ranking"]), d["ranking"]
 
 
+#: one current and one offset at each noise level, and the smallest offset (1 deg) at the larger
+#: noise; the breadth over sizes and directions is the bench's (``studies bench discover``)
 @pytest.mark.parametrize("level,injection", [
     (0.01, Injection(current_speed=0.3, current_direction=np.deg2rad(90.0))),
-    (0.01, Injection(current_speed=0.5, current_direction=np.deg2rad(225.0))),
-    (0.01, Injection(current_speed=0.8, current_direction=np.deg2rad(0.0))),
-    (0.01, Injection(rudder_offset=np.deg2rad(1.0))),
     (0.01, Injection(rudder_offset=np.deg2rad(-2.0))),
     (0.03, Injection(current_speed=0.5, current_direction=np.deg2rad(225.0))),
-    (0.03, Injection(rudder_offset=np.deg2rad(-2.0))),
-    (0.03, Injection(current_speed=0.8, current_direction=np.deg2rad(0.0))),
     (0.03, Injection(rudder_offset=np.deg2rad(2.5))),
     (0.03, Injection(rudder_offset=np.deg2rad(1.0))),
-    (0.03, Injection(rudder_offset=np.deg2rad(-1.0))),
-    (0.03, Injection(current_speed=0.2, current_direction=np.deg2rad(300.0))),
 ], ids=lambda x: x.label if isinstance(x, Injection) else f"{100 * x:.0f}pct")
 def test_an_injected_effect_is_named_with_its_parameters(tmp_path, still_water, level, injection):
     d = _discover(tmp_path, [inject(r, injection) for r in still_water[level]], stated=injection.truth())
@@ -152,7 +147,6 @@ def test_an_effect_too_small_for_the_records_is_not_shown(tmp_path, still_water)
 
 
 @pytest.mark.parametrize("level,injection", [
-    (0.01, Injection(current_speed=0.5, current_direction=np.deg2rad(225.0), rudder_offset=np.deg2rad(1.5))),
     (0.03, Injection(current_speed=0.5, current_direction=np.deg2rad(45.0), rudder_offset=np.deg2rad(-2.0))),
 ], ids=lambda x: x.label if isinstance(x, Injection) else f"{100 * x:.0f}pct")
 def test_a_current_and_a_rudder_offset_together_are_named_as_a_pair(tmp_path, still_water, level, injection):

@@ -258,6 +258,29 @@ def measurement_variance(record: pd.DataFrame, channels, window: float = 10.0,
     return out
 
 
+#: :func:`measurement_variance` of the records filtered lately, by their content: a likelihood
+#: search filters the same records hundreds of times, and the variances depend on the record alone
+_VARIANCES: dict = {}
+_VARIANCES_KEPT = 16
+
+
+def _measurement_variance_of(record: pd.DataFrame, channels, window: float, span: float) -> np.ndarray:
+    """:func:`measurement_variance`, computed once per record content (a copy: callers change it)."""
+    import hashlib
+
+    digest = hashlib.blake2b(digest_size=16)
+    for c in ["t", *channels]:
+        digest.update(np.ascontiguousarray(record[c].to_numpy(float)).tobytes())
+    key = (tuple(channels), float(window), float(span), digest.hexdigest())
+    found = _VARIANCES.get(key)
+    if found is None:
+        found = measurement_variance(record, channels, window, span)
+        if len(_VARIANCES) >= _VARIANCES_KEPT:
+            _VARIANCES.pop(next(iter(_VARIANCES)))
+        _VARIANCES[key] = found
+    return found.copy()
+
+
 # --------------------------------------------------------------- compiled filter
 
 @njit(cache=True)
@@ -692,7 +715,7 @@ def _run(record, settings: KalmanSettings, mode: int, c: np.ndarray, k: np.ndarr
     dt = uniform_step(t)
     channels = list(settings.channels)
     z = np.column_stack([record[ch].to_numpy(float) for ch in channels])
-    R = measurement_variance(record, channels, settings.noise_window, settings.noise_span)
+    R = _measurement_variance_of(record, channels, settings.noise_window, settings.noise_span)
     for j, ch in enumerate(channels):
         if ch in settings.measurement_std:
             R[:, j] = float(settings.measurement_std[ch]) ** 2
