@@ -54,7 +54,8 @@ def test_in_zig_zags_an_offset_is_nearly_what_a_constant_yaw_moment_does(referen
     assert alike["propeller_asymmetry"]["rudder_offset"]["correlation"] == offset["propeller_asymmetry"]
 
 
-@pytest.mark.parametrize("speed,direction", [(0.5, 0.0), (0.5, 90.0), (0.5, 180.0), (0.5, 270.0), (0.8, 90.0)])
+#: two speeds and two directions (the grid of sizes and directions is the bench's: studies bench discover)
+@pytest.mark.parametrize("speed,direction", [(0.5, 180.0), (0.8, 90.0)])
 def test_an_injected_current_is_named_with_its_speed_and_direction(reference, speed, direction):
     case = judge_real(real_case(str(FOLDER), Injection(current_speed=speed,
                                                        current_direction=np.deg2rad(direction))), reference)
