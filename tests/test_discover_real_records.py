@@ -98,6 +98,15 @@ def test_an_injected_offset_in_hsva_zig_zags_is_named_with_the_causes_the_record
     assert all("rudder_offset" in m.split("+") for m in members), members
     assert len(members) > 1, (case["named"], case["confidence"])
     assert case["confidence"] == pytest.approx(case["class_probability"])
+    # the test that would settle it, computed: every look-alike's separation on every standard manoeuvre,
+    # the recommended one said in next_manoeuvre with its expected evidence
+    settling = case["settling"]
+    assert set(settling["evidence"]) == set(members[1:])
+    assert settling["manoeuvre"] in settling["ratio"] and len(settling["ratio"]) >= 6
+    best = min(settling["ratio"][settling["manoeuvre"]].values())
+    assert all(min(row.values()) <= best for row in settling["ratio"].values())
+    assert case["next_manoeuvre"].startswith(settling["manoeuvre"])
+    assert set(settling["predictions"]) == set(members)
     # the offset's smallest showable size on these records lies below what was injected
     assert 0.0 < case["detection_limits"]["rudder_offset"]["delta0"] < np.deg2rad(3.0) + abs(
         case["candidates"]["rudder_offset"]["delta0"])

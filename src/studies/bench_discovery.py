@@ -351,7 +351,8 @@ def real_case(folder: str, injection: Injection, real_set: str = "marin", overri
                    "gain_pct": d.get("gain_pct"), "class": d.get("class") or [],
                    "class_probability": d.get("class_probability"),
                    "detection_limits": d.get("detection_limits") or {},
-                   "inference_verdict": d.get("inference_verdict"), "elapsed": elapsed})
+                   "inference_verdict": d.get("inference_verdict"), "settling": d.get("settling"),
+                   "next_manoeuvre": d.get("next_manoeuvre"), "elapsed": elapsed})
 
 
 def judge_real(case: dict, reference: dict) -> dict:

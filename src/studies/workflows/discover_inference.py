@@ -252,7 +252,10 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
         observed = {m: look_alikes["evidence"].get(m if len(first) == 1 else
                                                    next(iter(set(m.split("+")) - {first[0]}), m), 0.0)
                     for m in members[1:]}
-        settling = settle(ctx, baseline, _member_fits(result, members), members[0], result.block_seconds / 4.0,
+        fitted = _member_fits(result, members, ctx)
+        for member, fit in fitted.items():
+            look_alikes["parameters"].setdefault(member, fit.cause.parameters(fit.theta, fit.params))
+        settling = settle(ctx, baseline, fitted, members[0], result.block_seconds / 4.0,
                           observed, look_alikes["threshold"], 1 if on_tracks else 2)
         result.seconds["settling"] = time.perf_counter() - t_settle
         if settling is not None:
@@ -469,9 +472,11 @@ def _write_predictions(predictions: dict, out_dir: Path) -> dict:
     return out
 
 
-def _member_fits(result, members: list) -> dict:
-    """``{member verdict id: CauseFit}`` of the class's members the judge refined."""
-    from ..discover.inference import _pair_id
+def _member_fits(result, members: list, ctx: Context) -> dict:
+    """``{member verdict id: CauseFit}`` of the class's members: those the judge
+    refined, and a pair the judge did not refine refined here on the training
+    records (``ctx``) from its two causes' own fits."""
+    from ..discover.inference import _joined_theta, _model_cause, _pair_id
 
     fits = {f.cause.id: f for m, f in result.fits.items() if len(m) == 1}
     if result.fit is not None:
@@ -480,6 +485,15 @@ def _member_fits(result, members: list) -> dict:
         first = result.variants[result.named[0]].cause.id
         for cid, fit in (getattr(result, "pair_fits", None) or {}).items():
             fits.setdefault(_pair_id(first, cid), fit)
+        singles = {result.variants[m[0]].cause.id: m[0] for m in result.fits if len(m) == 1}
+        for member in members:
+            parts = member.split("+")
+            second = next((c for c in parts if c != first), None)
+            if member in fits or second not in singles or first not in singles:
+                continue
+            pair = (singles[first], singles[second])
+            start = _joined_theta(result.variants, pair, {i: result.fits[(i,)].theta for i in pair})
+            fits[member] = refine(ctx, _model_cause(result.variants, pair), start)
     return {m: fits[m] for m in members if m in fits}
 
 
