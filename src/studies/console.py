@@ -115,6 +115,21 @@ def _parameter(name: str, value, unit: str | None) -> str:
     return f"{name} = {value}"
 
 
+def _compact(parameters: dict) -> str:
+    """A cause's parameters on one line (nested mappings flattened: a pair's, a missing term's)."""
+    flat = {}
+
+    def add(mapping):
+        for key, value in mapping.items():
+            if isinstance(value, dict):
+                add(value)
+            elif value is not None:
+                flat[key] = value
+
+    add(parameters)
+    return ", ".join(f"{k} = {number(v)}" if isinstance(v, (int, float)) else f"{k} = {v}" for k, v in flat.items())
+
+
 def _limit(name: str, value, unit: str | None) -> str:
     """A detection limit's parameter: its size, angles in degrees, other units as the catalogue's first word."""
     if isinstance(value, dict):
@@ -129,9 +144,11 @@ def discovery_lines(discovery: dict) -> list[str]:
     """The end of a `studies discover`: the verdict, its confidence, units, the gain, the scale."""
     cause = discovery.get("cause")
     confidence = discovery.get("confidence")
-    head = f"verdict: {cause}"
+    members = discovery.get("class") or []
+    one_of = len(members) > 1 and cause != "outside_training_states"
+    head = f"verdict: {cause}" + (" (the most probable of a class the records cannot tell apart)" if one_of else "")
     if isinstance(confidence, (int, float)):
-        head += f" (confidence {number(confidence)})"
+        head += f" (confidence {number(confidence)}" + (", the class's)" if one_of else ")")
     elif isinstance(discovery.get("outside_training"), dict):
         share = discovery["outside_training"].get("departure_share")
         head += (f" (a measurement, not a probability: {number(100 * share)} % of the departure from the "
@@ -150,6 +167,10 @@ def discovery_lines(discovery: dict) -> list[str]:
     if len(members) > 1:
         lines.append(f"  the records cannot tell it from {', '.join(members[1:])} (one class, probability "
                      f"{number(discovery.get('class_probability'))}; each member's fit in discovery.json)")
+        params = discovery.get("class_parameters") or {}
+        for member in members[1:]:
+            if params.get(member):
+                lines.append(f"    {member}: {_compact(params[member])}")
     if len(members) > 1 and discovery.get("next_manoeuvre"):
         lines.append(f"  to tell them apart: {discovery['next_manoeuvre']}")
     limits = {cid: p for cid, p in (discovery.get("detection_limits") or {}).items() if p}

@@ -212,7 +212,11 @@ def write_report(out_dir: Path, discovery: dict, explanation: str, sections: lis
     """report.md and report.html: verdict first, then evidence."""
     out_dir = Path(out_dir)
     d = discovery
-    verdict = [f"# Discovery: **{d['cause']}**", "", _scale_line(d), "", explanation, ""]
+    members = d.get("class") or []
+    title = (f"# Discovery: one of **{'**, **'.join(members)}** (the records cannot tell them apart; "
+             f"**{d['cause']}** the most probable)" if len(members) > 1 and d["cause"] != "outside_training_states"
+             else f"# Discovery: **{d['cause']}**")
+    verdict = [title, "", _scale_line(d), "", explanation, ""]
     if d.get("parameters"):
         verdict.append("Estimated parameters (90 % interval; unit and convention):")
         verdict.append("")
