@@ -451,6 +451,12 @@ def _summary(results: list) -> dict:
                                                            if r.get("set", "marin") == real_set])
         out["real_injected_found"] = rate([r["found"] for r in injected])
         out["real_injected_in_class"] = rate([r.get("in_class", False) for r in injected])
+        for real_set in dict.fromkeys(r.get("set", "marin") for r in real):
+            out[f"real_injected_in_class_{real_set}"] = rate([r.get("in_class", False) for r in injected
+                                                              if r.get("set", "marin") == real_set])
+        # what each set's records could show with nothing injected: every cause's detection limit
+        out["real_detection_limits"] = {r.get("set", "marin"): r.get("detection_limits")
+                                        for r in real if r.get("injection") == "nothing"}
         out["real_cases"] = [{k: r.get(k) for k in ("set", "injection", "named", "class", "in_class", "right", "found",
                                                     "confidence",
                                                     "parameters", "truth")} for r in real]
