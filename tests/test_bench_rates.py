@@ -149,3 +149,23 @@ def test_calibration_error_weights_each_bin_by_its_verdicts():
     # 10 verdicts at 0.95, 9 right: 0.05 off; 10 at 0.55, 2 right: 0.35 off
     assert calibration_error(rows) == pytest.approx((10 * 0.05 + 10 * 0.35) / 20)
     assert np.isnan(calibration_error(reliability([])))
+
+
+def test_a_real_case_is_judged_by_class_and_counted_apart_below_the_detection_limit():
+    """An injected offset named inside a class of look-alikes is in the class
+    though another member heads it; an offset smaller than what the
+    nothing-injected records could show is counted apart."""
+    from studies.bench_discovery import judge_real
+
+    reference = {"named": "none", "candidates": {"rudder_offset": {"delta0": 0.0}},
+                 "detection_limits": {"rudder_offset": {"delta0": 0.03}, "current": {"speed": 0.2}}}
+    offset = {"rudder_offset": {"delta0": 0.05}}
+    headed = judge_real({"injected": offset, "named": "environmental_bias", "parameters": {},
+                         "class": ["environmental_bias", "rudder_offset"]}, reference)
+    assert headed["in_class"] and not headed["right"] and not headed["below_detection_limit"]
+    missed = judge_real({"injected": offset, "named": "current", "parameters": {}, "class": ["current"]},
+                        reference)
+    assert not missed["in_class"]
+    small = judge_real({"injected": {"rudder_offset": {"delta0": 0.01}}, "named": "none", "parameters": {},
+                        "class": None}, reference)
+    assert small["below_detection_limit"] and not small["in_class"]

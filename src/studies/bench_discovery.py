@@ -401,8 +401,18 @@ def judge_real(case: dict, reference: dict) -> dict:
     members = case.get("class") or [case.get("inference_verdict") or named]
     held = set().union(*(set(m.split("+")) for m in members))
     in_class = right if hidden == "none" else set(hidden.split("+")) <= held
+    # below what the records can show: an injected effect smaller than the nothing-injected
+    # discovery's detection limit for its cause (counted apart)
+    limits = reference.get("detection_limits") or {}
+    sizes = {"rudder_offset": ("delta0", lambda p: abs(p["delta0"])), "current": ("speed", lambda p: p["speed"])}
+    below = False
+    for cid, params in injected.items():
+        limit = (limits.get(cid) or {}).get(sizes[cid][0]) if cid in sizes else None
+        if limit is not None and sizes[cid][1](params) < abs(limit):
+            below = True
     return {**case, "hidden": hidden, "truth": _clean(truth), "right": bool(right), "cause_right": bool(same),
-            "found": bool(found), "exactly_injected": bool(strict), "in_class": bool(in_class)}
+            "found": bool(found), "exactly_injected": bool(strict), "in_class": bool(in_class),
+            "below_detection_limit": bool(below)}
 
 
 # --------------------------------------------------------------- the bench
@@ -451,6 +461,9 @@ def _summary(results: list) -> dict:
                                                            if r.get("set", "marin") == real_set])
         out["real_injected_found"] = rate([r["found"] for r in injected])
         out["real_injected_in_class"] = rate([r.get("in_class", False) for r in injected])
+        out["real_injected_in_class_above_limit"] = rate([r.get("in_class", False) for r in injected
+                                                          if not r.get("below_detection_limit")])
+        out["real_injected_below_limit"] = sum(bool(r.get("below_detection_limit")) for r in injected)
         for real_set in dict.fromkeys(r.get("set", "marin") for r in real):
             out[f"real_injected_in_class_{real_set}"] = rate([r.get("in_class", False) for r in injected
                                                               if r.get("set", "marin") == real_set])
