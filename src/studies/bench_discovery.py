@@ -189,6 +189,11 @@ def _verdict(d: dict) -> tuple[str, dict]:
 
 def _single_or_pair(hidden: str, d: dict, truth: dict, elapsed: float, kind: str, **extra) -> dict:
     named, params = _verdict(d)
+    if named == "outside_training_states":
+        # a statement about where the held-out records went, not about what acts on the records:
+        # the cause is judged by what the inference named on the training records
+        named = d.get("inference_verdict") or "none"
+        params = ((d.get("class_parameters") or {}).get(named) or (d.get("candidates") or {}).get(named) or {})
     same = set(named.split("+")) == set(hidden.split("+"))
     right = bool(same and (hidden == "none" or (
         parameters_match(hidden, params, truth) if "+" not in hidden
@@ -202,6 +207,7 @@ def _single_or_pair(hidden: str, d: dict, truth: dict, elapsed: float, kind: str
     return {"kind": kind, "hidden": hidden, "named": named, "right": right, "class_right": class_right,
             "cause_right": bool(same), "spurious_second": bool(first_right and "+" in named),
             "confidence": d.get("confidence"), "class": d.get("class"), "parameters": params, "truth": truth,
+            "outside_training_states": d["cause"] == "outside_training_states",
             "gain_pct": d.get("gain_pct"), "elapsed": elapsed,
             "injected_score": stated.get("score"), "injected_shown": stated.get("shown"),
             "injected_members": stated.get("members"), **extra}
@@ -428,6 +434,7 @@ def _summary(results: list) -> dict:
                                    for c in dict.fromkeys(r["hidden"] for r in causes)}
         out["singles"] = rate([r["right"] for r in causes])
         out["none_stays_none"] = rate([r["named"] == "none" for r in singles if r["hidden"] == "none"])
+        out["outside_training_states"] = rate([bool(r.get("outside_training_states")) for r in singles])
         # classes of look-alikes: how often the true cause is in the class named, and how often the
         # recommended test, simulated with the true cause and added, names it alone
         out["singles_in_class"] = rate([r["hidden"] in (r.get("class") or [r["named"]]) for r in causes])
