@@ -101,7 +101,7 @@ keys (defaults):
   seed_base=9000          first seed (development read 100-101, 1000-1001, 2000-2400, 7000-7001, 9600-9601,
                           9700-9701, 12000-12003, 14000-14003, 17000-17001, 17003, 19000-19003, 20000-20003,
                           21000-21003 (the misses); measured once: 15000-15003, 16000-16003, 17002, 18000-18003, 22000-22003,
-                          23000-23003)
+                          23000-23003, 33000-33003 (three class cases of 33000 seen))
   noise=0.03              sensor-noise level of the simulated records
   families=[li2023,white_all,ar1,quantised_rudder,gnss]   noise families of the single causes
   singles=true            run the single causes (none included)
