@@ -165,7 +165,8 @@ def discovery_lines(discovery: dict) -> list[str]:
         lines.append(text)
     members = discovery.get("class") or []
     if len(members) > 1:
-        lines.append(f"  the records cannot tell it from {', '.join(members[1:])} (one class, probability "
+        what = "it" if one_of else f"{members[0]}, which the inference on the training records named,"
+        lines.append(f"  the records cannot tell {what} from {', '.join(members[1:])} (one class, probability "
                      f"{number(discovery.get('class_probability'))}; each member's fit in discovery.json)")
         params = discovery.get("class_parameters") or {}
         for member in members[1:]:
