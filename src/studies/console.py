@@ -172,7 +172,7 @@ def discovery_lines(discovery: dict) -> list[str]:
         for member in members[1:]:
             if params.get(member):
                 lines.append(f"    {member}: {_compact(params[member])}")
-    if len(members) > 1 and discovery.get("next_manoeuvre"):
+    if one_of and discovery.get("next_manoeuvre"):
         lines.append(f"  to tell them apart: {discovery['next_manoeuvre']}")
     limits = {cid: p for cid, p in (discovery.get("detection_limits") or {}).items() if p}
     if limits:
