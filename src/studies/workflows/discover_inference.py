@@ -261,12 +261,16 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
         if settling is not None:
             settling["predictions"] = _write_predictions(settling.pop("predictions"), out_dir)
         if settling is not None and named != OUTSIDE:
-            closest = min(settling["evidence"].values())
+            rival = min(settling["evidence"], key=settling["evidence"].get)
+            closest = settling["evidence"][rival]
             gain = min(settling["ratio"][settling["manoeuvre"]].values())
-            next_manoeuvre = (f"{settling['manoeuvre']} (computed by simulating every member: it separates them "
-                              f"{gain:.1f} times as much as the training records do; expected evidence "
-                              f"{closest:.2f} over the closest look-alike once added, {settling['needed']:.2f} "
-                              "tells two causes apart)")
+            expected = (f"expected evidence {closest:.2f} over the closest look-alike once added, "
+                        f"{settling['needed']:.2f} tells two causes apart" if closest > 0 else
+                        f"the records give the named cause no edge over {rival} to build on")
+            next_manoeuvre = "; ".join(
+                [f"{settling['manoeuvre']} (computed by simulating every member: it separates them {gain:.1f} "
+                 f"times as much as the training records do; {expected})"]
+                + [m for _, m in undecidable])
     cause = best.cause if best is not baseline else NoCause()
     notes = list(prepared.notes)
     if named == OUTSIDE:
