@@ -115,8 +115,9 @@ def _parameter(name: str, value, unit: str | None) -> str:
     return f"{name} = {value}"
 
 
-def _compact(parameters: dict) -> str:
-    """A cause's parameters on one line (nested mappings flattened: a pair's, a missing term's)."""
+def compact_parameters(parameters: dict) -> str:
+    """A cause's parameters on one line (nested mappings flattened: a pair's by cause, a
+    missing term's by term name; values of none left out)."""
     flat = {}
 
     def add(mapping):
@@ -171,7 +172,7 @@ def discovery_lines(discovery: dict) -> list[str]:
         params = discovery.get("class_parameters") or {}
         for member in members[1:]:
             if params.get(member):
-                lines.append(f"    {member}: {_compact(params[member])}")
+                lines.append(f"    {member}: {compact_parameters(params[member])}")
     if one_of and discovery.get("next_manoeuvre"):
         lines.append(f"  to tell them apart: {discovery['next_manoeuvre']}")
     limits = {cid: p for cid, p in (discovery.get("detection_limits") or {}).items() if p}
