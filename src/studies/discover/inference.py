@@ -85,7 +85,8 @@ from ..identify.kalman import KalmanSettings, kalman_smooth, smoothed_record
 from ..models.terms import DOFS
 from .alike import signature_alike
 from .look_alike import BlockSeparation, Detectability
-from .causes import Combined, Current, MissingTerm, WindUnmodelled, extended_library, manoeuvring_causes
+from .causes import (Combined, Current, MissingTerm, WindUnmodelled, catalogue_order, extended_library,
+                     manoeuvring_causes, pair_id)
 from .causes.base import Cause, Setup
 from .fitting import (CauseFit, Context, _score, integrated_time, kinematic_smoothing, regression_fit,
                       scored_fit, setup_problems)
@@ -826,8 +827,7 @@ def _refined_gains(ctx: Context, fit: CauseFit, design: _Design, columns: np.nda
     return 0.5 * (none_held - grams.yyk) + grams.folds(np.arange(columns.shape[1])[None]).held[:, 0]
 
 
-def _pair_id(first: str, second: str) -> str:
-    return "+".join(sorted([first, second], key=_catalogue_order))
+_pair_id = pair_id
 
 
 def _block_seconds(records: list, design: _Design, block_rows: int) -> float:
@@ -837,11 +837,7 @@ def _block_seconds(records: list, design: _Design, block_rows: int) -> float:
     return float(block_rows * span / rows) if rows else float("nan")
 
 
-def _catalogue_order(cause_id: str) -> int:
-    from .causes import CATALOGUE
-
-    ids = list(CATALOGUE)
-    return ids.index(cause_id) if cause_id in ids else len(ids)
+_catalogue_order = catalogue_order
 
 
 # --------------------------------------------------------------- refinement

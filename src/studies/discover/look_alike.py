@@ -43,6 +43,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .causes import pair_id
+
 __all__ = ["Separation", "BlockSeparation", "LikelihoodSeparation", "look_alike_class", "class_probability",
            "detection_limits", "Detectability", "verdict_class"]
 
@@ -217,9 +219,7 @@ def verdict_class(inference, candidates: dict, beside: dict | None = None) -> di
         first, second = ids
         separation = inference.separations.get("second")
         members = look_alike_class(second, separation)
-        from .inference import _pair_id          # (the judge imports this module)
-
-        verdicts = [_pair_id(first, m) for m in members]
+        verdicts = [pair_id(first, m) for m in members]
         probability = class_probability(members, inference.verdicts, first=first)
         found = beside or {}
         parameters = {v: {first: candidates.get(first), m: found[m]} for v, m in zip(verdicts, members)

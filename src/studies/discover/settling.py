@@ -99,6 +99,9 @@ def _steered(ctx: Context, baseline: CauseFit, manoeuvre: Manoeuvre, extra: dict
         from ..simulate.simulator import simulate
 
         record = simulate(ctx.model, baseline.params, ctx.vessel, manoeuvre, initial=initial)
+        if "n" in first:
+            # the records' propeller rate, held (a member that adds a propeller replays it)
+            record["n"] = float(first["n"].iloc[0])
     if "diverged_at" in record.attrs:
         return None
     record.attrs.update({k: v for k, v in first.attrs.items() if k not in ("name", "injected")})

@@ -38,13 +38,24 @@ from .roll_decay import ROLL_CATALOGUE, RollCause
 from .rudder_offset import RudderOffset
 from .wind import WindSpeedBias, WindUnmodelled
 
-__all__ = ["Setup", "Cause", "CATALOGUE", "manoeuvring_causes", "compact_parameters", "NoCause",
+__all__ = ["Setup", "Cause", "CATALOGUE", "catalogue_order", "pair_id", "manoeuvring_causes", "compact_parameters", "NoCause",
            "RudderOffset", "Current", "WindUnmodelled", "WindSpeedBias", "EnvironmentalBias",
            "MissingTerm", "Combined", "extended_library", "Propulsion", "PropellerAsymmetry", "RollCause", "ROLL_CATALOGUE"]
 
 #: every manoeuvring cause by its contract id, ``none`` first
 CATALOGUE = {c.id: c for c in (NoCause, RudderOffset, Current, WindUnmodelled, WindSpeedBias,
                                EnvironmentalBias, MissingTerm, Propulsion, PropellerAsymmetry)}
+
+
+def catalogue_order(cause_id: str) -> int:
+    """A cause's place in :data:`CATALOGUE` (after every cause when it is not in it)."""
+    ids = list(CATALOGUE)
+    return ids.index(cause_id) if cause_id in ids else len(ids)
+
+
+def pair_id(first: str, second: str) -> str:
+    """The verdict id of two causes acting together: their ids joined by ``+`` in catalogue order."""
+    return "+".join(sorted([first, second], key=catalogue_order))
 
 
 def manoeuvring_causes(ctx, missing_terms=()) -> list[Cause]:
