@@ -19,7 +19,7 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "studies"
 #: lowest first; packages of one layer may import each other (the cycle test
 #: still applies)
 LAYERS = [
-    ("foundation", {"errors", "config", "conf", "interrupt", "plotting", "markdown", "threads", "lazy", "stages"}),
+    ("foundation", {"errors", "config", "conf", "interrupt", "plotting", "markdown", "threads", "lazy", "stages", "formatting"}),
     ("data", {"data", "papers"}),
     ("models", {"models", "vessels", "environment"}),
     ("simulate", {"simulate"}),

@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import math
 
+from .formatting import compact_parameters, number
+
 __all__ = ["run_lines", "discovery_lines", "number"]
 
 #: per record: (metric, label, unit), printed in this order when the run has it
@@ -33,19 +35,6 @@ RECORD_QUANTITIES = (
 
 #: units of the identified roll coefficients
 ROLL_UNITS = {"omega0": "rad/s", "b1": "1/s", "b2": "-", "b3": "s", "c3": "1/s^2"}
-
-
-def number(value) -> str:
-    """A number to 4 significant digits for people (``0``, never ``-0``)."""
-    if value is None:
-        return "-"
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        return str(value)
-    if not math.isfinite(value):
-        return "-"
-    if value == 0:
-        return "0"
-    return f"{value:.4g}"
 
 
 def _records(metrics: dict) -> list[str]:
@@ -113,22 +102,6 @@ def _parameter(name: str, value, unit: str | None) -> str:
     if isinstance(value, dict):
         return f"{name}: " + ", ".join(f"{k} = {number(v)}" for k, v in value.items())
     return f"{name} = {value}"
-
-
-def compact_parameters(parameters: dict) -> str:
-    """A cause's parameters on one line (nested mappings flattened: a pair's by cause, a
-    missing term's by term name; values of none left out)."""
-    flat = {}
-
-    def add(mapping):
-        for key, value in mapping.items():
-            if isinstance(value, dict):
-                add(value)
-            elif value is not None:
-                flat[key] = value
-
-    add(parameters)
-    return ", ".join(f"{k} = {number(v)}" if isinstance(v, (int, float)) else f"{k} = {v}" for k, v in flat.items())
 
 
 def _limit(name: str, value, unit: str | None) -> str:

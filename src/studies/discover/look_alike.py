@@ -39,6 +39,7 @@ short of it by less than the records need to name a cause at all.
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -50,7 +51,7 @@ __all__ = ["Separation", "BlockSeparation", "LikelihoodSeparation", "look_alike_
 
 
 @dataclass
-class Separation:
+class Separation(ABC):
     """How far the records tell one candidate from another, on a judge's scale.
 
     ``ids``: the candidates (cause ids; for a second cause, the second's id),
@@ -61,9 +62,9 @@ class Separation:
     threshold: float
     measure: str
 
+    @abstractmethod
     def evidence(self, a: str, b: str) -> float:
         """The records' evidence for ``a`` over ``b`` (negative: for ``b``)."""
-        raise NotImplementedError
 
     def table(self, named: str) -> dict:
         """``{rival: evidence of named over it}`` for every other candidate."""

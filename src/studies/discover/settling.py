@@ -123,14 +123,18 @@ def _separation(base: pd.DataFrame, pred: pd.DataFrame, sigma: dict, samples: fl
                      for s in STATES) * samples)
 
 
-def _separations(ctx: Context, members: dict, named: str, record: pd.DataFrame, sigma: dict,
-                 samples: float) -> dict:
-    """``{rival: separation}`` of every member's replay of ``record`` from the named one's."""
-    predictions = {}
+def _replays(ctx: Context, members: dict, record: pd.DataFrame) -> dict:
+    """``{member: its replay of record}``, those that stay bounded."""
+    out = {}
     for mid, fit in members.items():
         pred = fit.setup.replay(fit.params, ctx.vessel, record)
         if "diverged_at" not in pred.attrs:
-            predictions[mid] = pred
+            out[mid] = pred
+    return out
+
+
+def _separations(predictions: dict, named: str, sigma: dict, samples: float) -> dict:
+    """``{rival: separation}`` of every member's replay from the named one's."""
     if named not in predictions:
         return {}
     base = predictions[named]
@@ -184,34 +188,31 @@ def settle(ctx: Context, baseline: CauseFit, members: dict, named: str, correlat
     on_records = {}
     for rec in ctx.train:
         samples = float(rec["t"].iloc[-1] - rec["t"].iloc[0]) / max(correlation_s, dt)
-        for rival, e in _separations(ctx, members, named, rec, sigma, samples).items():
+        for rival, e in _separations(_replays(ctx, members, rec), named, sigma, samples).items():
             on_records[rival] = on_records.get(rival, 0.0) + e
-    ratio = {}
+    ratio, runs = {}, {}
     for manoeuvre, extra in menu(max(durations), dt, ctx.dynamics is not None):
         record = _steered(ctx, baseline, manoeuvre, extra)
         if record is None:
             continue
-        row = _separations(ctx, members, named, record, sigma, manoeuvre.duration / max(correlation_s, dt))
+        predictions = _replays(ctx, members, record)
+        row = _separations(predictions, named, sigma, manoeuvre.duration / max(correlation_s, dt))
         row = {rival: e / on_records[rival] for rival, e in row.items() if on_records.get(rival, 0.0) > 0}
         if row:
             ratio[manoeuvre.name] = row
+            runs[manoeuvre.name] = (record, predictions)
     if not ratio:
         return None
     best = max(ratio, key=lambda name: min(ratio[name].values()))
-    manoeuvre, extra = next((m, x) for m, x in menu(max(durations), dt, ctx.dynamics is not None) if m.name == best)
-    steered = _steered(ctx, baseline, manoeuvre, extra)
-    predicted = {}
-    for mid, fit in members.items():
-        pred = fit.setup.replay(fit.params, ctx.vessel, steered)
-        if "diverged_at" not in pred.attrs:
-            # the inputs as a test records them (a member's replay holds the rudder its
-            # hydrodynamics see: an offset's less the offset)
-            t = pred["t"].to_numpy(float)
-            for column in ("delta", "n"):
-                if column in steered:
-                    pred[column] = np.interp(t, steered["t"].to_numpy(float), steered[column].to_numpy(float))
-            pred.attrs["name"] = f"{best} as {mid} predicts it"
-            predicted[mid] = pred
+    steered, predicted = runs[best]
+    for mid, pred in predicted.items():
+        # the inputs as a test records them (a member's replay holds the rudder its
+        # hydrodynamics see: an offset's less the offset)
+        t = pred["t"].to_numpy(float)
+        for column in ("delta", "n"):
+            if column in steered:
+                pred[column] = np.interp(t, steered["t"].to_numpy(float), steered[column].to_numpy(float))
+        pred.attrs["name"] = f"{best} as {mid} predicts it"
     expected = {rival: float(max(float(observed.get(rival, 0.0)), 0.0) * (1.0 + r) ** (1.0 / order))
                 for rival, r in ratio[best].items()}
     return {"manoeuvre": best, "evidence": expected, "needed": float(needed), "ratio": ratio,

@@ -22,6 +22,7 @@ import numpy as np
 import pandas as pd
 
 from ...environment.conditions import Environment
+from ...formatting import compact_parameters
 from ...models.abkowitz import ManoeuvringModel
 from ...simulate.simulator import record_environment, replay
 
@@ -92,23 +93,6 @@ class Setup:
         bias = np.zeros(3) if self.bias is None else self.bias
         body = np.zeros(3) if self.body is None else self.body
         return np.concatenate([bias, np.zeros(3), body])
-
-
-def compact_parameters(params: dict) -> str:
-    """A cause's parameters (:meth:`Cause.parameters`) on one line: nested mappings
-    flattened (a pair's by cause, a missing term's by term name), values of none left
-    out. (The console has its own, light, twin: :func:`studies.console.compact_parameters`.)"""
-    flat = {}
-
-    def add(mapping):
-        for key, value in mapping.items():
-            if isinstance(value, dict):
-                add(value)
-            elif value is not None:
-                flat[key] = value
-
-    add(params)
-    return ", ".join(f"{k} = {v:.4g}" if isinstance(v, float) else f"{k} = {v}" for k, v in flat.items())
 
 
 class Cause:
