@@ -107,10 +107,13 @@ def _parameter(name: str, value, unit: str | None) -> str:
 def _limit(name: str, value, unit: str | None) -> str:
     """A detection limit's parameter: its size, angles in degrees, other units as the catalogue's first word."""
     if isinstance(value, dict):
-        return ", ".join(f"{k} = {number(abs(v))}" for k, v in value.items())
+        prime = " (prime)" if "prime" in (unit or "") else ""
+        return ", ".join(f"{k} = {number(abs(v))}{prime}" for k, v in value.items())
     short = (unit or "").split(",")[0].split(";")[0].strip()
     if short == "rad" or name == "delta0":
         return f"{name} = {number(abs(math.degrees(value)))} deg"
+    if short == "-" and "prime" in (unit or ""):
+        short = "(prime)"
     return f"{name} = {number(abs(value))}" + (f" {short}" if short and short != "-" else "")
 
 
