@@ -107,7 +107,7 @@ def windy_zigzag_4000(vessel, model):
 @pytest.fixture(scope="session")
 def problems_4000(model, vessel, zigzag_4000):
     """Regression problems (X, Y, N) of the clean 4000 s zig-zag."""
-    from studies.identify.regression import build_problems
+    from studies.identification.regression import build_problems
 
     return build_problems(model, vessel, zigzag_4000)
 

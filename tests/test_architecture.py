@@ -23,16 +23,16 @@ LAYERS = [
     ("data", {"data", "papers"}),
     ("models", {"models", "vessels", "environment"}),
     ("simulate", {"simulate"}),
-    ("identify", {"identify"}),
+    ("identification", {"identification"}),
     ("analysis", {"analysis"}),
     ("roll", {"roll"}),
-    ("discover", {"discover"}),
+    ("discovery", {"discovery"}),
     ("scenarios", {"scenarios"}),
     ("studies", {"workflows", "roll.workflow"}),
     ("runtime", {"runtime"}),
     ("report", {"report"}),
     ("command line", {"cli", "cli_help", "console", "config_check", "progress", "bench", "bench_discovery", "benchmarks",
-                      "__main__",
+                      "__main__", "api",
                       "<root>"}),
 ]
 
@@ -177,7 +177,7 @@ def test_roll_decay_lives_in_one_folder():
     classes of the one catalogue. No other package holds a roll module."""
     strays = [str(p.relative_to(SRC)) for p in SRC.rglob("*roll*.py")
               if p.relative_to(SRC).parts[0] != "roll"
-              and p.relative_to(SRC) != Path("discover/causes/roll_decay.py")
+              and p.relative_to(SRC) != Path("discovery/causes/roll_decay.py")
               and p.relative_to(SRC).parts[:2] != ("report", "reproduction")]
     assert not strays, f"roll-decay modules outside studies/roll: {strays}"
 
@@ -201,7 +201,7 @@ def test_report_pages_neither_simulate_nor_identify(graph):
     layer that computes (workflows/reproduction/), where it can be run and tested on its own."""
     _, edges = graph
     found = [f"{name}:{line} imports {target}" for name, targets in edges.items() for target, line in targets
-             if _package(name) == "report" and _package(target) in ("simulate", "identify")]
+             if _package(name) == "report" and _package(target) in ("simulate", "identification")]
     assert not found, "report modules that compute:\n" + "\n".join(sorted(found))
 
 

@@ -162,7 +162,7 @@ def test_the_report_shows_the_calibration_page_of_a_run_that_held_each_record_ou
 
 
 def test_the_spread_of_a_constant_per_record_is_what_the_records_hold_beyond_the_process():
-    from studies.identify.discrepancy import Discrepancy, record_offsets
+    from studies.identification.discrepancy import Discrepancy, record_offsets
 
     rng = np.random.default_rng(7)
     sigma, tau, step, n = np.array([1e-3, 2e-3, 2e-5]), 40.0, 2.0, 600       # 1200 s records

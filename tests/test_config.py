@@ -249,7 +249,7 @@ def test_register_is_idempotent_and_every_yaml_names_a_stored_schema():
 
 
 def test_ga_settings_are_checked_before_any_run(hydra):
-    from studies.identify.ga import BASE_METHODS
+    from studies.identification.ga import BASE_METHODS
 
     assert set(BASE_METHODS) == set(C.GA_BASES)
     for override, message in (("method.base=bogus", "method.base must be one of ls, svm"),

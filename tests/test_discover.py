@@ -158,7 +158,7 @@ def test_roll_damping_forms_the_data_cannot_tell_apart_are_reported(tmp_path):
 
 
 def test_indistinguishable_causes_are_those_within_two_of_the_winner():
-    from studies.discover.report import indistinguishable
+    from studies.discovery.report import indistinguishable
 
     ranking = [{"cause": "a", "score": 0.0}, {"cause": "none", "score": 1.0}, {"cause": "b", "score": 1.9},
                {"cause": "c", "score": 2.5}]
@@ -215,9 +215,9 @@ def test_discover_command_writes_discovery_and_logs_a_run(tmp_path, vessel):
 def test_residual_structure_points_at_the_wind_when_its_speed_is_misread(vessel):
     """A wrong anemometer factor leaves a surge residual that follows the cosine of the
     wind angle off the bow; with the true wind speed the correlation is gone."""
-    from studies.discover import diagnostics as dg
-    from studies.discover.causes import Setup
-    from studies.discover.fitting import Context, regression_fit
+    from studies.discovery import diagnostics as dg
+    from studies.discovery.causes import Setup
+    from studies.discovery.fitting import Context, regression_fit
     from studies.models import abkowitz
 
     records, truth = hidden_records(vessel, "wind_speed_bias", seed=3)
@@ -234,7 +234,7 @@ def test_residual_structure_points_at_the_wind_when_its_speed_is_misread(vessel)
 def test_departures_rank_a_speed_error_in_the_turn_first(vessel, hidden_none_11):
     """A replay that keeps 10 % too much speed in the steady turn and is otherwise exact:
     the speed in the steady-helm phase comes first, with the means that show it."""
-    from studies.discover import diagnostics as dg
+    from studies.discovery import diagnostics as dg
 
     records, _ = hidden_none_11
     turn = records[1]
@@ -251,7 +251,7 @@ def test_departures_rank_a_speed_error_in_the_turn_first(vessel, hidden_none_11)
 
 
 def test_a_model_explains_held_out_records_it_predicts_about_as_well():
-    from studies.discover.diagnostics import explains
+    from studies.discovery.diagnostics import explains
 
     assert explains(2.6, 1.3, 161.0)            # 5 % noise, nothing hidden (Mariner)
     assert explains(0.0016, 0.00014, 161.0)     # clean: ten times, but a millimetre
@@ -345,7 +345,7 @@ def test_propeller_asymmetry_is_not_named_from_a_turn_to_one_side(tmp_path, vess
 
 
 def test_turning_sides_reads_steady_turns(vessel):
-    from studies.discover.causes.propeller_asymmetry import turning_sides
+    from studies.discovery.causes.propeller_asymmetry import turning_sides
     from studies.scenarios.hidden import turning_to_starboard
     from studies.simulate import simulate, turning, zigzag
     from studies.models import abkowitz

@@ -1,4 +1,4 @@
-"""How alike two causes' signatures are (:mod:`studies.discover.alike`): the
+"""How alike two causes' signatures are (:mod:`studies.discovery.alike`): the
 first canonical correlation of the spaces their columns span, a cause with
 several variants taken at its variant most alike."""
 
@@ -7,7 +7,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from studies.discover.alike import first_canonical_correlation, signature_alike
+from studies.discovery.alike import first_canonical_correlation, signature_alike
 
 
 def _variant(cid, label=None):

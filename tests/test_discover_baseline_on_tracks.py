@@ -16,11 +16,11 @@ import pytest
 import reference_mariner as ref
 from test_discover_independent import _receiver
 
-from studies.discover.fitting import Context, calibrate
-from studies.discover.inference import baseline_fit, smooth_with_baseline
-from studies.discover.innovations import innovation_design
-from studies.discover.noise_levels import noise_floors
-from studies.discover.prediction_error import FilterScores
+from studies.discovery.fitting import Context, calibrate
+from studies.discovery.inference import baseline_fit, smooth_with_baseline
+from studies.discovery.innovations import innovation_design
+from studies.discovery.noise_levels import noise_floors
+from studies.discovery.prediction_error import FilterScores
 from studies.models.registry import abkowitz
 from studies.vessels import get_vessel
 

@@ -15,11 +15,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from studies.discover.causes import (CATALOGUE, Combined, Current, MissingTerm, RudderOffset,
+from studies.discovery.causes import (CATALOGUE, Combined, Current, MissingTerm, RudderOffset,
                                      WindSpeedBias, compact_parameters)
-from studies.discover.fitting import Context
+from studies.discovery.fitting import Context
 from studies.environment.conditions import Environment
-from studies.identify.regression import build_problems
+from studies.identification.regression import build_problems
 from studies.simulate import simulate, zigzag
 from studies.simulate.simulator import record_environment
 
@@ -133,7 +133,7 @@ def test_a_cause_away_from_its_no_effect_values_changes_the_baseline(contexts):
 def test_an_mmg_baseline_replays_a_missing_term_the_simulator_does_not_hold():
     """A missing term found on an MMG baseline (``Nddd``, outside the MMG hull) is replayed:
     at zero it changes nothing, and a yaw moment against the rudder's slows the turn."""
-    from studies.discover.causes.propulsion import MMGDynamics
+    from studies.discovery.causes.propulsion import MMGDynamics
     from studies.models.mmg import MMGTerm, mmg
     from studies.models.abkowitz import ManoeuvringModel
     from studies.simulate import turning

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from studies.discover.confidence import (DEFAULT_SEPARATING, certainty, confidence, posterior_probabilities,
+from studies.discovery.confidence import (DEFAULT_SEPARATING, certainty, confidence, posterior_probabilities,
                                          separating_manoeuvre)
 
 

@@ -7,7 +7,7 @@ import warnings
 import numpy as np
 import pandas as pd
 
-from studies.discover.diagnostics import phase_errors
+from studies.discovery.diagnostics import phase_errors
 
 
 def _record(n=200):

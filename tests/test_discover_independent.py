@@ -218,7 +218,7 @@ def test_coloured_sensor_noise_is_read_as_noise(tmp_path, clean_runs, injection,
     """Noise correlated over 5 s on every channel (3 % of each velocity's
     excursion): the filter steps over it (its innovations are nearly
     independent at the step it chooses) and names the injected effect alone."""
-    caplog.set_level(logging.INFO, logger="studies.discover.innovations")
+    caplog.set_level(logging.INFO, logger="studies.discovery.innovations")
     rng = np.random.default_rng(8)
     records = []
     for name, rec in zip(("turning_35", "zigzag_20", "zigzag_10"), clean_runs):
@@ -241,7 +241,7 @@ def test_velocities_differenced_from_the_track_are_not_taken_for_sensors(tmp_pat
     """Velocities that are a satellite receiver's differenced and smoothed
     track: the filter reads the track and heading alone and names the
     injected effect."""
-    caplog.set_level(logging.INFO, logger="studies.discover.innovations")
+    caplog.set_level(logging.INFO, logger="studies.discovery.innovations")
     rng = np.random.default_rng(9)
     records = []
     for name, rec in zip(("turning_35", "zigzag_20", "zigzag_10"), clean_runs):
@@ -259,7 +259,7 @@ def test_velocities_differenced_from_the_track_are_not_taken_for_sensors(tmp_pat
 
 def test_white_sensor_noise_keeps_the_filters_reading(tmp_path, still_water, caplog):
     """Independent white sensors: one-second steps, the velocities measured."""
-    caplog.set_level(logging.INFO, logger="studies.discover.innovations")
+    caplog.set_level(logging.INFO, logger="studies.discovery.innovations")
     _discover(tmp_path, still_water[0.03])
     assert _filter_reading(caplog) == (1.0, True)
 

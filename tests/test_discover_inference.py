@@ -4,9 +4,9 @@ signatures, its comparison and its refusals."""
 import numpy as np
 import pytest
 
-from studies.discover import inference as inf
-from studies.discover.causes import EnvironmentalBias, RudderOffset
-from studies.discover.fitting import Context
+from studies.discovery import inference as inf
+from studies.discovery.causes import EnvironmentalBias, RudderOffset
+from studies.discovery.fitting import Context
 from studies.models.abkowitz import abkowitz
 from studies.scenarios.hidden import hidden_records
 
@@ -61,7 +61,7 @@ def test_the_residualised_comparison_equals_least_squares_on_the_whole_design(ve
 
 
 def test_blocks_cut_each_record_and_are_shared_by_the_dofs():
-    from studies.discover.selection import row_blocks
+    from studies.discovery.selection import row_blocks
 
     record = np.concatenate([np.repeat([0, 1], [50, 30])] * 3 + [np.full(4, -1)])
     dof = np.concatenate([np.full(80, k) for k in range(3)] + [np.full(4, 3)])
@@ -74,7 +74,7 @@ def test_blocks_cut_each_record_and_are_shared_by_the_dofs():
 
 
 def test_leave_one_block_out_fits_equal_least_squares_without_the_block():
-    from studies.discover.selection import BlockGrams
+    from studies.discovery.selection import BlockGrams
 
     rng = np.random.default_rng(3)
     x = rng.standard_normal((120, 4))
@@ -96,7 +96,7 @@ def test_noise_a_cause_fits_does_not_predict_other_blocks_and_a_real_effect_does
     """A slowly varying column that coloured noise happens to follow in-sample
     (the row-by-row evidence for it is large) is not named; a column that acts
     everywhere is."""
-    from studies.discover.selection import BlockGains, BlockGrams, bayesian_bootstrap, name_per_draw
+    from studies.discovery.selection import BlockGains, BlockGrams, bayesian_bootstrap, name_per_draw
 
     rng = np.random.default_rng(11)
     n, blocks = 2400, np.repeat(np.arange(40), 60)

@@ -1,4 +1,4 @@
-"""Classes of look-alike causes and detection limits (:mod:`studies.discover.look_alike`):
+"""Classes of look-alike causes and detection limits (:mod:`studies.discovery.look_alike`):
 a rival joins the named cause's class when the records' evidence between them is
 below what naming needs, whatever their numbers of parameters; a detection
 limit is the fitted effect scaled to the naming threshold."""
@@ -8,8 +8,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from studies.discover.causes import CATALOGUE
-from studies.discover.look_alike import (BlockSeparation, Detectability, LikelihoodSeparation, class_probability,
+from studies.discovery.causes import CATALOGUE
+from studies.discovery.look_alike import (BlockSeparation, Detectability, LikelihoodSeparation, class_probability,
                                          detection_limits, look_alike_class, verdict_class)
 
 

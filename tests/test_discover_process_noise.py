@@ -6,7 +6,7 @@ of seconds, not a white noise and not the project's own autoregressive
 process noise), with white sensor noise. A filter whose process noise is
 white reads such a push as a constant force or a missing term and names it
 beside the true cause; the filter whose process noise is coloured, its
-correlation time estimated (:class:`studies.discover.prediction_error.FilterScores`),
+correlation time estimated (:class:`studies.discovery.prediction_error.FilterScores`),
 does not. The effects whose truth is exact are injected into the records
 (:mod:`studies.scenarios.injected`).
 """

@@ -9,7 +9,7 @@ thrust that rises as it slows, nor the rudder in the stronger slipstream.
 On the tracks, the MMG model (thrust from the measured rpm, the rudder in
 the slipstream) replaces the baseline's process model in the filter and is
 judged by the same criterion as every other cause
-(:func:`studies.discover.track_inference.propulsion_on_tracks`). On MARIN's
+(:func:`studies.discovery.track_inference.propulsion_on_tracks`). On MARIN's
 records that criterion does not name it: with both filters at their
 likelier noises, the polynomial predicts the tracks one step ahead better
 (``docs/discovery.md``). Where propulsion is named, on records the MMG
@@ -48,7 +48,7 @@ def test_on_the_measured_tanker_the_propellers_filter_is_judged_at_its_likelier_
     ``docs/discovery.md``.)"""
     import re
 
-    with caplog.at_level(logging.INFO, logger="studies.discover.track_inference"):
+    with caplog.at_level(logging.INFO, logger="studies.discovery.track_inference"):
         d = _discover(tmp_path, "symmetric")
     starts = [float(m.group(1)) for r in caplog.records
               if (m := re.search(r"propulsion's filter from .*: ln L (-?[\d.]+)", r.getMessage()))]
@@ -68,8 +68,8 @@ def test_propulsion_is_not_named_where_a_polynomial_is_the_truth(tmp_path):
     the criterion credits, but it does not predict these tracks as well:
     ``propulsion`` is not named."""
     from test_mmg_run import _mmg_records
-    from studies.discover.causes import Setup
-    from studies.discover.fitting import Context, regression_fit
+    from studies.discovery.causes import Setup
+    from studies.discovery.fitting import Context, regression_fit
     from studies.models.registry import symmetric
     from studies.simulate import simulate, zigzag
     from studies.vessels import get_vessel

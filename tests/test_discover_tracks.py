@@ -1,5 +1,5 @@
 """The statistic discovery judges causes by on the tracks
-(:func:`studies.discover.innovations.judge`): the fall in the squared
+(:func:`studies.discovery.innovations.judge`): the fall in the squared
 standardised innovations a cause's columns give (a likelihood ratio), or the
 Wald statistic with a covariance robust to innovations correlated within
 blocks where smaller.
@@ -15,7 +15,7 @@ evidence many times and the robust statistic must not.
 import numpy as np
 from scipy.stats import chi2
 
-from studies.discover.innovations import InnovationDesign, judge
+from studies.discovery.innovations import InnovationDesign, judge
 
 N_ROWS, BLOCK_ROWS = 3000, 60
 
@@ -92,8 +92,8 @@ def test_the_first_cause_is_differentiated_within_its_bounds():
     for a negative current speed, which the environment refuses."""
     from dataclasses import dataclass
 
-    from studies.discover.causes import Current
-    from studies.discover.innovations import own_columns
+    from studies.discovery.causes import Current
+    from studies.discovery.innovations import own_columns
 
     asked = []
 

@@ -19,7 +19,7 @@ from conftest import hsva_file
 
 from studies.analysis.bands import predictive_draws
 from studies.data.hsva import read_hsva
-from studies.identify.discrepancy import Discrepancy, estimate_process_noise, fit_mean, mean_features
+from studies.identification.discrepancy import Discrepancy, estimate_process_noise, fit_mean, mean_features
 from studies.models.mmg import KVLCC2_HULL, mmg
 from studies.simulate import zigzag
 from studies.simulate.mmg import (_module_accelerations, hull_vector, mmg_acceleration, mmg_inputs,

@@ -1,5 +1,5 @@
 """The prediction-error filter's deviance residuals
-(:meth:`studies.identify.filter_error.PredictionError.deviance_residuals`):
+(:meth:`studies.identification.filter_error.PredictionError.deviance_residuals`):
 their sum of squares is the whole ``-2 ln L`` less a constant of the filter,
 so a fit or a likelihood ratio on them counts the innovations' variances,
 which the standardised innovations alone leave out."""
@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from studies.data.resample import block_means
-from studies.discover.prediction_error import _measured
-from studies.identify.filter_error import PredictionError
+from studies.discovery.prediction_error import _measured
+from studies.identification.filter_error import PredictionError
 from studies.models import abkowitz
 from studies.simulate import simulate, zigzag
 from studies.simulate.simulator import ReplayPlan
@@ -67,7 +67,7 @@ def test_the_deviance_residuals_carry_the_standardised_innovations_first(filtere
 def test_records_filtered_side_by_side_keep_their_order(filtered, monkeypatch):
     """Three records of different lengths and noise filtered on threads give
     each record's own innovations, in the records' order, as one by one."""
-    import studies.identify.filter_error as filter_error
+    import studies.identification.filter_error as filter_error
 
     model, ship, one, z = filtered
     plans, measured = [], []
@@ -92,7 +92,7 @@ def test_records_filtered_side_by_side_keep_their_order(filtered, monkeypatch):
 def test_models_filtered_together_give_each_its_own_records(filtered, monkeypatch):
     """Several models' records filtered in one batch (a Jacobian's columns)
     give each model what it gives alone."""
-    import studies.identify.filter_error as filter_error
+    import studies.identification.filter_error as filter_error
 
     model, ship, like, z = filtered
     monkeypatch.setattr(filter_error, "FILTER_THREADS", 2)

@@ -6,7 +6,7 @@ import pytest
 
 from studies.scenarios.hidden import HIDDEN_CAUSES, hidden_pairs, hidden_records
 from studies.errors import ConfigError
-from studies.identify.regression import prime_states
+from studies.identification.regression import prime_states
 from studies.models import abkowitz
 from studies.models.terms import candidate_terms
 from studies.simulate import simulate, zigzag

@@ -16,10 +16,10 @@ from omegaconf import OmegaConf
 from conftest import deviations
 from studies.environment.noise import add_measurement_noise, disturbance_forces
 from studies.errors import ConfigError
-from studies.identify import LeastSquares, build_problems
-from studies.identify.bayes import BayesianRegression, RegressionPosterior, plot_corner
-from studies.identify.objective import TrajectoryObjective
-from studies.identify.regression import prime_states
+from studies.identification import LeastSquares, build_problems
+from studies.identification.bayes import BayesianRegression, RegressionPosterior, plot_corner
+from studies.identification.objective import TrajectoryObjective
+from studies.identification.regression import prime_states
 from studies.models import abkowitz
 from studies.simulate import simulate, zigzag
 from studies.vessels import get_vessel
@@ -115,11 +115,11 @@ def test_clean_medians_recover_coefficients_like_ls(clean_problems, truth):
     {"init_scale": 1e4, "n_samples": 3200, "burn_in": 200},          # huge initial ball
 ], ids=["20_steps", "huge_ball"])
 def test_sampler_that_does_not_mix_is_reported(clean_problems, caplog, settings):
-    with caplog.at_level(logging.WARNING, logger="studies.identify.bayes"):
+    with caplog.at_level(logging.WARNING, logger="studies.identification.bayes"):
         result = BayesianRegression(seed=1, **settings).fit_one(clean_problems["Y"])
     assert result.metrics["bayes/Y/converged"] == 0.0
     warned = [r for r in caplog.records
-              if r.name == "studies.identify.bayes" and "not converged" in r.getMessage()]
+              if r.name == "studies.identification.bayes" and "not converged" in r.getMessage()]
     assert warned, "no warning logged for a sampler that has not converged"
 
 
@@ -238,7 +238,7 @@ def test_bad_settings_are_refused():
 def _short_chain_problem():
     """A two-coefficient regression whose planned chain (two steps after burn-in) is far
     shorter than 50 autocorrelation times."""
-    from studies.identify.regression import RegressionProblem
+    from studies.identification.regression import RegressionProblem
 
     rng = np.random.default_rng(4)
     theta = rng.standard_normal((400, 2))

@@ -5,11 +5,11 @@ import pytest
 
 from studies.analysis.metrics import DIVERGED_PENALTY, fitness
 from studies.environment.noise import record_wind
-from studies.identify import GeneticRefinement, LeastSquares, build_problems
-from studies.identify.base import Identification
-from studies.identify.objective import TrajectoryObjective
-from studies.identify.regression import RegressionProblem
-from studies.identify.sensitivity import least_sensitive, sobol_indices
+from studies.identification import GeneticRefinement, LeastSquares, build_problems
+from studies.identification.base import Identification
+from studies.identification.objective import TrajectoryObjective
+from studies.identification.regression import RegressionProblem
+from studies.identification.sensitivity import least_sensitive, sobol_indices
 from studies.simulate import simulate, zigzag
 
 

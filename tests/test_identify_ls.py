@@ -5,7 +5,7 @@ import pytest
 
 from conftest import deviations
 from studies.environment.noise import record_wind
-from studies.identify import LeastSquares, build_problems
+from studies.identification import LeastSquares, build_problems
 
 # Thesis Tables 4.3-4.5, columns "Original" and "LS" (clean 20/20 zig-zag).
 THESIS_LS_CLEAN = {

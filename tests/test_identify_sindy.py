@@ -8,9 +8,9 @@ import pytest
 
 from conftest import deviations
 from studies.config import compose_settings
-from studies.identify.objective import TrajectoryObjective
-from studies.identify.regression import build_problems
-from studies.identify.sindy import SparseRegression, term_library
+from studies.identification.objective import TrajectoryObjective
+from studies.identification.regression import build_problems
+from studies.identification.sindy import SparseRegression, term_library
 from studies.models.terms import Term, candidate_terms
 from studies.simulate import simulate, zigzag
 
@@ -127,7 +127,7 @@ def test_choose_rules_pick_the_best_the_sparsest_within_one_se_or_the_paired_one
     sparsest (threshold 0.1) is worse than the best in every fold by 1, far less than the
     spread of the folds (one_se keeps it) but far more than the spread of the difference
     (paired_se does not); a diverged candidate never qualifies."""
-    from studies.identify.sindy import choose
+    from studies.identification.sindy import choose
 
     folds = np.array([10.0, 50.0, 90.0, 130.0])
     errors = np.vstack([folds, folds + 0.01 * np.array([1, -1, 1, -1]), folds + 1.0])

@@ -8,8 +8,8 @@ import pytest
 
 from conftest import deviations
 from studies.config import compose_settings
-from studies.identify.regression import RegressionProblem, build_problems
-from studies.identify.svm import (SupportVectorRegression, scale_problem, search_rows,
+from studies.identification.regression import RegressionProblem, build_problems
+from studies.identification.svm import (SupportVectorRegression, scale_problem, search_rows,
                                   time_blocked_splits)
 
 
@@ -83,7 +83,7 @@ def test_search_uses_contiguous_time_blocks(monkeypatch):
         assert not np.any((train > test.min()) & (train < test.max()))
     # and the grid search is given exactly these folds
     seen = []
-    import studies.identify.svm as svm_module
+    import studies.identification.svm as svm_module
 
     def spy(n_rows, folds):
         out = time_blocked_splits(n_rows, folds)
@@ -104,7 +104,7 @@ def problems_600(model, vessel, zigzag_600):
 
 def test_nonconvergence_is_reported_and_logged(problems_600, caplog):
     svm = SupportVectorRegression(c_grid=[1e4, 1e6], epsilon_grid=[0.0], folds=2, max_iter=1)
-    with caplog.at_level(logging.WARNING, logger="studies.identify.svm"):
+    with caplog.at_level(logging.WARNING, logger="studies.identification.svm"):
         result = svm.fit(problems_600)
     for dof in "XYN":
         assert result.metrics[f"svm/{dof}/converged"] == 0.0

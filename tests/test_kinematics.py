@@ -8,7 +8,7 @@ import pytest
 from scipy.signal import lfilter, savgol_filter
 
 from conftest import marin_file
-from studies.discover.kinematics import (coloured_velocity_noise, derived_share, derived_velocities,
+from studies.discovery.kinematics import (coloured_velocity_noise, derived_share, derived_velocities,
                                          integration_mismatch, kinematic_noise_levels)
 
 

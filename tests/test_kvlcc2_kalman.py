@@ -1,4 +1,4 @@
-"""EKF + RTS smoother (studies.identify.kalman) against Savitzky-Golay on a noisy simulated record.
+"""EKF + RTS smoother (studies.identification.kalman) against Savitzky-Golay on a noisy simulated record.
 
 A 600 s zig-zag 20/20 of the Mariner (known model, so the true states and
 accelerations are known), sampled at 0.1 s, with white noise of the size
@@ -34,9 +34,9 @@ import pytest
 
 from studies.data.derivatives import estimate_derivatives
 from studies.errors import ConfigError
-from studies.identify.kalman import (KalmanSettings, _model_constants, _model_rates, ekf_derivatives,
+from studies.identification.kalman import (KalmanSettings, _model_constants, _model_rates, ekf_derivatives,
                                  kalman_smooth, measurement_variance, smoothed_record)
-from studies.identify.ls import LeastSquares
+from studies.identification.ls import LeastSquares
 from studies.simulate.monomials import dense_coefficients
 from studies.workflows.measured import identify_measured
 

@@ -35,8 +35,8 @@ import numpy as np
 import pytest
 
 from studies.analysis.characteristics import characteristics
-from studies.identify import MANOEUVRING_METHODS, make_identifier
-from studies.identify.ls import LeastSquares
+from studies.identification import MANOEUVRING_METHODS, make_identifier
+from studies.identification.ls import LeastSquares
 from studies.models import abkowitz
 from studies.simulate import replay
 from studies.vessels import get_vessel
@@ -216,7 +216,7 @@ def _time_of_heading_change(record, angle):
 @pytest.mark.parametrize("method", ["ls", "bayes", "svm", "sindy"])
 def test_methods_run_on_measured_data(records, vessel, model, method):
     if method not in MANOEUVRING_METHODS:
-        pytest.skip(f"method={method} is not registered in studies.identify.MANOEUVRING_METHODS yet")
+        pytest.skip(f"method={method} is not registered in studies.identification.MANOEUVRING_METHODS yet")
     options = {"bayes": {"n_samples": 1000, "burn_in": 200}}.get(method, {})
     result = _identify(model, vessel, records, ("zz_10", "zz_20"), "ekf_kinematic", 0,
                        make_identifier(method, options))

@@ -25,8 +25,8 @@ import pytest
 from conftest import marin_file, run_studies
 
 from studies.analysis.bands import band_statistics, predictive_draws
-from studies.identify.discrepancy import Discrepancy, estimate_process_noise
-from studies.identify.kalman import KalmanSettings, innovation_loglik
+from studies.identification.discrepancy import Discrepancy, estimate_process_noise
+from studies.identification.kalman import KalmanSettings, innovation_loglik
 from studies.models import abkowitz
 from studies.models.mmg import KVLCC2_HULL, mmg
 from studies.simulate import zigzag

@@ -1,6 +1,6 @@
 """The prediction-error filter with the MMG model as its process model
-(:mod:`studies.identify.mmg_filter`), and the track's own process noise of
-:mod:`studies.identify.filter_error`."""
+(:mod:`studies.identification.mmg_filter`), and the track's own process noise of
+:mod:`studies.identification.filter_error`."""
 
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from studies.data.resample import block_means
-from studies.discover.prediction_error import _measured
-from studies.identify.filter_error import innovation_likelihood
-from studies.identify.mmg_filter import MMGFilterPlan
+from studies.discovery.prediction_error import _measured
+from studies.identification.filter_error import innovation_likelihood
+from studies.identification.mmg_filter import MMGFilterPlan
 from studies.models.mmg import KVLCC2_HULL, mmg
 from studies.scenarios.injected import Injection, inject
 from studies.simulate import zigzag

@@ -63,7 +63,7 @@ def test_the_main_job_imports_only_what_it_uses(main_job):
     (``studies.lazy``, :mod:`studies.workflows.kinds`): the main job loads none of their
     libraries."""
     _, imported = main_job
-    assert "studies.identify.ls" in imported and "mlflow" in imported     # the log is read
+    assert "studies.identification.ls" in imported and "mlflow" in imported     # the log is read
     loaded = sorted(m for m in HEAVY if m in imported)
     assert not loaded, f"the main job imported {loaded}"
 

@@ -33,11 +33,11 @@ from studies.analysis.bands import (band_statistics, crps_ensemble, interval_sco
                                     trust_verdict)
 from studies.environment.noise import disturbance_forces
 from studies.errors import ConfigError
-from studies.identify import build_problems
-from studies.identify.bayes import BayesianRegression
-from studies.identify.discrepancy import Discrepancy, estimate_process_noise
-from studies.identify.objective import TrajectoryObjective
-from studies.identify.regression import prime_states
+from studies.identification import build_problems
+from studies.identification.bayes import BayesianRegression
+from studies.identification.discrepancy import Discrepancy, estimate_process_noise
+from studies.identification.objective import TrajectoryObjective
+from studies.identification.regression import prime_states
 from studies.models import abkowitz
 from studies.models.registry import get_model
 from studies.simulate import simulate, zigzag

@@ -18,7 +18,7 @@ from conftest import SHARED_DATA
 from studies.config import compose_settings
 from studies.scenarios.hidden import (hidden_roll_decays_at_speed, hidden_roll_speed_series,
                                      parameters_match)
-from studies.discover.causes.roll_decay import ROLL_CATALOGUE, RollCause
+from studies.discovery.causes.roll_decay import ROLL_CATALOGUE, RollCause
 from studies.roll.decay import find_extrema
 from studies.roll.model import damping_ratio
 from studies.roll.records import load_roll_decay, record_speed, split_cycles

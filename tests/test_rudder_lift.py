@@ -131,9 +131,9 @@ def test_the_lift_is_read_from_the_records_rows_not_from_the_captive_rows():
     """A regression whose rows say ``f_alpha`` is 0.3 higher and ``f_alpha_2`` 1.1: the fit
     finds them, and captive rows (forces taken with the starting rudder, here made wrong on
     purpose) do not move it."""
-    from studies.identify.mmg_regression import MMG_CAPTIVE_RECORD, MMG_PRIOR_RECORD
-    from studies.identify.mmg_rudder import fit_rudder_lift
-    from studies.identify.regression import RegressionProblem
+    from studies.identification.mmg_regression import MMG_CAPTIVE_RECORD, MMG_PRIOR_RECORD
+    from studies.identification.mmg_rudder import fit_rudder_lift
+    from studies.identification.regression import RegressionProblem
     from studies.models.mmg import MMGParameters
 
     rng = np.random.default_rng(3)

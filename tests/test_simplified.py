@@ -15,7 +15,7 @@ from studies.analysis.correlation import co_membership, correlated_groups, spear
 from studies.analysis.pawn import slice_ks
 from studies.config import compose_settings
 from studies.environment.noise import add_measurement_noise
-from studies.identify import LeastSquares, build_problems
+from studies.identification import LeastSquares, build_problems
 from studies.models import abkowitz
 from studies.models.registry import get_model
 from studies.models.simplified import (PAPER_SIMPLIFIED, SPEED_LOSS, load_definition, select_terms,

@@ -28,9 +28,9 @@ from studies.analysis.metrics import position_rmse
 from studies.data.hsva import read_hsva
 from studies.data.marin import read_marin
 from studies.errors import ConfigError
-from studies.identify.discrepancy import Discrepancy, estimate_process_noise, out_of_sample_values
-from studies.identify.ls import LeastSquares
-from studies.identify.regression import RegressionProblem
+from studies.identification.discrepancy import Discrepancy, estimate_process_noise, out_of_sample_values
+from studies.identification.ls import LeastSquares
+from studies.identification.regression import RegressionProblem
 from studies.models.mmg import KVLCC2_HULL, mmg
 from studies.simulate.mmg import MMGReplayPlan
 from studies.vessels.kvlcc2_mmg import kvlcc2_mmg

@@ -20,8 +20,8 @@ import reference_mariner as ref
 from studies.environment.conditions import Environment
 from studies.environment.wind import wind_load
 from studies.errors import ConfigError
-from studies.identify import build_problems, make_identifier
-from studies.identify.objective import ClosedLoopObjective, TrajectoryObjective, trajectory_objective
+from studies.identification import build_problems, make_identifier
+from studies.identification.objective import ClosedLoopObjective, TrajectoryObjective, trajectory_objective
 from studies.models.abkowitz import abkowitz
 from studies.papers import published
 from studies.report.reproduction.thesis import agreement
@@ -186,8 +186,8 @@ def test_the_closed_loop_fitness_is_a_narrow_valley_that_joint_redraws_miss():
     +-50 % (the thesis' mutation probability 1) does not find a better point
     in 150 draws, while moving a single gene alone lowers the fitness at
     least threefold."""
-    from studies.identify.ga import gene_bounds
-    from studies.identify.sensitivity import least_sensitive
+    from studies.identification.ga import gene_bounds
+    from studies.identification.sensitivity import least_sensitive
 
     vessel = _thesis_vessel()
     record = _windy_record(vessel, 16.0, 45.0, -0.05)
@@ -262,7 +262,7 @@ def test_the_thesis_ga_changes_the_coefficients_on_the_thesis_records_at_12_m_s(
     (mutation probability 1: a random search) lower the fitness and change
     all 15 genes, as the thesis' GA did in its tables (narrow-valley test
     above: on RK4 records it finds no better draw)."""
-    from studies.identify.ga import GeneticRefinement
+    from studies.identification.ga import GeneticRefinement
 
     vessel = _thesis_vessel()
     record = simulate(MODEL, TRUTH, vessel, _mss_zigzag(), Environment(12.0, np.deg2rad(45.0)), scheme="euler")

@@ -14,10 +14,10 @@ import pytest
 from hydra import compose
 from omegaconf import OmegaConf
 
-from studies.identify import GeneticRefinement, LeastSquares, build_problems
-from studies.identify.base import Identification
-from studies.identify.bayes import BayesianRegression
-from studies.identify.objective import TrajectoryObjective
+from studies.identification import GeneticRefinement, LeastSquares, build_problems
+from studies.identification.base import Identification
+from studies.identification.bayes import BayesianRegression
+from studies.identification.objective import TrajectoryObjective
 from studies.runtime.tracking import RunLogger, flatten
 from studies.simulate import simulate, zigzag
 from studies.workflows.kinds import logged_params

@@ -15,8 +15,8 @@ import pytest
 
 import reference_mariner as ref
 from studies.analysis.state_ranges import beyond, training_ranges
-from studies.discover.held_out import judge_held_out, whole_record_gain
-from studies.discover.training_states import outside_training
+from studies.discovery.held_out import judge_held_out, whole_record_gain
+from studies.discovery.training_states import outside_training
 from studies.vessels import get_vessel
 
 
@@ -116,7 +116,7 @@ def test_the_headline_is_the_most_probable_verdict():
     another more often, the headline is the more probable one (as its table ranks it)."""
     from types import SimpleNamespace
 
-    from studies.discover.inference import _most_probable
+    from studies.discovery.inference import _most_probable
 
     variants = [SimpleNamespace(cause=SimpleNamespace(id=cid)) for cid in ("current", "propeller_asymmetry")]
     chosen = {"current": 0, "propeller_asymmetry": 1}

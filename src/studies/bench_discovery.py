@@ -50,7 +50,7 @@ Seeds: development read seeds 100-101, 1000-1001, 2000, 2100-2101, 2200,
 on seeds no one has looked at (docs/discovery.md keeps the list).
 
 What the records can show: every simulated case states its hidden effect at
-its true parameters (``discover.injected``, :mod:`studies.discover.stated_effect`),
+its true parameters (``discover.injected``, :mod:`studies.discovery.stated_effect`),
 so each case's line carries the effect's own score on its records
 (``injected_score``; ``injected_shown`` when above 0, for a pair each cause
 beside the other too). A miss whose effect is not shown is one no verdict
@@ -84,7 +84,7 @@ from .config import compose_settings
 from .errors import ConfigError
 from .scenarios.hidden import (HIDDEN_CAUSES, draw_scenario, hidden_pairs, hidden_records, parameters_match,
                                write_records)
-from .identify import filter_error
+from .identification import filter_error
 from .scenarios.injected import Injection, inject, injection_grid
 from .scenarios.rates import calibration_error, confusion, rate, reliability
 from .environment.sensor_noise import NOISE_FAMILIES, check_sensor_noise
@@ -270,7 +270,7 @@ def _settled(d: dict, hidden: str, family: str, seed: int, noise: float, scenari
     its own sensor noise), added to the training records, and the discovery
     run again. ``resolved``: the true cause named with no look-alike beside it.
     None when no class of more than one member was named."""
-    from .discover.settling import menu
+    from .discovery.settling import menu
     from .vessels import get_vessel
 
     plan = d.get("settling")
@@ -299,7 +299,7 @@ def injected_override(hidden: str, truth: dict) -> list[str]:
     true parameters (those of the cause's own parameters; a missing term by
     its coefficient), so that its own score on the records is written beside
     the verdict; none for ``none``."""
-    from .discover.causes import CATALOGUE
+    from .discovery.causes import CATALOGUE
 
     if hidden == "none":
         return []

@@ -171,16 +171,6 @@ def _params(cfg) -> dict:
     return OmegaConf.to_container(cfg, resolve=True)
 
 
-def _recorder(settings, root: Path):
-    """``record(experiment, name, params, tags)``: a tracked run in the job's store."""
-    from .runtime import tracking
-
-    def record(experiment: str, name: str, params: dict, tags: dict):
-        return tracking.start_run(experiment, name, settings.tracking.uri, root, params, tags)
-
-    return record
-
-
 def _resumable(settings, params: dict, root):
     """``(config_hash, id of a FINISHED run with it or None)``."""
     from .runtime import tracking
@@ -210,39 +200,32 @@ def _study(cfg, root: Path, out_dir: Path, on_create) -> dict:
 
 
 def _study_body(settings, params, digest, root: Path, out_dir: Path, on_create) -> dict:
-    """Prepare, open the run, execute, log (the figures finished before the files are logged)."""
+    """The job (:func:`studies.api.jobs.run_identification`) in a run of the store, then its console lines."""
+    from .api.jobs import run_identification
     from .console import run_lines
-    from .plotting import DRAWER
-    from .runtime import tracking
-    from .workflows.identified_model import IDENTIFIED_MODEL_FILE
-    from .workflows.kinds import logged_params, kind_for
 
-    prepared = kind_for(settings).prepare(settings, root, _recorder(settings, root))
-    name, tags = prepared.name, dict(prepared.tags)
-    tags["config_hash"] = digest
-    tags.update(tracking.source_tags(root, "studies run"))
-    tags.update(tracking.sweep_tags())
-    with tracking.start_run(settings.tracking.experiment, name, settings.tracking.uri, root,
-                            logged_params(settings, params), tags, on_create=on_create) as run:
-        run.log_records(prepared.inputs)
-        metrics = prepared.execute(out_dir)
-        summary = {k: v for k, v in metrics.items()
-                   if k.startswith(("deviation/", "runtime/", "validation/", "simulation/"))
-                   or k.endswith(("/fitness", "/rmse_deg_record_start", "/rmse_deg_own_start", "cpu_s"))}
-        model = out_dir / IDENTIFIED_MODEL_FILE        # manoeuvring models; not roll decays
-        linked = {k: v for k, v in summary.items() if not k.startswith("runtime/")}
-        logged = run.log_model(model, settings.tracking.register, linked) if model.is_file() else None
-        DRAWER.finish()
-        run.log_outputs(metrics, out_dir)
-    print(f"run '{name}' ({run.run_id}) -> {out_dir}")
+    job = run_identification(settings, params, root, out_dir, _opener(settings, root, on_create),
+                             "studies run", digest)
+    print(f"run '{job.name}' ({job.run_id}) -> {out_dir}")
     print(_browse(settings, root))
-    if logged:
-        print(f"model {logged['uri']}" + (f", registered as {logged['registered']}"
-                                          if logged["registered"] else ""))
+    if job.logged:
+        print(f"model {job.logged['uri']}" + (f", registered as {job.logged['registered']}"
+                                              if job.logged["registered"] else ""))
     simulated = not settings.data.path
     trained_on = set(settings.train.manoeuvres or [settings.manoeuvre.name]) if simulated else set()
-    print("\n".join(run_lines(metrics, trained_on)))
-    return {"status": "finished", "run_id": run.run_id, "config_hash": digest}
+    print("\n".join(run_lines(job.metrics, trained_on)))
+    return {"status": "finished", "run_id": job.run_id, "config_hash": digest}
+
+
+def _opener(settings, root: Path, on_create):
+    """``open_run(name, params, tags)``: the command line's run, always in the store of ``tracking.uri``."""
+    from .runtime import tracking
+
+    def open_run(name: str, params: dict, tags: dict):
+        return tracking.start_run(settings.tracking.experiment, name, settings.tracking.uri, root,
+                                  params, tags, on_create=on_create)
+
+    return open_run
 
 
 @contextlib.contextmanager
@@ -289,12 +272,13 @@ def _run_task(cfg):
 
 
 def _simplify(cfg, root: Path, out_dir: Path, on_create) -> dict:
+    from .api.jobs import recorder
     from .workflows.settings import check_output_paths
     from .workflows.simplify import ensure_definition
 
     settings = _settings(cfg)
     check_output_paths(settings, root, out_dir)
-    path = ensure_definition(settings, root, _recorder(settings, root), out_dir, force=True)
+    path = ensure_definition(settings, root, recorder(settings, root), out_dir, force=True)
     print(f"simplified model written: {path}")
     print((out_dir / "simplification.json").read_text())
     return {"status": "finished"}
@@ -317,34 +301,16 @@ def _discover(cfg, root: Path, out_dir: Path, on_create) -> dict:
 
 
 def _discover_body(cfg, settings, root: Path, out_dir: Path, on_create) -> dict:
-    """Load and check the records, then the tracked discovery (figures finished before the files are logged)."""
+    """The discovery (:func:`studies.api.jobs.run_discovery`) in a run of the store, then its console lines."""
+    from .api.jobs import run_discovery
     from .console import discovery_lines
-    from .plotting import DRAWER
-    from .runtime import tracking
-    from .workflows.kinds import execute_discover, logged_params, prepare_discover
-    from .workflows.settings import as_path_list
 
-    study = prepare_discover(settings, root, _recorder(settings, root))
-    params = _params(cfg)
-    stems = ", ".join(Path(p).stem for p in as_path_list(settings.data.path))
-    name = settings.run_name or f"discover {settings.model.name} {stems}"
-    vessel = settings.vessel.name if study.vessel is not None else "unknown"
-    tags = {"kind": "discovery", "model": settings.model.name, "vessel": vessel,
-            "data": "measured", **tracking.source_tags(root, "studies discover"), **tracking.sweep_tags()}
-    with tracking.start_run(settings.tracking.experiment, name, settings.tracking.uri, root,
-                            logged_params(settings, params), tags, on_create=on_create) as run:
-        run.log_records(study.inputs)
-        discovery, metrics = execute_discover(study, out_dir)
-        DRAWER.finish()
-        run.log_outputs(metrics, out_dir)
-        named = discovery.get("vessel")            # a roll discovery names the ship from its records
-        run.set_tags({"cause": discovery["cause"],
-                      **({"vessel": named.get("name") or "unknown"} if isinstance(named, dict) else {})})
-    print(f"discovery '{name}' ({run.run_id}) -> {out_dir}")
+    job = run_discovery(settings, _params(cfg), root, out_dir, _opener(settings, root, on_create))
+    print(f"discovery '{job.name}' ({job.run_id}) -> {out_dir}")
     print(_browse(settings, root))
-    print("\n".join(discovery_lines(discovery)))
+    print("\n".join(discovery_lines(job.discovery)))
     print(f"the page: {out_dir / 'report.md'}")
-    return {"status": "finished", "run_id": run.run_id}
+    return {"status": "finished", "run_id": job.run_id}
 
 
 def _discover_task(cfg):

@@ -396,3 +396,44 @@ def check_arguments(config_name: str, args: list[str], root: Path, command: str 
         GlobalHydra.instance().clear()
     return Checked(multirun=multirun, verbose=verbose, jobs=jobs if multirun else 1,
                    tracking_uri=tracking_uri, experiment=experiment, preset=preset)
+
+
+def compose_job(config_name: str, overrides: list[str], root: Path):
+    """One job's settings composed and checked as the command line does: ``(typed, params)``.
+
+    ``config_name`` is ``config`` (``studies run``) or ``discover``;
+    ``overrides`` are Hydra overrides of one job (no sweep). ``typed`` is the
+    command's dataclass (every value checked), ``params`` the resolved
+    configuration as plain containers (what a run logs). Refusals are the
+    command line's own one-line :class:`ConfigError` or :class:`DataError`.
+    """
+    from hydra import initialize_config_module
+    from hydra.core.global_hydra import GlobalHydra
+    from omegaconf import OmegaConf, open_dict
+
+    overrides = list(overrides)
+    parsed = _parse(overrides)
+    for arg, override in zip(overrides, parsed):
+        if override.is_sweep_override():
+            raise ConfigError(f"{arg}: one value per setting here; several values are a sweep "
+                              "(studies.sweep, or studies run -m)")
+    GlobalHydra.instance().clear()
+    try:
+        with initialize_config_module("studies.conf", version_base="1.3"):
+            composer = _Composer(config_name)
+            base = composer.base()
+            cfg = composer.compose(overrides)
+            _structure(cfg, base, parsed)
+            _appended_keys(cfg, base, parsed, composer)
+            _resolve(cfg)
+            check = CHECKS.get(config_name)
+            if check is not None:
+                check(cfg, Path(root))
+            job = cfg.copy()
+            with open_dict(job):
+                job.pop("hydra", None)
+            typed = OmegaConf.to_object(job)
+            params = OmegaConf.to_container(job, resolve=True)
+    finally:
+        GlobalHydra.instance().clear()
+    return typed, params

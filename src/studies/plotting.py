@@ -8,6 +8,8 @@ imported. Matplotlib is loaded on first use only: commands that draw nothing
 
 from __future__ import annotations
 
+import contextlib
+
 import functools
 
 __all__ = ["pyplot", "readable_ticks", "thinned", "thinned_track", "MAX_POINTS", "Drawer", "DRAWER", "draw"]
@@ -110,6 +112,17 @@ class Drawer:
     def __init__(self):
         self._pool = None
         self._pending: list = []
+        self._skip = False
+
+    @contextlib.contextmanager
+    def skipping(self):
+        """Within it, figures are not drawn at all (an untracked identification from
+        Python: nothing is written that was not asked for; figures are made on demand)."""
+        before, self._skip = self._skip, True
+        try:
+            yield
+        finally:
+            self._skip = before
 
     def start(self) -> None:
         """Start the worker (a fresh interpreter) and its imports, when there is a core for it."""
@@ -126,6 +139,8 @@ class Drawer:
 
     def draw(self, fn, *args, **kwargs) -> None:
         """Draw ``fn(*args, **kwargs)`` now, or in the worker once started."""
+        if self._skip:
+            return
         if self._pool is None:
             fn(*args, **kwargs)
             return

@@ -3,7 +3,7 @@
 A band is built from replays of a validation record's measured rudder from
 its measured initial state (:func:`predictive_draws`): each replay takes one
 coefficient set drawn from the posterior and, with a model discrepancy
-(:class:`studies.identify.discrepancy.Discrepancy`), its own realisation of
+(:class:`studies.identification.discrepancy.Discrepancy`), its own realisation of
 the missing accelerations and an initial state drawn from the sensor's
 uncertainty (its noise, and the size of the sensor biases found on the
 training records). Quantiles of the replayed ``x0, y0, psi`` per sample, widened
@@ -59,8 +59,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from ..identify.kalman import KalmanSettings, measurement_variance
-from ..identify.regression import prime_states
+from ..identification.kalman import KalmanSettings, measurement_variance
+from ..identification.regression import prime_states
 from ..plotting import pyplot
 from ..simulate.simulator import replay_plan
 
@@ -211,7 +211,7 @@ def band_statistics(states: np.ndarray, diverged: np.ndarray, record: pd.DataFra
     ``interval_score_{x0,y0,xy}_m``, ``crps_{x0,y0,xy}_m``. With ``noise``
     the bands are widened by the standard normal quantile of their level
     times the measurement noise of the channel
-    (:func:`~studies.identify.kalman.measurement_variance`), which matters
+    (:func:`~studies.identification.kalman.measurement_variance`), which matters
     at the start where every replay begins at the measured state.
     """
     n = min(states.shape[1], len(record))

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from ..identify.ga import gene_bounds
+from ..identification.ga import gene_bounds
 from ..simulate import simulate_many
 
 __all__ = ["trajectory_pawn", "PawnSamples", "pawn_samples", "pawn_indices", "subsample_pawn", "slice_ks"]

@@ -3,7 +3,7 @@ rows), 10 000 posterior samples per DOF after burn-in, default settings."""
 
 import time
 
-from studies.identify import BayesianRegression, build_problems
+from studies.identification import BayesianRegression, build_problems
 from studies.models import abkowitz
 from studies.simulate import simulate, zigzag
 from studies.vessels import get_vessel

@@ -6,9 +6,9 @@ import time
 
 import numpy as np
 
-from studies.identify import GeneticRefinement, LeastSquares, build_problems
-from studies.identify.base import Identification
-from studies.identify.objective import TrajectoryObjective
+from studies.identification import GeneticRefinement, LeastSquares, build_problems
+from studies.identification.base import Identification
+from studies.identification.objective import TrajectoryObjective
 from studies.models import abkowitz
 from studies.simulate import simulate, zigzag
 from studies.vessels import get_vessel

@@ -12,8 +12,8 @@ folder is absent. Compilation is done in a warm-up.
 import time
 from pathlib import Path
 
-from studies.identify.kalman import kalman_smooth
-from studies.identify.ls import LeastSquares
+from studies.identification.kalman import kalman_smooth
+from studies.identification.ls import LeastSquares
 from studies.models import abkowitz
 from studies.vessels import get_vessel
 from studies.workflows.measured import identify_measured, load_measured

@@ -16,8 +16,8 @@ import time
 from pathlib import Path
 
 from studies.config import compose_settings
-from studies.identify.objective import TrajectoryObjective
-from studies.identify.sindy import SparseRegression
+from studies.identification.objective import TrajectoryObjective
+from studies.identification.sindy import SparseRegression
 from studies.models import abkowitz
 from studies.vessels import get_vessel
 from studies.workflows.kinds import kind_for

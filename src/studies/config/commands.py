@@ -115,8 +115,8 @@ class DiscoverOptions:
         it (does the gain hold on every manoeuvre).
     method : str
         ``inference``: every cause and pair of the catalogue judged at once
-        by one criterion (:mod:`studies.discover.track_inference` and
-        :mod:`studies.discover.inference`), on any baseline, the MMG model
+        by one criterion (:mod:`studies.discovery.track_inference` and
+        :mod:`studies.discovery.inference`), on any baseline, the MMG model
         included.
     injected : dict
         An effect whose truth is known (injected into the records, or hidden
@@ -124,7 +124,7 @@ class DiscoverOptions:
         causes, the catalogue's parameters in its units (prime coefficients,
         m/s, rad; a missing term by its coefficient, ``{missing_term: {Nrrr:
         -0.002}}``). Scored on the tracks at those values by the verdict's
-        own criterion (:mod:`studies.discover.stated_effect`): whether the
+        own criterion (:mod:`studies.discovery.stated_effect`): whether the
         records can show it at all, written as ``injected`` in
         ``discovery.json`` and the report. It changes nothing of the verdict.
         Empty (the default): nothing stated.
@@ -132,9 +132,9 @@ class DiscoverOptions:
         What ``method=inference`` judges the causes on: ``tracks`` (the
         baseline's prediction-error filter over the measured records, every
         cause by its gain in the one-step-ahead predictions:
-        :mod:`studies.discover.track_inference`), ``blocks`` (held-out time
+        :mod:`studies.discovery.track_inference`), ``blocks`` (held-out time
         blocks of the smoothed records' accelerations:
-        :mod:`studies.discover.inference`) or ``auto`` (tracks for a
+        :mod:`studies.discovery.inference`) or ``auto`` (tracks for a
         polynomial baseline, blocks for the MMG model: on the measured
         KVLCC2 records the tracks name the MMG model's own errors as a
         current, docs/discovery.md).
@@ -167,7 +167,7 @@ def _injected(value) -> dict:
     """``discover.injected`` checked: one or two causes, each with finite
     numbers by parameter name (the causes and their parameters are checked
     against the catalogue, the baseline and the records once they are known,
-    before anything runs: :func:`studies.discover.stated_effect.stated_causes`)."""
+    before anything runs: :func:`studies.discovery.stated_effect.stated_causes`)."""
     stated = {}
     for cid, values in dict(value).items():
         if values is not None and not isinstance(values, Mapping):

@@ -133,7 +133,7 @@ class Kalman:
     bias_time : float or None
         Time [s] over which a bias may wander by its prior size.
 
-    Null keeps the default of :class:`studies.identify.kalman.KalmanSettings`.
+    Null keeps the default of :class:`studies.identification.kalman.KalmanSettings`.
     """
 
     iterations: int = 2

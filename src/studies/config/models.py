@@ -278,13 +278,13 @@ class MMGModelConfig(ModelConfig):
     fit_wake : bool
         Fit the propeller's wake ``w_P0``, ``C_1``, ``C_2`` to the measured
         thrust of the training records that carry a ``thrust`` column
-        (:mod:`studies.identify.mmg_propeller`); without one the published
+        (:mod:`studies.identification.mmg_propeller`); without one the published
         values are kept.
     rudder_lift : str
         ``published``: the vessel's rudder lift gradient ``f_alpha`` and the
         standard method's normal force, linear in ``sin(alpha_R)``. ``fit``:
         ``f_alpha`` and the quadratic ``f_alpha_2`` identified with the hull
-        from the training records (:mod:`studies.identify.mmg_rudder`).
+        from the training records (:mod:`studies.identification.mmg_rudder`).
     """
 
     prior_scale: float = 0.5

@@ -78,7 +78,7 @@ BAYES_MOVES = ("de", "stretch")
 
 
 #: ``method.base`` of the GA: the regression that gives its starting solution
-#: (:data:`studies.identify.ga.BASE_METHODS`)
+#: (:data:`studies.identification.ga.BASE_METHODS`)
 GA_BASES = ("ls", "svm")
 
 
@@ -86,7 +86,7 @@ GA_BASES = ("ls", "svm")
 GA_PARENT_SELECTIONS = ("sss", "rws", "sus", "rank", "random", "tournament")
 
 
-#: ``method.discrepancy`` of the Bayesian regression (:mod:`studies.identify.discrepancy`)
+#: ``method.discrepancy`` of the Bayesian regression (:mod:`studies.identification.discrepancy`)
 BAYES_DISCREPANCIES = ("auto", "none", "process_noise")
 
 

@@ -24,7 +24,7 @@ sensor noise, ``central`` otherwise.
 
 These estimators need no ship model. The extended Kalman filter, which can
 use the manoeuvring model as its process model, lives one layer up in
-:mod:`studies.identify.kalman`; its ``estimate_derivatives`` accepts every
+:mod:`studies.identification.kalman`; its ``estimate_derivatives`` accepts every
 method of this module and ``"ekf"`` / ``"ekf_kinematic"`` besides.
 
 References
@@ -228,4 +228,4 @@ def estimate_derivatives(record, method: str = "auto", window: float | None = No
                                                   mode="interp")[index]
         return DerivativeEstimate(index, states, rates, "savgol")
     raise ValueError(f"unknown derivative method '{method}' (auto, central, savgol; the "
-                     "Kalman estimators are studies.identify.kalman.estimate_derivatives)")
+                     "Kalman estimators are studies.identification.kalman.estimate_derivatives)")

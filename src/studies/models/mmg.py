@@ -60,7 +60,7 @@ with ``x_R`` the rudder position and ``x_H = x'_H L``. The bracketed term
 is not in the standard method (``f_alpha_2 = 0`` by default): the normal
 force of a rudder of low aspect ratio grows faster than ``sin(alpha_R)`` at
 large angles of attack (the cross-flow part of low-aspect-ratio wing
-theory); :mod:`studies.identify.mmg_rudder` identifies ``f_alpha`` and
+theory); :mod:`studies.identification.mmg_rudder` identifies ``f_alpha`` and
 ``f_alpha_2`` from free-running records.
 :func:`thrust_normal_force` evaluates ``u_R`` in the equivalent form
 ``epsilon sqrt(eta (u_P + kappa (sqrt(u_P^2 + 8 T / (pi rho D^2)) - u_P))^2

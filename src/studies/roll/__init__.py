@@ -69,7 +69,7 @@ workflow
     may use discovery and the run bookkeeping, the modules above may not use it.
 
 The roll-decay causes are classes of the one cause catalogue,
-:mod:`studies.discover.causes.roll_decay`.
+:mod:`studies.discovery.causes.roll_decay`.
 
 References
 ----------

@@ -63,7 +63,7 @@ model discrepancy of the predictive bands (``method.discrepancy=process_noise``:
 :mod:`studies.roll.discrepancy`, estimated after the coefficients, on the
 training decays only).
 
-Sampling. emcee (:func:`studies.identify.bayes.sampler.sample_regression_chain`,
+Sampling. emcee (:func:`studies.identification.bayes.sampler.sample_regression_chain`,
 the manoeuvring regression's run: differential-evolution moves by default,
 walkers started in a ball of ``init_scale`` standard errors) in the
 coordinates ``(x - x_0) / se``: ``x_0`` the NLS solution
@@ -71,7 +71,7 @@ coordinates ``(x - x_0) / se``: ``x_0`` the NLS solution
 states) with the AR(2) of its residual, ``se`` the Gauss-Newton standard
 errors of the whitened residual from finite-difference sensitivities.
 Convergence as for the manoeuvring posterior
-(:func:`studies.identify.bayes.diagnostics.diagnose`).
+(:func:`studies.identification.bayes.diagnostics.diagnose`).
 
 References
 ----------
@@ -99,7 +99,7 @@ import numpy as np
 import pandas as pd
 
 from studies.errors import ConfigError
-from studies.identify.bayes.sampler import sample_regression_chain
+from studies.identification.bayes.sampler import sample_regression_chain
 from studies.roll.discrepancy import DISCREPANCIES, estimate_wander
 from studies.roll.estimators import NLSEstimator, _Estimator, _period
 from studies.roll.model import NO_WANDER, RollModel, compiled_rk4

@@ -24,7 +24,7 @@ no error left) and, unlike an additive error on ``phi``, grows with the
 prediction horizon as the measured errors do.
 
 Estimation: the prediction-error method, as for the manoeuvring models
-(:mod:`studies.identify.discrepancy`). A continuous-discrete extended Kalman
+(:mod:`studies.identification.discrepancy`). A continuous-discrete extended Kalman
 filter of the state ``(phi, phi', eps, eta)`` (RK4 of the mean and of the
 covariance between samples, a compiled kernel) gives the innovation
 log-likelihood of the training decays, thinned to :data:`FILTER_POINTS_PER_PERIOD`
@@ -47,7 +47,7 @@ Realisation in the bands (:mod:`studies.roll.bands`): every replay draws a
 coefficient set from the posterior and its own realisation of ``eps`` and
 ``eta`` from their stationary distribution
 (:meth:`RollDiscrepancy.realise`, the exact AR(1) step means of
-:meth:`studies.identify.discrepancy.Discrepancy.realise`), applied through
+:meth:`studies.identification.discrepancy.Discrepancy.realise`), applied through
 :meth:`studies.roll.model.RollModel.simulate` (``wander``).
 
 References
@@ -74,7 +74,7 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import minimize
 
-from studies.identify.discrepancy import DISCREPANCIES, Discrepancy
+from studies.identification.discrepancy import DISCREPANCIES, Discrepancy
 from studies.roll.decay import noise_std
 from studies.roll.model import RollModel
 from studies.roll.records import initial_state_covariance

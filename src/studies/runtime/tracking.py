@@ -633,3 +633,75 @@ def close_if_running(uri: str, root, run_id: str, status: str = "KILLED",
             client.set_tag(run_id, "error", error[:5000])
         client.set_terminated(run_id, status=status)
     return True
+
+
+class Untracked:
+    """What a run logger does when nothing is tracked (a Python call with no
+    active MLflow run and ``track`` not asked): nothing; ``run_id`` is None."""
+
+    run_id = None
+    uri = None
+    ended = True
+
+    def log_outputs(self, metrics: dict, directory) -> None:
+        """Nothing is logged."""
+
+    def log_records(self, inputs) -> None:
+        """Nothing is logged."""
+
+    def log_model(self, path, register: str | None = None, metrics: dict | None = None) -> None:
+        """Nothing is logged (None: no model URI)."""
+        return None
+
+    def set_tags(self, tags: dict) -> None:
+        """Nothing is logged."""
+
+
+def active_run():
+    """The MLflow run a Python caller has open (``mlflow.start_run()``), or None.
+
+    MLflow is not imported for the question: a caller with an open run has
+    imported it already."""
+    import sys
+
+    mlflow = sys.modules.get("mlflow")
+    return mlflow.active_run() if mlflow is not None else None
+
+
+@contextlib.contextmanager
+def into_active_run(params: dict, tags: dict | None = None):
+    """Yield a :class:`RunLogger` on the caller's active MLflow run.
+
+    The run's params and tags are added to it; the run is neither ended nor
+    marked on error (the caller's ``with mlflow.start_run()`` does that, by
+    MLflow's convention). A param the run already holds with another value
+    is refused with one line (MLflow params cannot change): a second study
+    goes in a run of its own (``mlflow.start_run(nested=True)``).
+    """
+    import mlflow
+    from mlflow.tracking import MlflowClient
+
+    from ..errors import ConfigError
+
+    run = mlflow.active_run()
+    if run is None:
+        raise ConfigError("no active MLflow run to log to (mlflow.start_run() first, or track=True)")
+    uri = mlflow.get_tracking_uri()
+    client = MlflowClient(tracking_uri=uri)
+    run_id = run.info.run_id
+    held = client.get_run(run_id).data.params
+    new = []
+    for key, value in flatten(params).items():
+        if key in held and held[key] != value:
+            raise ConfigError(f"{key}: the active MLflow run {run_id} already holds {held[key]!r}, this "
+                              f"study has {value!r}; open a run for it (mlflow.start_run(nested=True))")
+        if key not in held:
+            new.append(mlflow.entities.Param(key, value))
+    with store_lock(uri):
+        for i in range(0, len(new), 100):
+            client.log_batch(run_id, params=new[i:i + 100])
+        for key, value in (tags or {}).items():
+            if not key.startswith("mlflow.source"):      # the caller's own source stays
+                client.set_tag(run_id, key, str(value))
+    logger = RunLogger(client, run_id, uri)
+    yield logger

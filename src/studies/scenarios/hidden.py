@@ -191,8 +191,8 @@ def _any_missing_term(vessel, model, values, rng, clean, dof: str | None = None)
     any DOF, or only ``dof``'s: ``"X"``, ``"Y"`` or ``"N"``), its prime value
     set so that it changes its DOF's hydrodynamic force by 5-15 % (RMS over
     the clean record ``clean``), with either sign."""
-    from ..identify.regression import prime_states
-    from ..discover.causes.missing_term import extended_library
+    from ..identification.regression import prime_states
+    from ..discovery.causes.missing_term import extended_library
 
     primes = prime_states(clean["u"], clean["v"], clean["r"], clean["delta"], vessel)
     library = [t for t in extended_library(model, 3) if dof is None or t.dof == dof]
@@ -308,7 +308,7 @@ def hidden_records(vessel, cause: str, seed: int = 0, noise: float = 0.0,
 def _process_noise(model, values, vessel, manoeuvre, env, level: float, rng) -> np.ndarray:
     """Process noise of :func:`process_forces` for one manoeuvre (one row per
     integration step), sized on the clean run's largest prime forces."""
-    from ..identify.regression import prime_states
+    from ..identification.regression import prime_states
 
     clean = simulate(model, values, vessel, manoeuvre, env)
     primes = prime_states(clean["u"], clean["v"], clean["r"], clean["delta"], vessel)

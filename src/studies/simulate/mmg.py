@@ -29,10 +29,10 @@ integration step (constant for the standard manoeuvres, a measured record's
 Records have the columns ``t, x0, y0, psi, u, v, r, delta, n`` (data
 contract, SI units and radians). Calm water: no wind or current; external
 accelerations (a model discrepancy's realisation,
-:mod:`studies.identify.discrepancy`) may be added per step
+:mod:`studies.identification.discrepancy`) may be added per step
 (:func:`rk4_mmg`, :class:`MMGReplayPlan`). :func:`mmg_acceleration` is the
 same right-hand side at one state, for the model-based Kalman filter of
-:mod:`studies.identify.kalman`.
+:mod:`studies.identification.kalman`.
 
 The heading's and the rudder's sine and cosine are computed once per step and
 rotated through the stages by their increments (exact to 1e-12 for
@@ -309,7 +309,7 @@ def rk4_mmg(hull: tuple, k: tuple, a: tuple, x0, dt: float, cmd, mode: int, para
     ``cmd`` and ``rps`` have one value per integration step (``n`` rows);
     ``external`` (optional, ``n - 1`` rows) holds accelerations [m/s^2,
     m/s^2, rad/s^2] added to ``u_dot, v_dot, r_dot``, each held over its step
-    (a model discrepancy's realisation, :mod:`studies.identify.discrepancy`),
+    (a model discrepancy's realisation, :mod:`studies.identification.discrepancy`),
     scaled by ``1 + external_gain |r'|`` at every stage (``r' = r L / U``).
     ``diverged_at`` is -1 when the run stayed bounded (``0 < u < 5 U0``,
     ``|v| < 5 U0``, ``|r| < 1 rad/s``), else the first step outside.

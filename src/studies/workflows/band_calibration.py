@@ -43,7 +43,7 @@ import pandas as pd
 
 from ..analysis.bands import LEVELS, band_statistics, point_replay, predictive_draws
 from ..analysis.metrics import position_rmse
-from ..identify.discrepancy import Discrepancy
+from ..identification.discrepancy import Discrepancy
 from ..plotting import pyplot
 from . import measured as _measured
 

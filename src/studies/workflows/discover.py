@@ -21,8 +21,8 @@ import pandas as pd
 
 from ..config import DiscoverConfig
 from ..data.resample import resample
-from ..discover import diagnostics as dg
-from ..discover.fitting import kinematic_smoothing
+from ..discovery import diagnostics as dg
+from ..discovery.fitting import kinematic_smoothing
 from ..errors import ConfigError
 from ..vessels import get_vessel
 from .manoeuvring import get_study_model
@@ -40,7 +40,7 @@ def smooth_measured(record: pd.DataFrame) -> pd.DataFrame:
     """Velocities and heading of a measured record replaced by their EKF/RTS
     estimates (kinematic pass; positions and rudder kept): discovery then
     fits every cause on consistent states, estimated once
-    (:func:`studies.discover.fitting.kinematic_smoothing`)."""
+    (:func:`studies.discovery.fitting.kinematic_smoothing`)."""
     return kinematic_smoothing(record)
 
 
@@ -91,7 +91,7 @@ DEPARTURES = 3
 def departures(records: list, models: dict, vessel) -> pd.DataFrame:
     """Departures of every model's replays (``models``: label -> one prediction
     per record, None where there is none) from the validation records, largest
-    first per model (:func:`studies.discover.diagnostics.departures`)."""
+    first per model (:func:`studies.discovery.diagnostics.departures`)."""
 
     tables = [dg.departures(rec, pred, str(rec.attrs.get("name", "record")), vessel).assign(model=label)
               for label, predictions in models.items() for rec, pred in zip(records, predictions)

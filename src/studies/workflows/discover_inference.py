@@ -2,9 +2,9 @@
 (``discover.method=inference``, the default).
 
 :func:`execute_inference` smooths every record with the baseline, compares
-every cause and pair of causes at once (:mod:`studies.discover.inference`),
+every cause and pair of causes at once (:mod:`studies.discovery.inference`),
 refines the named model, replays the held-out records with the baseline and
-with it, and writes ``discovery.json`` (a :class:`~studies.discover.verdict.Discovery`),
+with it, and writes ``discovery.json`` (a :class:`~studies.discovery.verdict.Discovery`),
 ``report.md``/``report.html`` and the figures. Any baseline the cause
 protocol reaches is accepted: the Abkowitz and symmetric models, and the MMG
 model (``model=mmg``: hull by regression with its prior on the published
@@ -20,20 +20,20 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..discover import diagnostics as dg
-from ..discover.causes import NoCause, compact_parameters, manoeuvring_causes
-from ..discover.causes.propulsion import MMGDynamics
-from ..discover.confidence import separating_manoeuvre
-from ..discover.fitting import Context, calibrate, training_error, validate
-from ..discover.held_out import judge_held_out
-from ..discover.inference import baseline_fit, infer, intervals, refine, smooth_with_baseline
-from ..discover.look_alike import detection_limits, verdict_class
-from ..discover.settling import settle
-from ..discover.stated_effect import score_stated, stated_causes
-from ..discover.track_inference import infer_on_tracks
-from ..discover.training_states import outside_training
-from ..discover.report import plot_evidence, plot_predictions, write_discovery, write_report
-from ..discover.verdict import Discovery
+from ..discovery import diagnostics as dg
+from ..discovery.causes import NoCause, compact_parameters, manoeuvring_causes
+from ..discovery.causes.propulsion import MMGDynamics
+from ..discovery.confidence import separating_manoeuvre
+from ..discovery.fitting import Context, calibrate, training_error, validate
+from ..discovery.held_out import judge_held_out
+from ..discovery.inference import baseline_fit, infer, intervals, refine, smooth_with_baseline
+from ..discovery.look_alike import detection_limits, verdict_class
+from ..discovery.settling import settle
+from ..discovery.stated_effect import score_stated, stated_causes
+from ..discovery.track_inference import infer_on_tracks
+from ..discovery.training_states import outside_training
+from ..discovery.report import plot_evidence, plot_predictions, write_discovery, write_report
+from ..discovery.verdict import Discovery
 from ..plotting import draw
 from ..stages import say
 from ..threads import single_thread_blas
@@ -89,7 +89,7 @@ def baseline_dynamics(prepared: PreparedDiscovery) -> MMGDynamics | None:
 
 def check_injected(prepared: PreparedDiscovery) -> None:
     """``discover.injected`` refused in one line when a cause or parameter does
-    not fit the baseline and the records (:func:`studies.discover.stated_effect.stated_causes`)."""
+    not fit the baseline and the records (:func:`studies.discovery.stated_effect.stated_causes`)."""
     dynamics = baseline_dynamics(prepared)
     model = dynamics.model if dynamics is not None else prepared.model
     stated_causes(Context(prepared.vessel, model, list(prepared.train), list(prepared.validation), "recorded",
@@ -142,7 +142,7 @@ def alike_table(alike: dict) -> pd.DataFrame:
 
 def _alike_note(named: str, alike: dict) -> str | None:
     """In words, how alike each named cause's signature is to the other causes'
-    on these records (:mod:`studies.discover.alike`), most alike first."""
+    on these records (:mod:`studies.discovery.alike`), most alike first."""
     parts = []
     for cid in named.split("+"):
         row = sorted((alike.get(cid) or {}).items(), key=lambda kv: -kv[1]["correlation"])
@@ -412,19 +412,19 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
                                   discovery.splits, judged, beyond, settling)
     write_discovery(out_dir / "discovery.json", out)
     write_report(out_dir, out, out["explanation"], sections, figures)
-    metrics = {"discover/gain_pct": gain, **({"discover/confidence": confidence} if confidence is not None else {}),
-               "discover/baseline_validation_rmse": b_rmse, "discover/extended_validation_rmse": e_rmse,
-               "discover/baseline_validation_rmse_windowed": b_window,
-               "discover/extended_validation_rmse_windowed": e_window,
-               "discover/outside_training_states": float(named == OUTSIDE),
-               "discover/baseline_training_rmse": b_train, "discover/extended_training_rmse": e_train,
-               "discover/explains_validation": float(explained), "discover/blocks": float(result.n_blocks),
-               "discover/n_variants": float(len(result.variants)), "runtime/total_s": time.perf_counter() - t0}
+    metrics = {"discovery/gain_pct": gain, **({"discovery/confidence": confidence} if confidence is not None else {}),
+               "discovery/baseline_validation_rmse": b_rmse, "discovery/extended_validation_rmse": e_rmse,
+               "discovery/baseline_validation_rmse_windowed": b_window,
+               "discovery/extended_validation_rmse_windowed": e_window,
+               "discovery/outside_training_states": float(named == OUTSIDE),
+               "discovery/baseline_training_rmse": b_train, "discovery/extended_training_rmse": e_train,
+               "discovery/explains_validation": float(explained), "discovery/blocks": float(result.n_blocks),
+               "discovery/n_variants": float(len(result.variants)), "runtime/total_s": time.perf_counter() - t0}
     for cid, p in result.inclusion.items():
-        metrics[f"discover/inclusion/{cid}"] = float(p)
+        metrics[f"discovery/inclusion/{cid}"] = float(p)
     for cid, t in result.evidence.items():
         if "+" not in cid:
-            metrics[f"discover/evidence/{cid}"] = float(t)
+            metrics[f"discovery/evidence/{cid}"] = float(t)
     return out, metrics
 
 
@@ -480,7 +480,7 @@ def _member_fits(result, members: list, ctx: Context) -> dict:
     """``{member verdict id: CauseFit}`` of the class's members: those the judge
     refined, and a pair the judge did not refine refined here on the training
     records (``ctx``) from its two causes' own fits."""
-    from ..discover.inference import _joined_theta, _model_cause, _pair_id
+    from ..discovery.inference import _joined_theta, _model_cause, _pair_id
 
     fits = {f.cause.id: f for m, f in result.fits.items() if len(m) == 1}
     if result.fit is not None:
@@ -517,7 +517,7 @@ def _basis(on_tracks: bool) -> str:
 
 
 def _injected_note(injected: dict) -> str:
-    """The stated effect's score in one sentence (:mod:`studies.discover.stated_effect`)."""
+    """The stated effect's score in one sentence (:mod:`studies.discovery.stated_effect`)."""
     what = f"the injected {injected['causes']}"
     line = (f"{what} scores {injected['score']:+.1f} on these records at its stated parameters (evidence "
             f"{injected['evidence']:.1f} against a penalty of {injected['penalty']:.1f})")

@@ -36,8 +36,8 @@ import numpy as np
 import pandas as pd
 
 from ..analysis.state_ranges import STATES, beyond, training_ranges
-from ..identify.base import condition_number, variance_inflation
-from ..identify.ls import LeastSquares
+from ..identification.base import condition_number, variance_inflation
+from ..identification.ls import LeastSquares
 from ..markdown import markdown_table
 
 __all__ = ["identifiability", "IDENTIFIABILITY_FILE", "VIF_HIGH"]

@@ -50,11 +50,11 @@ from ..errors import ConfigError
 from ..stages import say
 from ..environment.conditions import Environment
 from ..environment.noise import add_measurement_noise, disturbance_forces, record_wind
-from ..identify import build_problems, make_identifier
-from ..identify.discrepancy import Discrepancy
-from ..identify.ls import LeastSquares
-from ..identify.objective import trajectory_objective
-from ..identify.regression import prime_states
+from ..identification import build_problems, make_identifier
+from ..identification.discrepancy import Discrepancy
+from ..identification.ls import LeastSquares
+from ..identification.objective import trajectory_objective
+from ..identification.regression import prime_states
 from ..models.abkowitz import ManoeuvringModel
 from ..models.abkowitz import abkowitz
 from ..models.registry import get_model

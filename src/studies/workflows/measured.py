@@ -19,7 +19,7 @@ Loading
 States and accelerations (``data.derivative``)
     ``savgol``/``central``/``auto`` as for simulated data
     (:mod:`studies.data.derivatives`); ``ekf``: the extended Kalman filter
-    and RTS smoother of :mod:`studies.identify.kalman`, first with the
+    and RTS smoother of :mod:`studies.identification.kalman`, first with the
     kinematic process model, then ``kalman.iterations`` times with the
     identified ship model as process model, re-identifying (least squares)
     on the smoothed states and accelerations each time (Alexandersson et
@@ -56,12 +56,12 @@ from ..data.derivatives import DerivativeEstimate, estimate_derivatives
 from ..data.io import read_dat
 from ..data.scaling import froude_scale
 from ..data.resample import resample as resample_record, uniform_grid
-from ..identify.kalman import KalmanSettings, ekf_derivatives, measurement_variance
+from ..identification.kalman import KalmanSettings, ekf_derivatives, measurement_variance
 from ..environment.wind import wind_loads_prime
 from ..errors import ConfigError, DataError
-from ..identify.base import Identification
-from ..identify.ls import LeastSquares
-from ..identify.regression import assemble_problems, prime_states
+from ..identification.base import Identification
+from ..identification.ls import LeastSquares
+from ..identification.regression import assemble_problems, prime_states
 from ..models.abkowitz import ManoeuvringModel
 from ..models.terms import DOFS
 from ..analysis.bands import band_statistics, predictive_draws
@@ -102,7 +102,9 @@ def _uniform(t: np.ndarray) -> bool:
     return bool(np.max(np.abs(dt - step)) <= 1e-6 * step + 1e-9)
 
 
-def _read(path, min_samples: int) -> pd.DataFrame:
+def read_record(path, min_samples: int = 10) -> pd.DataFrame:
+    """One record as its file holds it (a facility's ``.dat`` on a uniform time
+    base, anything else through the data contract), named by its file's stem."""
     if str(path).lower().endswith(".dat"):
         rec = read_dat(path, min_samples=min_samples, uniform_time=True)
     else:
@@ -122,15 +124,15 @@ def _on_grid(rec: pd.DataFrame, resample_dt: float | None) -> pd.DataFrame:
 def load_measured(paths, min_samples: int = 10, resample_dt: float | None = None) -> list:
     """Load records for identification or validation (see the module docstring),
     each at the scale of its file."""
-    return [_on_grid(_read(path, min_samples), resample_dt) for path in paths]
+    return [_on_grid(read_record(path, min_samples), resample_dt) for path in paths]
 
 
 def load_study_records(training_paths, validation_paths, min_samples: int = 10,
                        resample_dt: float | None = None, scale: str = "auto") -> tuple[list, list]:
     """Training and validation records loaded, brought to one scale (:func:`one_scale`,
     ``data.scale``) and then put on a uniform grid (``data.resample`` seconds at that scale)."""
-    training = [_read(p, min_samples) for p in training_paths]
-    validation = [_read(p, 10) for p in validation_paths]
+    training = [read_record(p, min_samples) for p in training_paths]
+    validation = [read_record(p, 10) for p in validation_paths]
     training, validation = one_scale(training, validation, scale)
     return ([_on_grid(r, resample_dt) for r in training], [_on_grid(r, None) for r in validation])
 
@@ -223,7 +225,7 @@ def problems_from_estimates(model: ManoeuvringModel, vessel: Vessel, records, es
                             fixed: dict | None = None, weights: str = "none") -> dict:
     """Regression problems from given state/acceleration estimates.
 
-    The same algebra as :func:`studies.identify.regression.build_problems`
+    The same algebra as :func:`studies.identification.regression.build_problems`
     (which estimates the derivatives itself), for estimators that need
     more than a record, such as the model-based Kalman smoother, plus an
     optional row weighting (rows of ``theta`` and ``y`` multiplied by
@@ -434,9 +436,9 @@ def posterior_band(model: ManoeuvringModel, vectors: np.ndarray, vessel: Vessel,
     (:func:`studies.analysis.bands.band_statistics`). A posterior
     predictive band of a *measurement* includes the sensor noise: with
     ``noise`` the band is widened by 1.645 times the measurement noise of
-    the channel (:func:`studies.identify.kalman.measurement_variance`), which
+    the channel (:func:`studies.identification.kalman.measurement_variance`), which
     matters at the start where every replay begins at the measured state.
-    With a ``discrepancy`` (:class:`studies.identify.discrepancy.Discrepancy`)
+    With a ``discrepancy`` (:class:`studies.identification.discrepancy.Discrepancy`)
     every replay also carries a realisation of it and an initial state
     drawn from the sensor's uncertainty
     (:func:`studies.analysis.bands.predictive_draws`, seeded by ``seed``).

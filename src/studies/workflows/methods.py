@@ -1,6 +1,6 @@
 """Every identification method, by kind of study and ``method=`` name: the one registry.
 
-Manoeuvring models are identified by the estimators of :mod:`studies.identify`
+Manoeuvring models are identified by the estimators of :mod:`studies.identification`
 (``ls``, ``svm``, ``ls_ga``, ``svm_ga``, ``bayes``, ``sindy``), roll decays by
 those of :mod:`studies.roll.methods` (``nls``, ``fls``, ``nls_svm``,
 ``bayes``). A run checks its method here once, before anything is read or
@@ -10,7 +10,7 @@ tracked; a method of the other kind is refused with the setting that runs it.
 from __future__ import annotations
 
 from ..errors import ConfigError
-from ..identify import MANOEUVRING_METHODS
+from ..identification import MANOEUVRING_METHODS
 from ..roll.methods import ROLL_METHODS
 
 __all__ = ["METHODS", "check_method"]

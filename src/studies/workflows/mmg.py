@@ -8,12 +8,12 @@ Steps of :meth:`MMGRun.execute`:
    the kinematic one);
 2. the hull coefficients by the inverse-dynamics regression with the
    propeller and rudder forces known and a Gaussian prior on the vessel's
-   published coefficients (:mod:`studies.identify.mmg_regression`), fitted by
+   published coefficients (:mod:`studies.identification.mmg_regression`), fitted by
    the configured method (LS, bayes, SINDy, SVM; the GA refines on the
-   training trajectories with :class:`~studies.identify.mmg_output_error.MMGObjective`);
+   training trajectories with :class:`~studies.identification.mmg_output_error.MMGObjective`);
 3. with ``model.output_error``, those interaction factors fitted by output
    error on the training trajectories, the hull re-identified for each trial
-   (:func:`~studies.identify.mmg_output_error.refine_modules`);
+   (:func:`~studies.identification.mmg_output_error.refine_modules`);
 4. validation as for the Abkowitz models (:mod:`studies.workflows.manoeuvring`):
    every ``validate.path`` record replayed with its measured rudder and
    propeller rate from its first state, characteristics, steady turn,
@@ -57,13 +57,13 @@ from ..data.captive import read_captive
 from ..environment.conditions import Environment
 from ..environment.noise import add_measurement_noise
 from ..errors import ConfigError, DataError
-from ..identify import make_identifier
+from ..identification import make_identifier
 from .methods import check_method
-from ..identify.ls import LeastSquares
-from ..identify.mmg_output_error import MMGObjective, refine_modules
-from ..identify.mmg_propeller import fit_wake
-from ..identify.mmg_rudder import RUDDER_LIFT_FACTORS, fit_rudder_lift, rudder_lift_columns
-from ..identify.mmg_regression import mmg_problems
+from ..identification.ls import LeastSquares
+from ..identification.mmg_output_error import MMGObjective, refine_modules
+from ..identification.mmg_propeller import fit_wake
+from ..identification.mmg_rudder import RUDDER_LIFT_FACTORS, fit_rudder_lift, rudder_lift_columns
+from ..identification.mmg_regression import mmg_problems
 from ..models.mmg import mmg
 from ..models.registry import get_model
 from ..simulate.mmg import replay_mmg, simulate_mmg

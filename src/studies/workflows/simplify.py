@@ -50,7 +50,7 @@ from ..plotting import pyplot
 from ..analysis.correlation import co_membership, correlated_groups, spearman_matrix
 from ..analysis.pawn import PawnSamples, pawn_indices, pawn_samples, subsample_pawn
 from ..environment.noise import add_measurement_noise
-from ..identify import LeastSquares, build_problems
+from ..identification import LeastSquares, build_problems
 from ..models.abkowitz import ManoeuvringModel, abkowitz
 from ..models.simplified import (PAPER_SIMPLIFIED, SPEED_LOSS, save_definition, select_terms,
                                  stability_index, structural_needs, twin, union_sway_yaw)

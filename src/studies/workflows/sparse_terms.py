@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..identify.ls import LeastSquares
-from ..identify.regression import build_problems
+from ..identification.ls import LeastSquares
+from ..identification.regression import build_problems
 from ..models.terms import DOFS
 
 __all__ = ["COMPARED", "sparse_terms_table", "ls_problems", "sindy_beside_ls"]

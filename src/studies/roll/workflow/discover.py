@@ -2,7 +2,7 @@
 
 The baseline is the linear decay model fitted to the other simulator's run
 (``simulation.path``, with ``omega0`` and ``b1`` then held) or to the
-training decays; every roll cause of :mod:`studies.discover.causes.roll_decay` extends it
+training decays; every roll cause of :mod:`studies.discovery.causes.roll_decay` extends it
 and is judged on the held-out decays: the last of two or more records, or,
 with one record, its later cycles (time-blocked, the last
 ``discover.holdout`` share of the half-cycles, predicted from the start
@@ -23,10 +23,10 @@ import numpy as np
 import pandas as pd
 
 from ...config import DiscoverConfig
-from ...discover.diagnostics import explains
-from ...discover.confidence import certainty
-from ...discover.report import indistinguishable, write_discovery, write_report
-from ...discover.causes.roll_decay import PARAMETER_UNITS
+from ...discovery.diagnostics import explains
+from ...discovery.confidence import certainty
+from ...discovery.report import indistinguishable, write_discovery, write_report
+from ...discovery.causes.roll_decay import PARAMETER_UNITS
 from .search import peak_decay, predict_from_fitted_start, roll_interval, roll_search
 from ...errors import ConfigError
 from ..decay import decay_curve, fit_decay_curve
@@ -279,9 +279,9 @@ def execute_roll_discovery(prepared: PreparedDiscovery, out_dir: Path) -> tuple[
     sections += [(f"Roll peak decay: {p.index.name} (period s, peaks deg, time s)", p) for p in peaks]
     write_discovery(out_dir / "discovery.json", discovery)
     write_report(out_dir, discovery, explanation, sections, figures)
-    metrics = {"discover/gain_pct": discovery["gain_pct"], "discover/baseline_validation_rmse": b,
-               "discover/extended_validation_rmse": e, "discover/baseline_training_rmse": b_train,
-               "discover/extended_training_rmse": e_train, "discover/explains_validation": float(explained),
+    metrics = {"discovery/gain_pct": discovery["gain_pct"], "discovery/baseline_validation_rmse": b,
+               "discovery/extended_validation_rmse": e, "discovery/baseline_training_rmse": b_train,
+               "discovery/extended_training_rmse": e_train, "discovery/explains_validation": float(explained),
                "runtime/total_s": time.perf_counter() - t0}
     return discovery, metrics
 

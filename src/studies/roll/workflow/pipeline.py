@@ -67,7 +67,7 @@ import pandas as pd
 
 from studies.analysis.bands import TRUSTED_COVERAGE, plot_calibration
 from studies.errors import ConfigError
-from studies.identify.bayes.figures import CORNER_MAX, plot_corner
+from studies.identification.bayes.figures import CORNER_MAX, plot_corner
 from studies.roll.bands import (BAND_KEYS, band_statistics, band_table, outside_amplitudes, plot_band,
                                 predictive_replays, trust_verdict)
 from studies.roll.comparison import STARTS, compare_simulation_with_tests, mae, replay_errors, rmse

@@ -1,4 +1,4 @@
-"""Fitting and naming the roll-decay causes (:mod:`studies.discover.causes.roll_decay`).
+"""Fitting and naming the roll-decay causes (:mod:`studies.discovery.causes.roll_decay`).
 
 Baseline: the linear model ``phi'' + b1 phi' + omega0^2 phi = 0``, either
 identified from the training decay or, when a record of another simulator is
@@ -25,8 +25,8 @@ from scipy.optimize import least_squares
 from ..decay import find_extrema
 from ..records import initial_state
 from ..simulate import predict_record
-from ...discover.causes.roll_decay import ROLL_CATALOGUE, RollCause
-from ...discover.fitting import sample_intervals
+from ...discovery.causes.roll_decay import ROLL_CATALOGUE, RollCause
+from ...discovery.fitting import sample_intervals
 
 __all__ = ["roll_search", "roll_interval", "peak_decay", "PEAK_CYCLES", "predict_from_fitted_start", "fitted_start",
            "START_PERIODS"]

@@ -33,9 +33,9 @@ import pandas as pd
 from ...analysis.characteristics import TURNING_KEYS, mss_turncircle, steady_turn_rows, turning_geometry
 from ...config import manoeuvre_config
 from ...environment.noise import NOISE_LEVELS, disturbance_forces
-from ...identify import build_problems
-from ...identify.ls import LeastSquares
-from ...identify.regression import prime_states
+from ...identification import build_problems
+from ...identification.ls import LeastSquares
+from ...identification.regression import prime_states
 from ...models.abkowitz import abkowitz
 from ...models.registry import get_model
 from ...simulate import simulate, simulate_many

@@ -15,8 +15,8 @@ import dataclasses
 import numpy as np
 
 from ...environment.conditions import Environment
-from ...identify import build_problems
-from ...identify.ls import LeastSquares
+from ...identification import build_problems
+from ...identification.ls import LeastSquares
 from ...models.abkowitz import abkowitz
 from ...simulate import simulate
 from ...simulate.manoeuvres import zigzag
