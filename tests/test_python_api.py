@@ -34,6 +34,7 @@ def _env() -> dict:
     return env
 
 
+@pytest.mark.slow
 def test_import_is_light_and_lists_the_functions():
     code = ("import time, sys; t = time.perf_counter(); import studies; dt = time.perf_counter() - t; "
             "print(dt); print(sorted(m for m in ('numpy', 'pandas', 'mlflow', 'hydra', 'numba', 'scipy') "
@@ -81,6 +82,7 @@ def test_a_bad_record_is_refused_in_one_line_and_nothing_is_written(tmp_path, mo
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_an_untracked_identification_logs_and_writes_nothing(tmp_path, monkeypatch):
     """The README's main job from Python: the true coefficients back, a model to simulate,
     figures on demand, and nothing in the working folder."""

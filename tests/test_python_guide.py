@@ -1,5 +1,5 @@
-"""docs/python.md runs as written: its Python blocks, in order, in one interpreter,
-in a project folder with the shared data beside it (as a reader's notebook would)."""
+"""docs/python.md runs as written: its Python blocks (after the README's), in order, in one
+interpreter, in a project folder with the shared data beside it (as a reader's notebook would)."""
 
 from __future__ import annotations
 
@@ -16,9 +16,9 @@ GUIDE = REPO / "docs" / "python.md"
 SHARED = REPO.parent / "shared"
 
 
-def guide_blocks() -> list[str]:
-    """The ```python blocks of the guide, in page order."""
-    return re.findall(r"```python\n(.*?)```", GUIDE.read_text(), flags=re.S)
+def guide_blocks(page: Path = GUIDE) -> list[str]:
+    """The ```python blocks of a page, in page order."""
+    return re.findall(r"```python\n(.*?)```", page.read_text(), flags=re.S)
 
 
 def test_the_guide_has_the_walk_through():
@@ -39,7 +39,7 @@ def test_the_guide_runs_as_written(tmp_path):
     (tmp_path / "shared").symlink_to(SHARED)
     script = project / "guide.py"
     # each block's last bare expression is what a notebook would show: printed here
-    parts = []
+    parts = [f"print('--- README')\n{block}" for block in guide_blocks(REPO / "README.md")]
     for i, block in enumerate(guide_blocks()):
         parts.append(f"print('--- block {i}')\n{block}")
     script.write_text("\n".join(parts))
@@ -50,6 +50,7 @@ def test_the_guide_runs_as_written(tmp_path):
     assert proc.returncode == 0, proc.stderr[-3000:]
     out = proc.stdout
     # what the page says about the results holds
+    assert "--- README" in out                           # the README's Python block ran first
     assert "MARIN_FREE_KVLCC2_zz_10_m 45.7 False" in out
     assert re.search(r"^True 1\.\d+ m/s at model scale$", out, flags=re.M)
     assert "unknown option 'lsq'" in out

@@ -39,6 +39,14 @@ def _tour() -> list[list[str]]:
     return commands
 
 
+def _fitness_table(page: str, manoeuvre: str) -> dict:
+    """``{condition: {method: fitness}}`` of the report's validation-fitness table of ``manoeuvre``."""
+    block = page.split(f"## Validation fitness, {manoeuvre}", 1)[1].split("\n\n")[1]
+    rows = [[c.strip() for c in line.strip("|").split("|")] for line in block.splitlines()]
+    head, body = rows[0], rows[2:]
+    return {row[0]: {m: float(v) for m, v in zip(head[1:], row[1:])} for row in body}
+
+
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -77,17 +85,25 @@ def test_the_readme_tour_runs_step_by_step(tmp_path):
     with sqlite3.connect(tmp_path / "mlruns" / "mlflow.db") as con:
         vessels = {row[0] for row in con.execute("select value from tags where key = 'vessel'")}
     assert "kvlcc2" in vessels
-    # 3. the sweep: a parent run and one child per wind speed
+    # 3. the sweep: a parent run and one child per job (two methods at two noise levels)
     proc = run_studies(steps[2][1:], tmp_path)
     assert proc.returncode == 0, proc.stderr[-2000:]
     _quiet(proc)
-    assert len(sweep_parents(tmp_path)) == 1 and len(mlflow_runs(tmp_path)) == 4
+    assert len(sweep_parents(tmp_path)) == 1 and len(mlflow_runs(tmp_path)) == 6
     # 4. the report of the sweep
     proc = run_studies(steps[3][1:], tmp_path)
     assert proc.returncode == 0, proc.stderr[-2000:]
     _quiet(proc)
     page = (tmp_path / "reports" / "tour" / "index.md").read_text()
-    assert "wind.speed" in page and (tmp_path / "reports" / "tour" / "index.html").is_file()
+    assert "noise.measurement" in page and (tmp_path / "reports" / "tour" / "index.html").is_file()
+    # what the sweep compares differs visibly in the report's fitness figure: noise-free fits are
+    # exact, noisy ones are not (orders of magnitude apart), and the two methods differ with noise
+    turn = _fitness_table(page, "turning_35")
+    assert set(turn) == {"+0 %", "+2 %"} and set(turn["+2 %"]) == {"LS", "SVM"}
+    for method in ("LS", "SVM"):
+        assert turn["+2 %"][method] > 1e6 * turn["+0 %"][method]
+    assert max(turn["+2 %"].values()) > 2 * min(turn["+2 %"].values())
+    assert (tmp_path / "reports" / "tour" / "fitness_turning_35.png").is_file()
     # 5. the UI answers on its address (a free port instead of 5000)
     port = _free_port()
     ui = subprocess.Popen([sys.executable, "-m", "studies", *steps[4][1:], f"port={port}"], cwd=tmp_path,
