@@ -171,6 +171,15 @@ def _explained(d: dict) -> list[str]:
     return lines
 
 
+def _shown(value) -> str:
+    """A parameter's value to 4 significant digits, ranges (lists) included."""
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_shown(v) for v in value) + "]"
+    return str(value)
+
+
 def _parameter_lines(params: dict, units, uncertainty, depth: int = 0) -> list[str]:
     """One line per estimated value (a pair's causes and a missing term's
     terms nested), with its 90 % interval and its unit: ``units`` and
@@ -186,7 +195,7 @@ def _parameter_lines(params: dict, units, uncertainty, depth: int = 0) -> list[s
         if value is None:
             continue
         iv = f" [{interval[0]:.4g}, {interval[1]:.4g}]" if isinstance(interval, (list, tuple)) else ""
-        shown = f"{value:.4g}" if isinstance(value, float) else str(value)
+        shown = _shown(value)
         text = f" ({unit})" if isinstance(unit, str) and unit else ""
         lines.append(f"- `{name}` = {shown}{iv}{text}")
     return lines
