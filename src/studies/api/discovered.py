@@ -9,9 +9,7 @@ same numbers.
 
 from __future__ import annotations
 
-import shutil
 from collections.abc import Mapping
-from pathlib import Path
 
 __all__ = ["discover", "Discovered"]
 
@@ -123,33 +121,20 @@ def discover(train, validate=None, *, model: str | None = "mmg", vessel: str | N
         As for :func:`studies.identify` (``discover={"injected": ...}``,
         ``discover__splits=3``).
     """
-    from ..runtime import tracking
-    from ..config.paths import check_output_paths
     from .jobs import run_discovery
     from .records import as_paths, vessel_of
-    from .settings import compose, overrides_of
     from .where import where
 
     place = where(track, out_dir)
-    try:
+    with place.removed_on_failure():
         given = {"model": model, "vessel": vessel or vessel_of(train, validate),
                  "data.path": as_paths(train, place.out_dir, "train")}
         if validate is not None:
             given["validate.path"] = as_paths(validate, place.out_dir, "validate")
         if simulation is not None:
             given["simulation.path"] = as_paths([simulation], place.out_dir, "simulation")[0]
-        typed, params = compose("discover", {**given, **settings}, overrides, place.root)
-        place.keep_config(params, overrides_of({**given, **settings}, overrides))
-        check_output_paths(typed, place.root, place.out_dir)
-        if place.tracked and place.active is None:
-            tracking.check_store(typed.tracking.uri, place.root)
+        typed, params = place.settings("discover", given, settings, overrides)
         with place.figures():
             job = run_discovery(typed, params, place.root, place.out_dir, place.opener(typed),
                                 "studies.discover")
-    except BaseException:
-        if place.temporary:
-            shutil.rmtree(place.out_dir, ignore_errors=True)
-        raise
-    result = Discovered(job, typed, place)
-    place.tie(result)
-    return result
+    return place.tie(Discovered(job, typed, place))

@@ -9,8 +9,6 @@ data.path=[...]`` give the same coefficients and metrics.
 from __future__ import annotations
 
 import math
-import shutil
-from pathlib import Path
 
 import pandas as pd
 
@@ -214,36 +212,24 @@ def identify(records=None, validate=None, *, model: str | None = None, method: s
         :class:`~studies.errors.ConfigError` or :class:`~studies.errors.DataError`
         before anything is logged.
     """
-    from ..config.paths import check_output_paths
-    from ..runtime import tracking
     from .jobs import run_identification
     from .records import as_paths, vessel_of
-    from .settings import compose, overrides_of
     from .where import where
 
     place = where(track, out_dir)
-    try:
+    with place.removed_on_failure():
         given = {"model": model, "method": method, "vessel": vessel or vessel_of(records, validate)}
         if records is not None:
             given["data.path"] = as_paths(records, place.out_dir, "records")
         if validate is not None:
             given["validate.path"] = as_paths(validate, place.out_dir, "validate")
-        typed, params = compose("run", {**given, **settings}, overrides, place.root)
-        place.keep_config(params, overrides_of({**given, **settings}, overrides))
-        check_output_paths(typed, place.root, place.out_dir)
+        typed, params = place.settings("run", given, settings, overrides)
         digest = None
         if place.tracked:
             from ..runtime.resume import config_hash
 
-            tracking.check_store(typed.tracking.uri, place.root) if place.active is None else None
             digest = config_hash(params, place.root)
         with place.figures():
             job = run_identification(typed, params, place.root, place.out_dir, place.opener(typed),
                                      "studies.identify", digest)
-    except BaseException:
-        if place.temporary:
-            shutil.rmtree(place.out_dir, ignore_errors=True)
-        raise
-    result = Identified(job, typed, place)
-    place.tie(result)
-    return result
+    return place.tie(Identified(job, typed, place))

@@ -63,6 +63,30 @@ class Where:
 
         return open_run
 
+    def settings(self, command: str, given: dict, settings: dict, overrides=()):
+        """``(typed, params)`` of the job (:func:`studies.api.settings.compose`), its
+        configuration kept beside its files, where it writes and logs checked."""
+        from ..config.paths import check_output_paths
+        from ..runtime import tracking
+        from .settings import compose, overrides_of
+
+        typed, params = compose(command, {**given, **settings}, overrides, self.root)
+        self.keep_config(params, overrides_of({**given, **settings}, overrides))
+        check_output_paths(typed, self.root, self.out_dir)
+        if self.tracked and self.active is None:
+            tracking.check_store(typed.tracking.uri, self.root)
+        return typed, params
+
+    @contextlib.contextmanager
+    def removed_on_failure(self):
+        """A temporary folder is removed when the job fails (nothing is left behind)."""
+        try:
+            yield
+        except BaseException:
+            if self.temporary:
+                shutil.rmtree(self.out_dir, ignore_errors=True)
+            raise
+
     def keep_config(self, params: dict, overrides: list) -> None:
         """A tracked study's configuration beside its files, as the command line keeps it
         (``.hydra/config.yaml``, ``.hydra/overrides.yaml``, logged as the ``hydra/`` artifacts)."""
@@ -81,10 +105,11 @@ class Where:
 
         return DRAWER.skipping() if self.temporary else contextlib.nullcontext()
 
-    def tie(self, result) -> None:
-        """A temporary folder lives as long as ``result``."""
+    def tie(self, result):
+        """A temporary folder lives as long as ``result`` (returned)."""
         if self.temporary:
             weakref.finalize(result, shutil.rmtree, str(self.out_dir), True)
+        return result
 
 
 def where(track: bool | None, out_dir, root=None) -> Where:
