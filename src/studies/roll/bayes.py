@@ -102,7 +102,7 @@ from studies.errors import ConfigError
 from studies.identification.bayes.sampler import sample_regression_chain
 from studies.roll.discrepancy import DISCREPANCIES, estimate_wander
 from studies.roll.estimators import NLSEstimator, _Estimator, _period
-from studies.roll.model import NO_WANDER, RollModel, compiled_rk4
+from studies.roll.model import NO_WANDER, RollModel, compiled_decays_sse, compiled_rk4
 
 __all__ = ["BayesRollEstimator", "DecayPosterior", "POINTS_PER_PERIOD", "pacf_to_ar", "ar2_fit"]
 
@@ -196,6 +196,10 @@ class DecayPosterior:
         for s0 in initial_states:
             x += [float(s0[0]), float(s0[1])]
         self._kernel = compiled_rk4()
+        self._batch = compiled_decays_sse()
+        self._t_all = np.concatenate([t for t, _ in self.data])
+        self._y_all = np.concatenate([y for _, y in self.data])
+        self._offsets = np.cumsum([0] + [t.size for t, _ in self.data]).astype(np.int64)
         x = np.asarray(x, float)
         parts = self.residual_parts(x)
         self.sse_ls = float(sum(r @ r for r in parts))
@@ -271,18 +275,28 @@ class DecayPosterior:
         return float(sum(np.sum((r[2:] - a1 * r[1:-1] - a2 * r[:-2]) ** 2) for r in parts))
 
     def log_prob(self, z: np.ndarray) -> np.ndarray:
-        """Log-posterior (up to a constant) of walkers ``z`` (m, ndim), one replay each."""
+        """Log-posterior (up to a constant) of walkers ``z`` (m, ndim): every walker's replay of
+        every record in one compiled call (:func:`studies.roll.model.compiled_decays_sse`)."""
         xs = self.values(z)
         out = np.full(xs.shape[0], -np.inf)
-        for i, x in enumerate(xs):
-            if not (x[0] > 0) or not np.all(np.isfinite(x)):
-                continue
-            sse = self.whitened_sse(x)
-            if np.isfinite(sse) and sse > 0:
-                out[i] = -0.5 * self.dof * math.log(sse)
-                if self.autoregressive:  # flat in pacf: the Jacobian of tanh
-                    u = x[self.n_states:self.n_states + 2]
-                    out[i] += float(np.sum(np.log1p(-np.tanh(u) ** 2)))
+        valid = (xs[:, 0] > 0) & np.all(np.isfinite(xs), axis=1)
+        if not valid.any():
+            return out
+        x = xs[valid]
+        coef = np.array([self.model.coefficients(dict(zip(self.model.param_names, row[:self.k]))) for row in x])
+        starts = np.ascontiguousarray(x[:, self.k:self.n_states])
+        if self.autoregressive:
+            u = x[:, self.n_states:self.n_states + 2]
+            a = np.column_stack(pacf_to_ar(np.tanh(u[:, 0]), np.tanh(u[:, 1])))
+        else:
+            a = np.zeros((x.shape[0], 2))
+        sse = self._batch(coef, starts, self._t_all, self._y_all, self._offsets, np.ascontiguousarray(a),
+                          self.autoregressive, float(STEPS_PER_PERIOD), NO_WANDER)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lp = np.where(np.isfinite(sse) & (sse > 0), -0.5 * self.dof * np.log(sse), -np.inf)
+        if self.autoregressive:  # flat in pacf: the Jacobian of tanh
+            lp = lp + np.sum(np.log1p(-np.tanh(u) ** 2), axis=1)
+        out[valid] = lp
         return out
 
 
