@@ -412,19 +412,19 @@ def _execute(prepared: PreparedDiscovery, out_dir: Path) -> tuple[dict, dict]:
                                   discovery.splits, judged, beyond, settling)
     write_discovery(out_dir / "discovery.json", out)
     write_report(out_dir, out, out["explanation"], sections, figures)
-    metrics = {"discovery/gain_pct": gain, **({"discovery/confidence": confidence} if confidence is not None else {}),
-               "discovery/baseline_validation_rmse": b_rmse, "discovery/extended_validation_rmse": e_rmse,
-               "discovery/baseline_validation_rmse_windowed": b_window,
-               "discovery/extended_validation_rmse_windowed": e_window,
-               "discovery/outside_training_states": float(named == OUTSIDE),
-               "discovery/baseline_training_rmse": b_train, "discovery/extended_training_rmse": e_train,
-               "discovery/explains_validation": float(explained), "discovery/blocks": float(result.n_blocks),
-               "discovery/n_variants": float(len(result.variants)), "runtime/total_s": time.perf_counter() - t0}
+    metrics = {"discover/gain_pct": gain, **({"discover/confidence": confidence} if confidence is not None else {}),
+               "discover/baseline_validation_rmse": b_rmse, "discover/extended_validation_rmse": e_rmse,
+               "discover/baseline_validation_rmse_windowed": b_window,
+               "discover/extended_validation_rmse_windowed": e_window,
+               "discover/outside_training_states": float(named == OUTSIDE),
+               "discover/baseline_training_rmse": b_train, "discover/extended_training_rmse": e_train,
+               "discover/explains_validation": float(explained), "discover/blocks": float(result.n_blocks),
+               "discover/n_variants": float(len(result.variants)), "runtime/total_s": time.perf_counter() - t0}
     for cid, p in result.inclusion.items():
-        metrics[f"discovery/inclusion/{cid}"] = float(p)
+        metrics[f"discover/inclusion/{cid}"] = float(p)
     for cid, t in result.evidence.items():
         if "+" not in cid:
-            metrics[f"discovery/evidence/{cid}"] = float(t)
+            metrics[f"discover/evidence/{cid}"] = float(t)
     return out, metrics
 
 

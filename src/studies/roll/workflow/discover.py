@@ -279,9 +279,9 @@ def execute_roll_discovery(prepared: PreparedDiscovery, out_dir: Path) -> tuple[
     sections += [(f"Roll peak decay: {p.index.name} (period s, peaks deg, time s)", p) for p in peaks]
     write_discovery(out_dir / "discovery.json", discovery)
     write_report(out_dir, discovery, explanation, sections, figures)
-    metrics = {"discovery/gain_pct": discovery["gain_pct"], "discovery/baseline_validation_rmse": b,
-               "discovery/extended_validation_rmse": e, "discovery/baseline_training_rmse": b_train,
-               "discovery/extended_training_rmse": e_train, "discovery/explains_validation": float(explained),
+    metrics = {"discover/gain_pct": discovery["gain_pct"], "discover/baseline_validation_rmse": b,
+               "discover/extended_validation_rmse": e, "discover/baseline_training_rmse": b_train,
+               "discover/extended_training_rmse": e_train, "discover/explains_validation": float(explained),
                "runtime/total_s": time.perf_counter() - t0}
     return discovery, metrics
 
