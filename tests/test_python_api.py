@@ -195,3 +195,17 @@ def test_an_mmg_identification_from_marin_gives_the_same_numbers(tmp_path, monke
     assert moved.settings.data.path[0].endswith("records/MARIN_FREE_KVLCC2_zz_10_m.parquet")
     assert moved.metrics["runtime/identify_s"] > 0
     assert not np.allclose(moved.coefficients["value"], fit.coefficients["value"])
+
+
+def test_the_bands_are_one_row_per_held_out_record():
+    from studies.api.identified import Identified
+
+    fit = Identified.__new__(Identified)
+    fit.metrics = {"zz_10/band/coverage_90": 0.88, "zz_10/band/crps_m": 3.0, "tc_35/band/coverage_90": 0.5,
+                   "tc_35/band/trusted": 0.0, "tc_35/rmse_position": 9.0, "deviation/median_abs_pct": 1.0}
+    table = fit.bands
+    assert list(table.index) == ["zz_10", "tc_35"]
+    assert table.loc["tc_35", "coverage_90"] == 0.5 and table.loc["zz_10", "crps_m"] == 3.0
+    assert "rmse_position" not in table.columns
+    fit.metrics = {"deviation/median_abs_pct": 1.0}
+    assert fit.bands.empty

@@ -14,7 +14,8 @@ The same studies as the ``studies`` command line, from Python (a notebook):
     settings(command="run", **settings)  the command line's typed settings for these keywords
 
     Identified   .coefficients (DataFrame with intervals), .metrics, .simulate(manoeuvre),
-                 .replay(record), .characteristics(what), .plot(what) (a matplotlib Figure)
+                 .replay(record), .characteristics(what), .plot(what) (a matplotlib Figure),
+                 .bands (the held-out records' predictive bands, method="bayes")
     Discovered   the verdict (discovery.json as a mapping): .cause, .confidence, .members,
                  .parameters, .gain_pct, .report (the page, Markdown)
     ConfigError, DataError   what a bad setting or record raises (one line)

@@ -43,6 +43,8 @@ class Identified:
     training, validation : list of DataFrame
         The records identified from and predicted (measured studies), at the
         scale the study worked at.
+    bands : DataFrame
+        The held-out records' predictive bands when the method draws them.
     """
 
     def __init__(self, job, settings, place):
@@ -118,6 +120,20 @@ class Identified:
             return table
         values = characteristics(self.simulate(what))
         return pd.DataFrame({"predicted": {k: v for k, v in values.items() if isinstance(v, (int, float))}})
+
+    @property
+    def bands(self) -> pd.DataFrame:
+        """The predictive bands of the held-out records (``method="bayes"`` with
+        ``validate`` records, or roll decays held out): one row per record, one
+        column per statistic the run logged (``coverage_50`` ... ``coverage_95``,
+        width, interval score, CRPS, ``trusted``, ``outside_training``; units as in
+        ``docs/outputs.md``). Empty when the run drew no bands."""
+        rows: dict = {}
+        for key, value in self.metrics.items():
+            record, sep, statistic = key.partition("/band/")
+            if sep and "/" not in statistic:
+                rows.setdefault(record, {})[statistic] = value
+        return pd.DataFrame.from_dict(rows, orient="index").rename_axis("record")
 
     # ---------------------------------------------------------------- figures
 
