@@ -55,9 +55,12 @@ def test_hidden_effect_is_named_on_clean_data(tmp_path, vessel, cause):
 def test_every_record_held_out_in_turn_keeps_the_gain_of_a_hidden_offset(tmp_path, vessel):
     """``discover.splits``: each of the three records is held out once, the
     baseline and the named offset identified on the other two: the offset
-    comes out with its value each time, and no replay diverges. (The gain
-    varies: the two records left identify the 40 coefficients unevenly, and
-    holding out the 20/20 zig-zag leaves a model that does not explain it.)"""
+    comes out with its value each time, no replay diverges, and the gain holds
+    where there is one: on the held-out records the baseline misses by more
+    than 10 m (the 20/20 zig-zag and the turn, measured 26 and 18 m) the
+    extension takes at least half of the error away (57 and 94 %); where the
+    baseline already predicts within metres (the 10/10 zig-zag, 2.8 m) the
+    extension stays within 1 m of it (3.2 m)."""
     records, truth = hidden_records(vessel, "rudder_offset", seed=11)
     d = _discover(tmp_path, records, ["discover.splits=true"])
     check("rudder_offset", d, truth)
@@ -66,7 +69,13 @@ def test_every_record_held_out_in_turn_keeps_the_gain_of_a_hidden_offset(tmp_pat
     for row in d["splits"]:
         assert row["cause"] == "rudder_offset", row
         assert parameters_match("rudder_offset", row["parameters"], truth), (row, truth)
-        assert not row["diverges"] and row["extended_validation_rmse"] > 0.0, row
+        assert not row["diverges"], row
+        b, e = row["baseline_validation_rmse"], row["extended_validation_rmse"]
+        if b > 10.0:       # the baseline misses the held-out record: the offset gains most of it back
+            assert row["gain_pct"] >= 50.0, row
+        else:              # the baseline already predicts it within metres: the offset costs nothing
+            assert abs(e - b) < 1.0, row
+    assert sum(row["baseline_validation_rmse"] > 10.0 for row in d["splits"]) >= 2
     report = (tmp_path / "out" / "report.md").read_text()
     assert "Holding out each of the 3 records in turn (the baseline and **rudder_offset**" in report
     assert "## Every record held out in turn" in report
