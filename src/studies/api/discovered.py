@@ -136,5 +136,5 @@ def discover(train, validate=None, *, model: str | None = "mmg", vessel: str | N
         typed, params = place.settings("discover", given, settings, overrides)
         with place.figures():
             job = run_discovery(typed, params, place.root, place.out_dir, place.opener(typed),
-                                "studies.discover")
+                                "studies.discover", place.tracked)
     return place.tie(Discovered(job, typed, place))

@@ -247,5 +247,5 @@ def identify(records=None, validate=None, *, model: str | None = None, method: s
             digest = config_hash(params, place.root)
         with place.figures():
             job = run_identification(typed, params, place.root, place.out_dir, place.opener(typed),
-                                     "studies.identify", digest)
+                                     "studies.identify", digest, place.tracked)
     return place.tie(Identified(job, typed, place))

@@ -68,19 +68,22 @@ def run_summary(metrics: dict) -> dict:
 
 
 def run_identification(settings, params: dict, root: Path, out_dir: Path, open_run: Callable,
-                       command: str = "studies run", digest: str | None = None) -> IdentificationJob:
+                       command: str = "studies run", digest: str | None = None,
+                       tracked: bool = True) -> IdentificationJob:
     """Prepare, open the run, execute into ``out_dir``, log (figures finished before the files).
 
     ``settings`` is the typed :class:`~studies.config.RunConfig`, ``params``
     the same configuration as plain containers, ``digest`` its
-    ``config_hash`` tag (``resume``).
+    ``config_hash`` tag (``resume``). Untracked (``tracked=False``), an
+    analysis the study derives first (the simplified model's) is not logged
+    either.
     """
     from ..plotting import DRAWER
     from ..runtime import tracking
     from ..workflows.identified_model import IDENTIFIED_MODEL_FILE
     from ..workflows.kinds import kind_for, logged_params
 
-    prepared = kind_for(settings).prepare(settings, root, recorder(settings, root))
+    prepared = kind_for(settings).prepare(settings, root, recorder(settings, root) if tracked else None)
     name, tags = prepared.name, dict(prepared.tags)
     if digest is not None:
         tags["config_hash"] = digest
@@ -99,14 +102,14 @@ def run_identification(settings, params: dict, root: Path, out_dir: Path, open_r
 
 
 def run_discovery(settings, params: dict, root: Path, out_dir: Path, open_run: Callable,
-                  command: str = "studies discover") -> DiscoveryJob:
+                  command: str = "studies discover", tracked: bool = True) -> DiscoveryJob:
     """Load and check the records, then the discovery in its run (figures finished before the files)."""
     from ..plotting import DRAWER
     from ..runtime import tracking
     from ..workflows.kinds import execute_discover, logged_params, prepare_discover
     from ..workflows.settings import as_path_list
 
-    study = prepare_discover(settings, root, recorder(settings, root))
+    study = prepare_discover(settings, root, recorder(settings, root) if tracked else None)
     stems = ", ".join(Path(p).stem for p in as_path_list(settings.data.path))
     name = settings.run_name or f"discover {settings.model.name} {stems}"
     vessel = settings.vessel.name if study.vessel is not None else "unknown"
