@@ -57,7 +57,7 @@ def test_the_guide_runs_as_written(tmp_path):
     assert "outside_training_states" in out
     # the 3 deg offset put into MARIN's zig-zags is in the class named, its size within 30 %
     offset_line = next(line for line in out.splitlines() if line.endswith(" deg") and "[" in line)
-    assert "'rudder_offset'" in offset_line, offset_line
+    assert offset_line.startswith("rudder_offset ['rudder_offset'"), offset_line  # named, first of its class
     assert 2.1 <= float(offset_line.split()[-2]) <= 3.9, offset_line
     assert "True runs:/" in out
     assert "ls" in out.splitlines()[-1]

@@ -9,7 +9,6 @@ imported. Matplotlib is loaded on first use only: commands that draw nothing
 from __future__ import annotations
 
 import contextlib
-
 import functools
 
 __all__ = ["pyplot", "readable_ticks", "thinned", "thinned_track", "MAX_POINTS", "Drawer", "DRAWER", "draw"]

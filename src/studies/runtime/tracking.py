@@ -232,6 +232,15 @@ def flatten(cfg: dict, prefix: str = "") -> dict:
     return out
 
 
+def _log_params(client, run_id: str, params: dict) -> None:
+    """Log flat ``params`` (name -> text) to a run in batches of 100 (MLflow's limit per call)."""
+    import mlflow
+
+    items = list(params.items())
+    for i in range(0, len(items), 100):
+        client.log_batch(run_id, params=[mlflow.entities.Param(k, v) for k, v in items[i:i + 100]])
+
+
 @contextlib.contextmanager
 def start_run(experiment: str, run_name: str, uri: str | None, root, params: dict,
               tags: dict | None = None, on_create=None):
@@ -258,10 +267,7 @@ def start_run(experiment: str, run_name: str, uri: str | None, root, params: dic
             logger = RunLogger(client, run.info.run_id, uri)
             if on_create is not None:
                 on_create(logger.run_id, uri)
-            items = list(flatten(params).items())
-            for i in range(0, len(items), 100):
-                batch = [mlflow.entities.Param(k, v) for k, v in items[i:i + 100]]
-                client.log_batch(logger.run_id, params=batch)
+            _log_params(client, logger.run_id, flatten(params))
         yield logger
     except Exception as error:
         interrupt.acknowledge()         # the run is closed as FAILED, not interrupted again
@@ -690,16 +696,15 @@ def into_active_run(params: dict, tags: dict | None = None):
     client = MlflowClient(tracking_uri=uri)
     run_id = run.info.run_id
     held = client.get_run(run_id).data.params
-    new = []
+    new = {}
     for key, value in flatten(params).items():
         if key in held and held[key] != value:
             raise ConfigError(f"{key}: the active MLflow run {run_id} already holds {held[key]!r}, this "
                               f"study has {value!r}; open a run for it (mlflow.start_run(nested=True))")
         if key not in held:
-            new.append(mlflow.entities.Param(key, value))
+            new[key] = value
     with store_lock(uri):
-        for i in range(0, len(new), 100):
-            client.log_batch(run_id, params=new[i:i + 100])
+        _log_params(client, run_id, new)
         for key, value in (tags or {}).items():
             if not key.startswith("mlflow.source"):      # the caller's own source stays
                 client.set_tag(run_id, key, str(value))
