@@ -21,8 +21,9 @@ import pytest
 from conftest import SHARED_DATA, marin_file
 from studies.analysis.characteristics import turning_geometry, zigzag_overshoots
 from studies.data.marin import read_marin
-from studies.models.mmg import (HULL_TERMS, KVLCC2_HULL, hull_forces, mmg,
+from studies.models.mmg import (HULL_FAMILIES, HULL_TERMS, KVLCC2_HULL, family_modules, hull_forces, mmg,
                                 module_constants, module_forces)
+from studies.vessels import get_mmg_vessel
 from studies.simulate import Manoeuvre, turning, zigzag
 from studies.simulate.mmg import (_derivatives, _drift, _module_accelerations, hull_vector,
                                   mmg_acceleration, mmg_forces, mmg_inputs, replay_mmg, self_propulsion_rps,
@@ -61,23 +62,53 @@ def _states(seed=3, size=200, speed=1.2):
 def test_hull_terms_carry_the_published_names_and_the_resistance_sign(model):
     assert model.names == DESIGN_NAMES
     assert set(KVLCC2_HULL) == set(DESIGN_NAMES)
-    primes = np.array([[0.0, 0.1, -0.2, 0.0], [0.0, -0.3, 0.4, 0.1]])
+    # MMG primes: u / U, v', r', delta, thrust loading T'
+    primes = np.array([[0.99, 0.1, -0.2, 0.0, 0.3], [0.95, -0.3, 0.4, 0.1, 1.2]])
     r0 = model.terms_of("X")[0]
     np.testing.assert_array_equal(r0.feature(primes), [-1.0, -1.0])
     # the term set's forces are the hull formula of the module
     c = [KVLCC2_HULL.get(name, 0.0) for name, *_ in HULL_TERMS]
-    expected = np.column_stack(hull_forces(primes[:, 1], primes[:, 2], c))
+    expected = np.column_stack(hull_forces(*primes.T, c))
     np.testing.assert_allclose(model.forces(primes, KVLCC2_HULL), expected, rtol=1e-13)
     assert model.rudder_yaw_sign(KVLCC2_HULL) == -1.0
     # the asymmetric hull adds a constant side force and yaw moment, in the module's formula too
     asymmetric = mmg(asymmetry=True)
     assert list(asymmetric.names) == list(DESIGN_NAMES) + ["Y0", "N0"]
     values = {**KVLCC2_HULL, "Y0": 0.002, "N0": -0.001}
-    c = [values[name] for name, *_ in HULL_TERMS]
-    expected = np.column_stack(hull_forces(primes[:, 1], primes[:, 2], c))
+    c = [values.get(name, 0.0) for name, *_ in HULL_TERMS]
+    expected = np.column_stack(hull_forces(*primes.T, c))
     np.testing.assert_allclose(asymmetric.forces(primes, values), expected, rtol=1e-13)
     np.testing.assert_allclose(expected[:, 1:] - model.forces(primes, KVLCC2_HULL)[:, 1:], [[0.002, -0.001]] * 2,
                                rtol=1e-10)
+
+
+@pytest.mark.parametrize("hull", sorted(HULL_FAMILIES))
+def test_every_hull_family_is_the_simulators_formula(hull):
+    """Each family's terms, evaluated as the regression does, give the forces of the compiled
+    simulator's hull formula, with the thrust loading and u' = cos(beta) where a term has them."""
+    family = mmg(hull=hull)
+    rng = np.random.default_rng(3)
+    primes = np.column_stack([rng.uniform(0.9, 1.0, 50), rng.uniform(-0.3, 0.3, 50), rng.uniform(-0.6, 0.6, 50),
+                              rng.uniform(-0.6, 0.6, 50), rng.uniform(0.1, 3.0, 50)])
+    values = {name: float(rng.normal()) for name in family.names}
+    c = [values.get(name, 0.0) for name, *_ in HULL_TERMS]
+    np.testing.assert_allclose(family.forces(primes, values), np.column_stack(hull_forces(*primes.T, c)),
+                               rtol=1e-12, atol=1e-12)
+    thrust_terms = [t for t in family.terms if t.thrust]
+    for t in thrust_terms:            # a term of T' is zero without thrust, linear in it
+        zero = primes.copy()
+        zero[:, 4] = 0.0
+        assert not t.feature(zero).any()
+
+
+def test_the_reduced_hull_has_no_rudder_module():
+    vessel = get_mmg_vessel("kvlcc2")
+    modules = family_modules("reduced", vessel.modules)
+    assert modules.f_alpha == 0.0 and modules.f_alpha_2 == 0.0
+    assert family_modules("thrust", vessel.modules) == vessel.modules
+    _, y, n = module_forces(np.array([vessel.speed]), np.array([0.1]), np.array([0.002]), np.array([0.3]),
+                            np.array([vessel.rps]), module_constants(vessel, modules))
+    assert y[0] == 0.0 and n[0] == 0.0
 
 
 def test_kt_fit_reproduces_the_open_water_table(ship):
@@ -196,9 +227,9 @@ def test_drop_the_propeller_and_the_speed_collapses(ship, model):
 def test_unknown_term_is_refused(ship, model):
     from studies.models.terms import Term
 
-    bigger = model.extended([Term("Yd", "Y", (0, 0, 0, 1))])
-    with pytest.raises(ValueError, match="Yd"):
-        simulate_mmg(bigger, {**KVLCC2_HULL, "Yd": 0.1}, ship, turning(35, duration=10.0))
+    bigger = model.extended([Term("Yddd", "Y", (0, 0, 0, 3))])
+    with pytest.raises(ValueError, match="Yddd"):
+        simulate_mmg(bigger, {**KVLCC2_HULL, "Yddd": 0.1}, ship, turning(35, duration=10.0))
 
 
 # --- against the MARIN free-running tests (full scale) -------------------------------------

@@ -166,13 +166,20 @@ def test_register_takes_a_model_name_and_a_manoeuvring_model(tmp_path, refused_i
     refused_in_process("simulate", ["manoeuvre=roll_decay"], tmp_path, "simulate", "roll decay")
 
 
+#: the reduced hull identified from HSVA's 13 zig-zags (experiment=kvlcc2_cross_facility)
+REDUCED_HSVA = {"Xu": -1.2054, "Xuu": 1.1918, "Xrr": -0.0025, "Xvr": -0.334, "Xdd": -0.0394,
+                "Yv": -0.3327, "Yr": 5.6182, "Yu": -0.002, "Yur": -5.5346, "Yd": 0.0476, "YTd": 0.9629,
+                "YT": 0.0843, "Yvvd": 1.0384, "Nv": -0.0916, "Nr": -1.7181, "Nu": 0.0009, "Nur": 1.6776,
+                "Nd": -0.0198, "NTd": -0.4345, "NT": -0.0313, "Nvvd": -0.3277}
+
+
 def test_the_identified_model_file_round_trips_every_simulator():
     """Abkowitz subsets, and the MMG hull with its own propeller and rudder
     parameters: written, read and simulated to the same bits."""
     from dataclasses import replace
 
     from studies.environment.conditions import Environment
-    from studies.models.mmg import mmg
+    from studies.models.mmg import family_modules, mmg
     from studies.models.registry import get_model
     from studies.simulate import zigzag
     from studies.vessels import get_mmg_vessel, get_vessel
@@ -186,9 +193,13 @@ def test_the_identified_model_file_round_trips_every_simulator():
                         Environment(8.0, np.deg2rad(30.0))),
         IdentifiedModel(mmg(), {n: 0.97 * kvlcc2.coefficients[n] for n in mmg().names}, kvlcc2,
                         modules=replace(kvlcc2.modules, epsilon=1.2, kappa=0.4)),
+        # the reduced hull: terms of the thrust loading, the rudder module off
+        IdentifiedModel(mmg(hull="reduced"), REDUCED_HSVA, kvlcc2, modules=family_modules("reduced", kvlcc2.modules)),
     ]
+    assert [t.thrust for t in models[2].model.terms if t.thrust] == [1] * 4
     for model in models:
         again = IdentifiedModel.from_dict(json.loads(json.dumps(model.to_dict())))
+        assert again.model == model.model
         man = zigzag(20, 20, duration=120.0 if model.is_mmg else 300.0)
         first, second = model.simulate(man), again.simulate(man)
         pd.testing.assert_frame_equal(first, second, check_exact=True)

@@ -17,7 +17,7 @@ import pandas as pd
 
 from ..data.captive import captive_motion
 from ..models.abkowitz import ManoeuvringModel
-from ..models.mmg import HULL_TERMS, MMGParameters, hull_forces, module_constants, module_forces
+from ..models.mmg import HULL_TERMS, MMGParameters, hull_forces, hull_primes, module_constants, module_forces
 from ..plotting import pyplot
 
 __all__ = ["captive_forces", "captive_comparison", "plot_captive"]
@@ -34,7 +34,7 @@ def captive_forces(model: ManoeuvringModel, values: dict, vessel, modules: MMGPa
     speed = m["U"]
     names = set(model.names)
     hull = tuple(float(values.get(n, 0.0)) if n in names else 0.0 for n, *_ in HULL_TERMS)
-    xh, yh, nh = hull_forces(m["v"] / speed, m["r"] * vessel.length / speed, hull)
+    xh, yh, nh = hull_forces(*hull_primes(m["u"], m["v"], m["r"], m["delta"], m["n"], vessel, modules).T, hull)
     xm, ym, nm = module_forces(m["u"], m["v"], m["r"], m["delta"], m["n"], module_constants(vessel, modules))
     qd = 0.5 * vessel.rho * vessel.length * vessel.draught * speed ** 2
     q2 = 0.5 * vessel.rho * vessel.length ** 2 * speed ** 2

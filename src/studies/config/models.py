@@ -8,7 +8,7 @@ from typing import List, Optional
 from omegaconf import II, MISSING
 
 from ..errors import ConfigError
-from .values import (DERIVATIVES, STUDY_KINDS, ROLL_TERMS, ROLL_DAMPING_TERMS, MMG_REFINABLE, MMG_SCALES, _number,
+from .values import (DERIVATIVES, STUDY_KINDS, ROLL_TERMS, ROLL_DAMPING_TERMS, MMG_REFINABLE, MMG_SCALES, MMG_HULLS, _number,
                      _optional_number, _integer, _choice)
 from .manoeuvres import _check_manoeuvre_names
 
@@ -285,6 +285,18 @@ class MMGModelConfig(ModelConfig):
         standard method's normal force, linear in ``sin(alpha_R)``. ``fit``:
         ``f_alpha`` and the quadratic ``f_alpha_2`` identified with the hull
         from the training records (:mod:`studies.identification.mmg_rudder`).
+    hull : str
+        The hull's family of terms (:data:`studies.models.mmg.HULL_FAMILIES`):
+        ``standard`` (the 17 terms of the MMG standard method), ``thrust``
+        (those and a side force, yaw moment and rudder force growing with the
+        thrust loading ``T'``: ``YT NT YTd NTd``) or ``reduced`` (Alexandersson
+        et al. 2022: no cubic terms, the rudder in the hull's terms ``delta,
+        T' delta, v'^2 delta`` with the rudder module off, ``u' = cos(beta)``
+        terms; measured records only, no prior; ``model.asymmetry`` adds
+        nothing to it: its ``Yu, Nu, YT, NT`` carry the asymmetry), or
+        ``auto``: the family the training records support, by their
+        leave-one-record-out cross-validation and the physics of the turn
+        (:mod:`studies.workflows.hull_choice`; measured records only).
     """
 
     prior_scale: float = 0.5
@@ -302,6 +314,7 @@ class MMGModelConfig(ModelConfig):
     asymmetry: bool = False
     fit_wake: bool = False
     rudder_lift: str = "published"
+    hull: str = "standard"
 
     def __post_init__(self):
         super().__post_init__()
@@ -320,6 +333,11 @@ class MMGModelConfig(ModelConfig):
             raise ConfigError(f"model.weights must be none or speed, got '{self.weights}'")
         if self.rudder_lift not in ("published", "fit"):
             raise ConfigError(f"model.rudder_lift must be published or fit, got '{self.rudder_lift}'")
+        if self.hull not in MMG_HULLS:
+            raise ConfigError(f"model.hull must be one of {', '.join(MMG_HULLS)}, got '{self.hull}'")
+        if self.hull in ("reduced", "auto") and (self.rudder_lift == "fit" or self.output_error):
+            raise ConfigError(f"model.hull={self.hull}: the reduced family carries the rudder in its hull "
+                              "terms, so model.rudder_lift=fit and model.output_error do not apply to it")
         if not self.captive_weight >= 0:
             raise ConfigError(f"model.captive_weight must be >= 0, got {self.captive_weight}")
         self.cross_validate_jobs = _integer("model.cross_validate_jobs", self.cross_validate_jobs)

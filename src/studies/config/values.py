@@ -14,7 +14,7 @@ __all__ = ["CONF_DIR", "DERIVATIVES", "DISCOVERY_METHODS", "DISCOVERY_JUDGES", "
            "SINDY_COEFFICIENTS", "SINDY_FOLDS", "BAYES_MOVES", "GA_BASES",
            "GA_PARENT_SELECTIONS",
            "BAYES_DISCREPANCIES", "WIND_CONVENTIONS", "OBJECTIVE_SIMULATIONS", "DISTURBANCE_SCALINGS",
-           "RECORD_SCALES", "MMG_REFINABLE", "MMG_SCALES", "USER_CONF_ENV", "user_conf_dir"]
+           "RECORD_SCALES", "MMG_REFINABLE", "MMG_SCALES", "MMG_HULLS", "USER_CONF_ENV", "user_conf_dir"]
 
 
 #: the packaged config folder (``studies/conf``)
@@ -171,6 +171,9 @@ MMG_REFINABLE = ("tP", "wP0", "C1", "C2_plus", "C2_minus", "tR", "aH", "xH", "ga
 
 #: scales of ``model.scale`` (``model=mmg``)
 MMG_SCALES = ("auto", "model", "full")
+#: the MMG hull families of ``model.hull`` (the names of :data:`studies.models.mmg.HULL_FAMILIES`),
+#: and ``auto``: the one the training records support (:mod:`studies.workflows.hull_choice`)
+MMG_HULLS = ("standard", "thrust", "reduced", "auto")
 
 
 #: environment variable naming a folder of the user's own configs (default ``./conf``)

@@ -45,7 +45,7 @@ import numpy as np
 from ..data.captive import captive_motion
 from ..data.derivatives import DerivativeEstimate
 from ..models.abkowitz import ManoeuvringModel
-from ..models.mmg import MMGParameters, module_constants, module_forces
+from ..models.mmg import MMGParameters, hull_primes, module_constants, module_forces
 from .regression import assemble_problems
 
 __all__ = ["hull_force_targets", "captive_targets", "mmg_problems", "add_prior_rows", "MMG_PRIOR_RECORD",
@@ -69,18 +69,19 @@ def captive_targets(vessel, modules: MMGParameters, tests) -> tuple[np.ndarray, 
     m = captive_motion(tests)
     speed, v, r = m["U"], m["v"], m["r"]
     xm, ym, nm = module_forces(m["u"], v, r, m["delta"], m["n"], module_constants(vessel, modules))
+    primes = hull_primes(m["u"], v, r, m["delta"], m["n"], vessel, modules)
     qd = 0.5 * vessel.rho * vessel.length * vessel.draught * speed ** 2
     q2 = 0.5 * vessel.rho * vessel.length ** 2 * speed ** 2
     lhs = np.column_stack([(np.asarray(tests["X"], float) * q2 - xm) / qd,
                            (np.asarray(tests["Y"], float) * q2 - ym) / qd,
                            (np.asarray(tests["N"], float) * q2 * vessel.length - nm) / (qd * vessel.length)])
-    primes = np.column_stack([np.zeros_like(v), v / speed, r * vessel.length / speed, m["delta"]])
     return primes, lhs
 
 
 def hull_force_targets(vessel, modules: MMGParameters, estimate: DerivativeEstimate,
                        n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Prime states ``(0, v', r', delta)`` (k, 4) and prime hull forces (k, 3) of one record.
+    """MMG primes (k, 5) (:func:`~studies.models.mmg.hull_primes`: ``u/U, v/U, r L/U, delta`` and
+    the propeller module's thrust loading) and prime hull forces (k, 3) of one record.
 
     Parameters
     ----------
@@ -105,9 +106,7 @@ def hull_force_targets(vessel, modules: MMGParameters, estimate: DerivativeEstim
     speed2 = u * u + v * v
     q = 0.5 * vessel.rho * vessel.length * vessel.draught * speed2
     lhs = np.column_stack([(fx - xm) / q, (fy - ym) / q, (fn - nm) / (q * vessel.length)])
-    speed = np.sqrt(speed2)
-    primes = np.column_stack([np.zeros_like(u), v / speed, r * vessel.length / speed, delta])
-    return primes, lhs
+    return hull_primes(u, v, r, delta, n, vessel, modules), lhs
 
 
 def mmg_problems(model: ManoeuvringModel, vessel, modules: MMGParameters, records, estimates,

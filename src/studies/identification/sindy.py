@@ -128,6 +128,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError
+from ..models.mmg import MMGTerm
 from ..models.terms import candidate_terms
 from .base import Identification
 from .ls import regression_diagnostics
@@ -353,6 +354,10 @@ class SparseRegression:
         """
         model = objective.model
         extra = [t for dof in problems for t in candidate_terms(dof, self.max_order)]
+        if any(isinstance(t, MMGTerm) for t in model.terms):
+            # the MMG hull's candidates are functions of v', r', delta: u' = u / U (cos(beta))
+            # is a family's own term, not a free candidate (it is 1 - v'^2 / 2 to second order)
+            extra = [t for t in extra if not t.powers[0]]
         extended = model.extended(extra, name=f"{model.name}+candidates{self.max_order}")
         first = next(iter(problems.values()))
         derivative = getattr(first, "meta", {}).get("derivative", "auto")

@@ -63,7 +63,7 @@ class ManoeuvringModel:
         names = [t.name for t in self.terms]
         if len(set(names)) != len(names):
             raise ValueError(f"model '{self.name}' has duplicated term names")
-        keys = [(t.dof, t.powers) for t in self.terms]
+        keys = [t.key for t in self.terms]
         if len(set(keys)) != len(keys):
             raise ValueError(f"model '{self.name}' has two terms with the same monomial")
 
@@ -127,14 +127,14 @@ class ManoeuvringModel:
         (Mariner: ``Nd < 0``, positive rudder gives negative heading).
         """
         for t in self.terms_of("N"):
-            if t.powers == (0, 0, 0, 1):
+            if t.powers == (0, 0, 0, 1) and not getattr(t, "thrust", 0):
                 return float(np.sign(values[t.name])) or -1.0
         return -1.0
 
     def extended(self, extra: list[Term], name: str | None = None) -> "ManoeuvringModel":
         """A new model with ``extra`` terms appended (existing ones kept)."""
-        have = {(t.dof, t.powers) for t in self.terms}
-        add = [t for t in extra if (t.dof, t.powers) not in have]
+        have = {t.key for t in self.terms}
+        add = [t for t in extra if t.key not in have]
         ordered = []
         for dof in DOFS:
             ordered += self.terms_of(dof) + [t for t in add if t.dof == dof]

@@ -84,14 +84,15 @@ doi:10.1007/s00773-014-0293-y (KVLCC2 L7 model: Table 2-4).
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
 from .abkowitz import ManoeuvringModel
 from .terms import Term
 
-__all__ = ["MMGTerm", "MMGParameters", "HULL_TERMS", "STANDARD_TERMS", "ASYMMETRY_TERMS", "KVLCC2_HULL", "KVLCC2_ADDED_MASS",
+__all__ = ["MMGTerm", "MMGParameters", "HULL_TERMS", "STANDARD_TERMS", "ASYMMETRY_TERMS",
+           "THRUST_TERMS", "REDUCED_TERMS", "HULL_FAMILIES", "family_modules", "hull_primes", "KVLCC2_HULL", "KVLCC2_ADDED_MASS",
            "KVLCC2_KT_PUBLISHED", "mmg", "fit_kt", "hull_forces", "module_forces",
            "rudder_propeller", "thrust_normal_force", "module_gains", "module_constants",
            "MODULE_CONSTANTS"]
@@ -99,36 +100,79 @@ __all__ = ["MMGTerm", "MMGParameters", "HULL_TERMS", "STANDARD_TERMS", "ASYMMETR
 
 @dataclass(frozen=True)
 class MMGTerm(Term):
-    """A hull term of the MMG model: ``sign`` x monomial of ``(u', v', r', delta)``.
+    """A hull term of the MMG model: ``sign`` x monomial of ``(u', v', r', delta)``
+    x ``T'^thrust``.
 
+    The primes are those of the MMG hull, with the instantaneous speed
+    ``U = sqrt(u^2 + v^2)``: ``u' = u / U = cos(beta)``, ``v' = v / U``,
+    ``r' = r L / U``; ``delta`` [rad] in the data contract's sign and the
+    thrust loading ``T' = T / (0.5 rho L d U^2)`` of the propeller module.
     ``sign`` is -1 for the resistance ``R0`` (``X'_H = -R'_0 + ...``, the
-    published coefficient is positive) and +1 for every other term.
+    published coefficient is positive) and +1 for every other term;
+    ``thrust`` the exponent of ``T'`` (0 for the standard method's terms).
     """
 
     sign: float = 1.0
+    thrust: int = 0
 
     def feature(self, primes: np.ndarray) -> np.ndarray:
-        return self.sign * super().feature(primes)
+        """The term on MMG primes, shape (n, 5): columns ``u' = u / U``, ``v' = v / U``,
+        ``r' = r L / U``, ``delta`` [rad, contract sign] and the thrust loading
+        ``T' = T / (0.5 rho L d U^2)`` (only read by a term with ``thrust``)."""
+        out = self.sign * super().feature(primes)
+        if self.thrust:
+            out = out * np.asarray(primes, float)[:, 4] ** self.thrust
+        return out
 
 
-#: (name, dof, exponents of (u', v', r', delta), sign), in the order of eq. 8-10
+#: (name, dof, exponents of (u', v', r', delta), sign, exponent of T'): the standard method's
+#: terms in the order of eq. 8-10, the constants Y0, N0, then the terms of the other hull
+#: families (:data:`HULL_FAMILIES`)
 HULL_TERMS = (
-    ("R0", "X", (0, 0, 0, 0), -1.0), ("Xvv", "X", (0, 2, 0, 0), 1.0),
-    ("Xvr", "X", (0, 1, 1, 0), 1.0), ("Xrr", "X", (0, 0, 2, 0), 1.0),
-    ("Xvvvv", "X", (0, 4, 0, 0), 1.0),
-    ("Yv", "Y", (0, 1, 0, 0), 1.0), ("Yr", "Y", (0, 0, 1, 0), 1.0),
-    ("Yvvv", "Y", (0, 3, 0, 0), 1.0), ("Yvvr", "Y", (0, 2, 1, 0), 1.0),
-    ("Yvrr", "Y", (0, 1, 2, 0), 1.0), ("Yrrr", "Y", (0, 0, 3, 0), 1.0),
-    ("Nv", "N", (0, 1, 0, 0), 1.0), ("Nr", "N", (0, 0, 1, 0), 1.0),
-    ("Nvvv", "N", (0, 3, 0, 0), 1.0), ("Nvvr", "N", (0, 2, 1, 0), 1.0),
-    ("Nvrr", "N", (0, 1, 2, 0), 1.0), ("Nrrr", "N", (0, 0, 3, 0), 1.0),
-    ("Y0", "Y", (0, 0, 0, 0), 1.0), ("N0", "N", (0, 0, 0, 0), 1.0),
+    ("R0", "X", (0, 0, 0, 0), -1.0, 0), ("Xvv", "X", (0, 2, 0, 0), 1.0, 0),
+    ("Xvr", "X", (0, 1, 1, 0), 1.0, 0), ("Xrr", "X", (0, 0, 2, 0), 1.0, 0),
+    ("Xvvvv", "X", (0, 4, 0, 0), 1.0, 0),
+    ("Yv", "Y", (0, 1, 0, 0), 1.0, 0), ("Yr", "Y", (0, 0, 1, 0), 1.0, 0),
+    ("Yvvv", "Y", (0, 3, 0, 0), 1.0, 0), ("Yvvr", "Y", (0, 2, 1, 0), 1.0, 0),
+    ("Yvrr", "Y", (0, 1, 2, 0), 1.0, 0), ("Yrrr", "Y", (0, 0, 3, 0), 1.0, 0),
+    ("Nv", "N", (0, 1, 0, 0), 1.0, 0), ("Nr", "N", (0, 0, 1, 0), 1.0, 0),
+    ("Nvvv", "N", (0, 3, 0, 0), 1.0, 0), ("Nvvr", "N", (0, 2, 1, 0), 1.0, 0),
+    ("Nvrr", "N", (0, 1, 2, 0), 1.0, 0), ("Nrrr", "N", (0, 0, 3, 0), 1.0, 0),
+    ("Y0", "Y", (0, 0, 0, 0), 1.0, 0), ("N0", "N", (0, 0, 0, 0), 1.0, 0),
+    # surge in u' = cos(beta) and the rudder's drag
+    ("Xu", "X", (1, 0, 0, 0), 1.0, 0), ("Xuu", "X", (2, 0, 0, 0), 1.0, 0),
+    ("Xdd", "X", (0, 0, 0, 2), 1.0, 0),
+    # sway: u', u' r', the rudder (delta, v'^2 delta), the thrust loading (T', T' delta)
+    ("Yu", "Y", (1, 0, 0, 0), 1.0, 0), ("Yur", "Y", (1, 0, 1, 0), 1.0, 0),
+    ("Yd", "Y", (0, 0, 0, 1), 1.0, 0), ("Yvvd", "Y", (0, 2, 0, 1), 1.0, 0),
+    ("YT", "Y", (0, 0, 0, 0), 1.0, 1), ("YTd", "Y", (0, 0, 0, 1), 1.0, 1),
+    # yaw: the same monomials
+    ("Nu", "N", (1, 0, 0, 0), 1.0, 0), ("Nur", "N", (1, 0, 1, 0), 1.0, 0),
+    ("Nd", "N", (0, 0, 0, 1), 1.0, 0), ("Nvvd", "N", (0, 2, 0, 1), 1.0, 0),
+    ("NT", "N", (0, 0, 0, 0), 1.0, 1), ("NTd", "N", (0, 0, 0, 1), 1.0, 1),
 )
 #: the terms of the MMG standard method (the first 17 of :data:`HULL_TERMS`)
 STANDARD_TERMS = tuple(name for name, *_ in HULL_TERMS[:17])
 #: constant side force and yaw moment (prime) of a ship that is not symmetric in calm
 #: water: a single-screw propeller's side force and the asymmetric flow at its rudder
 ASYMMETRY_TERMS = ("Y0", "N0")
+#: side force and yaw moment proportional to the thrust loading ``T'`` (a single screw's
+#: asymmetry grows as the propeller loads up: 7-10 times in a 35 deg turn), and the rudder's
+#: force growing with it beyond the standard slipstream (``T' delta``)
+THRUST_TERMS = ("YT", "NT", "YTd", "NTd")
+#: the reduced model of Alexandersson et al. (2022) on the MMG primes: no cubic hull terms,
+#: the rudder in the hull's terms (the rudder module off), the drift's nonlinearity carried by
+#: ``u' = cos(beta)`` (``Yr r' + Yur u' r'``), a thrust-loaded rudder and asymmetry
+REDUCED_TERMS = ("Xu", "Xuu", "Xrr", "Xvr", "Xdd",
+                 "Yv", "Yr", "Yu", "Yur", "Yd", "YTd", "YT", "Yvvd",
+                 "Nv", "Nr", "Nu", "Nur", "Nd", "NTd", "NT", "Nvvd")
+#: the hull families of ``model.hull``: their terms, and whether the rudder module acts
+#: (False: the rudder's forces are hull terms)
+HULL_FAMILIES = {
+    "standard": (STANDARD_TERMS, True),
+    "thrust": (STANDARD_TERMS + THRUST_TERMS, True),
+    "reduced": (REDUCED_TERMS, False),
+}
 
 #: published hull coefficients of the KVLCC2 L7 model (Yasukawa & Yoshimura
 #: 2015, Table 4; forces over 0.5 rho L d U^2, moment over 0.5 rho L^2 d U^2)
@@ -208,18 +252,35 @@ class MMGParameters:
         return asdict(self)
 
 
-def mmg(name: str = "mmg", asymmetry: bool = False) -> ManoeuvringModel:
-    """The 17 hull terms of the MMG standard method (:data:`STANDARD_TERMS`).
+def mmg(name: str = "mmg", asymmetry: bool = False, hull: str = "standard") -> ManoeuvringModel:
+    """The hull terms of an MMG family (:data:`HULL_FAMILIES`).
 
-    Forces of this term set are over ``0.5 rho L d U^2`` (moment over
-    ``0.5 rho L^2 d U^2``); the propeller and rudder are not terms but
-    modules (:func:`module_forces`). No term is linear in ``delta``, so
-    :meth:`ManoeuvringModel.rudder_yaw_sign` gives the contract's -1.
+    ``standard``: the 17 terms of the MMG standard method
+    (:data:`STANDARD_TERMS`); ``thrust``: those and :data:`THRUST_TERMS`;
+    ``reduced``: :data:`REDUCED_TERMS` (with the rudder module off, see
+    :func:`family_modules`). Forces of every term set are over ``0.5 rho L d
+    U^2`` (moment over ``0.5 rho L^2 d U^2``); the propeller and, but for
+    ``reduced``, the rudder are modules (:func:`module_forces`).
     ``asymmetry=True`` adds the constants ``Y0`` and ``N0``
-    (:data:`ASYMMETRY_TERMS`).
+    (:data:`ASYMMETRY_TERMS`) to ``standard`` and ``thrust``; ``reduced``
+    carries a single screw's asymmetry in its own ``Yu u'``, ``Nu u'`` (``u'``
+    is 1 going straight) and ``YT T'``, ``NT T'``, which the constants would
+    only duplicate.
     """
-    names = STANDARD_TERMS + (ASYMMETRY_TERMS if asymmetry else ())
-    return ManoeuvringModel(name, tuple(MMGTerm(n, dof, p, s) for n, dof, p, s in HULL_TERMS if n in names))
+    if hull not in HULL_FAMILIES:
+        raise ValueError(f"unknown MMG hull '{hull}'; known: {', '.join(HULL_FAMILIES)}")
+    names = HULL_FAMILIES[hull][0] + (ASYMMETRY_TERMS if asymmetry and hull != "reduced" else ())
+    return ManoeuvringModel(name, tuple(MMGTerm(n, dof, p, s, t) for n, dof, p, s, t in HULL_TERMS
+                                        if n in names))
+
+
+def family_modules(hull: str, modules: MMGParameters) -> MMGParameters:
+    """The propeller and rudder parameters a hull family runs with: ``reduced``
+    carries the rudder in its terms, so its rudder module gives no force
+    (``f_alpha = f_alpha_2 = 0``); the others keep ``modules``."""
+    if HULL_FAMILIES[hull][1]:
+        return modules
+    return replace(modules, f_alpha=0.0, f_alpha_2=0.0)
 
 
 def fit_kt(j, kt) -> tuple[float, float, float]:
@@ -265,22 +326,42 @@ def module_constants(vessel, params: MMGParameters) -> tuple:
     return tuple(float(x) for x in values)
 
 
-def hull_forces(vp, rp, c):
-    """Prime hull forces ``(X'_H, Y'_H, N'_H)`` at ``v' = v/U``, ``r' = r L/U``.
+def hull_forces(up, vp, rp, delta, tp, c):
+    """Prime hull forces ``(X'_H, Y'_H, N'_H)`` at ``u' = u/U``, ``v' = v/U``,
+    ``r' = r L/U``, the rudder angle ``delta`` [rad, contract sign] and the
+    thrust loading ``T' = T / (0.5 rho L d U^2)``.
 
-    ``c`` holds the 19 coefficients in the order of :data:`HULL_TERMS`
-    (``R0`` as published, positive; the constants ``Y0``, ``N0`` last, zero
-    for the standard model). Scalars or arrays.
+    ``c`` holds the coefficients in the order of :data:`HULL_TERMS` (``R0``
+    as published, positive), zero for a term the model does not have.
+    Scalars or arrays.
     """
     vv = vp * vp
     rr = rp * rp
     vr = vp * rp
-    x = (-c[0] + c[1] * vv) + (c[2] * vr + c[3] * rr) + c[4] * vv * vv
+    ur = up * rp
+    vvd = vv * delta
+    td = tp * delta
+    x = (-c[0] + c[1] * vv) + (c[2] * vr + c[3] * rr) + c[4] * vv * vv \
+        + (c[19] * up + c[20] * up * up) + c[21] * delta * delta
     y = (c[5] * vp + c[6] * rp) + (c[7] * vv * vp + c[8] * vv * rp) + (c[9] * vp * rr + c[10] * rr * rp) \
-        + c[17]
+        + c[17] + (c[22] * up + c[23] * ur) + (c[24] * delta + c[25] * vvd) + (c[26] * tp + c[27] * td)
     n = (c[11] * vp + c[12] * rp) + (c[13] * vv * vp + c[14] * vv * rp) + (c[15] * vp * rr + c[16] * rr * rp) \
-        + c[18]
+        + c[18] + (c[28] * up + c[29] * ur) + (c[30] * delta + c[31] * vvd) + (c[32] * tp + c[33] * td)
     return x, y, n
+
+
+def hull_primes(u, v, r, delta, n, vessel, modules: MMGParameters) -> np.ndarray:
+    """MMG primes (k, 5) of states given as arrays (:meth:`MMGTerm.feature`):
+    ``u / U``, ``v / U``, ``r L / U``, ``delta`` [rad, contract sign] and the
+    propeller module's thrust loading ``T / (0.5 rho L d U^2)`` at the rate
+    ``n`` [rps] (``vessel`` at the states' scale)."""
+    u, v, r, delta, n = np.broadcast_arrays(*(np.asarray(x, float) for x in (u, v, r, delta, n)))
+    speed = np.sqrt(u * u + v * v)
+    k = module_constants(vessel, modules)
+    rp = r * vessel.length / speed
+    thrust, _ = thrust_normal_force(u, speed, np.arctan2(-v, u), rp, np.sin(delta), np.cos(delta), n, k)
+    tp = thrust / (0.5 * vessel.rho * vessel.length * vessel.draught * speed * speed)
+    return np.column_stack([u / speed, v / speed, rp, delta, tp])
 
 
 def module_forces(u, v, r, delta, n, k):

@@ -46,6 +46,12 @@ class Term:
     powers: tuple[int, int, int, int]
 
     @property
+    def key(self) -> tuple:
+        """What makes two terms the same feature: DOF, exponents and the exponent
+        of the thrust loading (0 but for :class:`~studies.models.mmg.MMGTerm`)."""
+        return self.dof, self.powers, getattr(self, "thrust", 0)
+
+    @property
     def dof_index(self) -> int:
         return DOFS.index(self.dof)
 

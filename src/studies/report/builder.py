@@ -106,7 +106,7 @@ def _summarise_runs(runs, condition_key: str | None = None) -> list[dict]:
 #: tables a measured run writes, set in the report as they are: (artifact, title, index, columns)
 MEASURED_TABLES = (
     ("published.csv", "Predictions beside published ones (prediction minus measurement, %)", "record",
-     ["turn of the record", "quantity", "mmg", "abkowitz", "published", "published turn", "source"]),
+     ["turn of the record", "rudder [deg]", "quantity", "mmg", "abkowitz", "published", "source"]),
     ("comparison.csv", "MMG against Abkowitz on the validation records (prediction minus measurement)",
      "record", ["quantity", "mmg", "abkowitz"]),
     ("cross_validation.csv", "Each training record held out in turn (prediction minus measurement)",

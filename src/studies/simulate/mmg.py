@@ -58,7 +58,8 @@ from scipy.optimize import brentq
 
 from ..data.resample import resample
 from ..models.abkowitz import ManoeuvringModel
-from ..models.mmg import (HULL_TERMS, MMGParameters, hull_forces, module_constants, module_forces,
+from ..models.mmg import (HULL_TERMS, MMGParameters, hull_forces, hull_primes, module_constants,
+                          module_forces,
                           module_gains, thrust_normal_force)
 from ..vessels.kvlcc2_mmg import MMGVessel
 from .integrator import DIVERGED_SPEED_FACTOR, N_STATES, _command, _small_rotation
@@ -101,9 +102,9 @@ def _derivatives(u, v, r, cpsi, spsi, delta, sdelta, cdelta, delta_c, prescribed
     speed = math.sqrt(u * u + v * v)
     inv = 1.0 / speed
     rp = r * a[0] * inv
-    xh, yh, nh = _hull(v * inv, rp, c)
     thrust, normal = _thrust_normal(u, speed, _drift(u, v), rp, sdelta, cdelta, n, k)
     q = a[1] * speed * speed
+    xh, yh, nh = _hull(u * inv, v * inv, rp, delta, thrust / q, c)
     ge = 1.0 + eg * abs(rp)
     fx = q * xh + a[3] * v * r + a[4] * r * r
     fy = q * yh - a[2] * u * r
@@ -523,7 +524,8 @@ def mmg_forces(model: ManoeuvringModel, values: dict, vessel: MMGVessel, u, v, r
     u, v, r, delta, n = (np.asarray(x, float) for x in (u, v, r, delta, n))
     k = module_constants(vessel, modules or vessel.modules)
     speed = np.sqrt(u * u + v * v)
-    xh, yh, nh = hull_forces(v / speed, r * vessel.length / speed, hull_vector(model, values))
+    primes = hull_primes(u, v, r, delta, n, vessel, modules or vessel.modules)
+    xh, yh, nh = hull_forces(*primes.T, hull_vector(model, values))
     xm, ym, nm = module_forces(u, v, r, delta, n, k)
     scale = vessel.force_scale(speed)
     return np.column_stack([scale[..., 0] * xh + xm, scale[..., 1] * yh + ym,

@@ -178,10 +178,11 @@ class IdentifiedModel:
         the vessel has none."""
         published = dict(self.vessel.coefficients or {})
         if self.is_mmg:
-            if not all(n in published for n in self.model.names):
+            standard = mmg(self.model.name)         # the published hull is the standard method's
+            if not all(n in published for n in standard.names):
                 return None
-            return replace(self, values={n: published[n] for n in self.model.names}, modules=None,
-                           source={"model": "published"})
+            return replace(self, model=standard, values={n: published[n] for n in standard.names},
+                           modules=None, source={"model": "published"})
         full = abkowitz()
         if not all(n in published for n in full.names):
             return None
@@ -261,7 +262,7 @@ class IdentifiedModel:
 
     def to_dict(self) -> dict:
         """Plain JSON-able content (floats exact through JSON)."""
-        terms = [[t.name, t.dof, list(t.powers)] + ([t.sign] if isinstance(t, MMGTerm) else [])
+        terms = [[t.name, t.dof, list(t.powers)] + ([t.sign, t.thrust] if isinstance(t, MMGTerm) else [])
                  for t in self.model.terms]
         vessel = asdict(self.vessel)
         if self.is_mmg:
@@ -288,7 +289,8 @@ class IdentifiedModel:
                               f"studies (knows {VERSION})")
         try:
             mmg_simulator = body["simulator"] == "mmg"
-            terms = tuple(MMGTerm(n, d, tuple(p), float(rest[0])) if mmg_simulator
+            terms = tuple(MMGTerm(n, d, tuple(p), float(rest[0]), int(rest[1]) if len(rest) > 1 else 0)
+                          if mmg_simulator
                           else Term(n, d, tuple(p)) for n, d, p, *rest in body["model"]["terms"])
             model = ManoeuvringModel(str(body["model"]["name"]), terms)
             values = {n: float(body["coefficients"][n]) for n in model.names}

@@ -64,7 +64,7 @@ from ..identification.mmg_output_error import MMGObjective, refine_modules
 from ..identification.mmg_propeller import fit_wake
 from ..identification.mmg_rudder import RUDDER_LIFT_FACTORS, fit_rudder_lift, rudder_lift_columns
 from ..identification.mmg_regression import mmg_problems
-from ..models.mmg import mmg
+from ..models.mmg import HULL_FAMILIES, family_modules, mmg
 from ..models.registry import get_model
 from ..simulate.mmg import replay_mmg, simulate_mmg
 from ..vessels import get_mmg_vessel, get_vessel, mmg_vessel_at_speed
@@ -77,6 +77,7 @@ from .band_calibration import write_band_calibration
 from .cross_validation import cross_validate, cv_table_markdown
 from .sparse_terms import sindy_beside_ls
 from .identified_model import IDENTIFIED_MODEL_FILE
+from .hull_choice import HULL_CHOICE_FILE, choose_hull, with_hull
 from .identifiability import identifiability
 from .settings import read_settings
 from .vessel_choice import settle_vessel
@@ -106,6 +107,7 @@ class MMGRun(_manoeuvring.ManoeuvringRun):
     @property
     def tags(self) -> dict:
         tags = _manoeuvring.run_tags(self.cfg, self.settings)
+        tags["hull"] = str(self.cfg.model.hull)
         tags["scale"] = "model" if self.vessel.scale == 1 else f"1:{1 / self.vessel.scale:g}" \
             if self.vessel.scale < 1 else f"{self.vessel.scale:g}x model"
         return tags
@@ -176,7 +178,9 @@ def _require_rate(records, paths) -> None:
 def prepare_mmg(cfg: RunConfig, root: Path | None = None, record=None) -> MMGRun:
     """Check a ``model=mmg`` configuration and load or simulate its records."""
     settings = read_settings(cfg)
-    model = mmg(str(cfg.model.name), asymmetry=cfg.model.asymmetry)
+    # auto: the family is chosen when the run executes (hull_choice); the standard one until then
+    hull = "standard" if cfg.model.hull == "auto" else cfg.model.hull
+    model = mmg(str(cfg.model.name), asymmetry=cfg.model.asymmetry, hull=hull)
     method = str(cfg.method.name)
     check_method("manoeuvring", method)
     vessel_name = settle_vessel(cfg, root)
@@ -192,6 +196,10 @@ def prepare_mmg(cfg: RunConfig, root: Path | None = None, record=None) -> MMGRun
         vessel = _at_approach(choose_scale(vessel_name, cfg.model.scale, records), records)
         measured = True
     else:
+        if cfg.model.hull == "auto" or not HULL_FAMILIES[cfg.model.hull][1]:
+            raise ConfigError(f"model.hull={cfg.model.hull} needs measured records (data.path): "
+                              "the families are chosen by records, and the reduced one has no "
+                              "published coefficients to simulate them with")
         validation = _measured.load_measured(settings.validate_paths) if settings.validate_paths else []
         _require_rate(validation, settings.validate_paths)
         vessel = choose_scale(vessel_name, "full" if cfg.model.scale == "full" else "model", [])
@@ -210,7 +218,7 @@ def prepare_mmg(cfg: RunConfig, root: Path | None = None, record=None) -> MMGRun
     if said:
         logger.info(said)
     return MMGRun(cfg, settings, vessel, model, method, records, truth, validation, measured,
-                  vessel.modules)
+                  family_modules(hull, vessel.modules))
 
 
 def _estimates(run: MMGRun) -> list:
@@ -230,7 +238,10 @@ def hull_problems(run: MMGRun, estimates=None):
     cfg = run.cfg.model
     if estimates is None:
         estimates = _estimates(run)
-    prior = dict(run.vessel.coefficients) if math.isfinite(cfg.prior_scale) else None
+    # the published values are those of the standard hull: a family whose terms share them out
+    # differently (the rudder and u' = cos(beta) in the hull's terms) is regressed without them
+    prior = dict(run.vessel.coefficients) \
+        if math.isfinite(cfg.prior_scale) and HULL_FAMILIES[run_hull(run)][1] else None
 
     captive = None
     if cfg.captive_weight > 0:
@@ -243,6 +254,13 @@ def hull_problems(run: MMGRun, estimates=None):
         return mmg_problems(run.model, run.vessel, modules, run.records, estimates, prior,
                             cfg.prior_scale, cfg.prior_floor, cfg.weights, captive)
     return problems
+
+
+def run_hull(run: MMGRun) -> str:
+    """The hull family the run identifies (``model.hull``; ``auto`` before its choice is
+    made is the standard family the run was prepared with)."""
+    hull = run.cfg.model.hull
+    return "standard" if hull == "auto" else hull
 
 
 def identify_mmg(run: MMGRun):
@@ -298,10 +316,12 @@ def _factor_table(run: MMGRun, modules) -> pd.DataFrame:
 def _validate_simulated(run: MMGRun, params: dict, out_dir: Path) -> dict:
     """Validation manoeuvres simulated with the identified and the published coefficients."""
     metrics = {}
-    reference = published_values(run.vessel, run.model)
+    # the published model is the standard method's, whatever the run's hull family
+    published_model = mmg(str(run.model.name))
+    reference = published_values(run.vessel, published_model)
     for name in run.settings.validate_manoeuvres:
         man = _manoeuvring.validation_manoeuvre(name, run.cfg.validate.duration)
-        ref = simulate_mmg(run.model, reference, run.vessel, man)
+        ref = simulate_mmg(published_model, reference, run.vessel, man)
         pred = simulate_mmg(run.model, params, run.vessel, man, run.modules)
         metrics.update(_manoeuvring.compare_simulated(
             name, man, pred, ref, out_dir, f"{name}: identified MMG ({run.method}) vs published MMG",
@@ -364,8 +384,17 @@ def _turn_side(record: pd.DataFrame) -> str:
     return "port" if float(record["psi"].iloc[-1] - record["psi"].iloc[0]) < 0 else "starboard"
 
 
+def _held_rudder_deg(record: pd.DataFrame) -> float:
+    """The rudder angle [deg, data contract's sign] the record holds longest, to the degree
+    (a turning circle's +35 or -35)."""
+    angles = np.round(np.rad2deg(record["delta"].to_numpy(float)))
+    values, counts = np.unique(angles, return_counts=True)
+    return float(values[np.argmax(counts)])
+
+
 def _published_beside(run: MMGRun, metrics: dict, out_dir: Path) -> None:
-    """``published.md``/``.csv``: published predictions of the validation records beside the run's."""
+    """``published.md``/``.csv``: published predictions of the validation records beside the run's,
+    each record matched to the published turn with its own rudder angle (sign included)."""
     rows = []
     for paper_id, table_name in PUBLISHED_PREDICTIONS:
         paper = get_paper(paper_id)
@@ -373,11 +402,14 @@ def _published_beside(run: MMGRun, metrics: dict, out_dir: Path) -> None:
         for rec in run.validation_records:
             name = str(rec.attrs.get("name"))
             side = _turn_side(rec)
-            for row in table[table["record"] == name].itertuples():
-                rows.append({"record": name, "turn of the record": side, "quantity": row.quantity,
+            rudder = _held_rudder_deg(rec)
+            same = table[(table["record"] == name) & (table["rudder_deg"].astype(float) == rudder)]
+            for row in same.itertuples():
+                rows.append({"record": name, "turn of the record": side, "rudder [deg]": rudder,
+                             "quantity": row.quantity,
                              "mmg": metrics.get(f"{name}/{row.quantity}"),
                              "abkowitz": metrics.get(f"abkowitz/{name}/{row.quantity}"),
-                             "published": float(row.value), "published turn": row.turn,
+                             "published": float(row.value),
                              "published training": row.training, "source": paper.citation})
     if not rows:
         return
@@ -387,13 +419,14 @@ def _published_beside(run: MMGRun, metrics: dict, out_dir: Path) -> None:
     fmt = (lambda x: "–" if x is None or not np.isfinite(x) else f"{x:+.1f}")
     lines = ["# The run's predictions beside published ones", "",
              f"Trained on {training}; prediction minus measurement in %, {_records_scale(run)}. The "
-             "published values are the papers' own predictions of the same measured record (their "
-             "training records in the last column); the turn of the record is read from its heading "
-             "(decreasing: port).", "",
-             "| record | turn | quantity | MMG | Abkowitz | published | published turn | published training | source |",
-             "|---|---|---|---:|---:|---:|---|---|---|"]
+             "published values are the papers' own predictions of the same measured record, the turn "
+             "with the same rudder angle (the data contract's sign: positive turns to a decreasing "
+             "heading); their training records in the last column. The turn of the record is read from "
+             "its heading (decreasing: port).", "",
+             "| record | turn | rudder [deg] | quantity | MMG | Abkowitz | published | published training | source |",
+             "|---|---|---:|---|---:|---:|---:|---|---|"]
     for r in frame.itertuples(index=False):
-        lines.append(f"| {r[0]} | {r[1]} | {r[2]} | {fmt(r[3])} | {fmt(r[4])} | {r[5]:+.1f} | {r[6]} | "
+        lines.append(f"| {r[0]} | {r[1]} | {r[2]:+.0f} | {r[3]} | {fmt(r[4])} | {fmt(r[5])} | {r[6]:+.1f} | "
                      f"{r[7]} | {r[8]} |")
     (out_dir / "published.md").write_text("\n".join(lines) + "\n")
 
@@ -459,9 +492,15 @@ def _scale_note(run: MMGRun) -> str:
     return "\n".join([f"# MMG model of {v.name}", "",
                       f"- scale: {scale}; L = {v.length:.4g} m, approach {v.speed:.4g} m/s at "
                       f"{v.rps:.4g} rps",
+                      f"- hull family: {run_hull(run)} ({', '.join(run.model.names)})"
+                      + (", the rudder's forces in its terms (rudder module off)"
+                         if not HULL_FAMILIES[run_hull(run)][1] else ""),
                       f"- hull coefficients: MMG primes (X, Y over 0.5 rho L d U^2, N over "
-                      f"0.5 rho L^2 d U^2), prior sd max({run.cfg.model.prior_scale:g} |c0|, "
-                      f"{run.cfg.model.prior_floor:g}) around {v.reference}",
+                      f"0.5 rho L^2 d U^2; u' = u/U, T' = T / (0.5 rho L d U^2)), "
+                      + (f"prior sd max({run.cfg.model.prior_scale:g} |c0|, "
+                         f"{run.cfg.model.prior_floor:g}) around {v.reference}"
+                         if HULL_FAMILIES[run_hull(run)][1] and math.isfinite(run.cfg.model.prior_scale)
+                         else "no prior (least squares on the records)"),
                       f"- captive tests in the regression: "
                       f"{'weight %g' % run.cfg.model.captive_weight if run.cfg.model.captive_weight > 0 else 'no'}",
                       f"- interaction factors fitted by output error: "
@@ -482,7 +521,14 @@ def execute_mmg(run: MMGRun, out_dir: Path) -> dict:
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
+    chosen = {}
+    if run.cfg.model.hull == "auto" and run.measured:
+        hull, chosen = choose_hull(run, identify_mmg, out_dir)
+        picked = with_hull(run, hull)
+        run.cfg, run.model, run.modules = picked.cfg, picked.model, picked.modules
+        logger.info("model.hull=auto: the training records support the %s hull (%s)", hull, HULL_CHOICE_FILE)
     result, modules, metrics = identify_mmg(run)
+    metrics.update(chosen)
     run.modules = modules
     params = {name: result.params[name] for name in run.model.names}
     table = _manoeuvring.coefficient_table(run.model, params, result.lower, result.upper, run.truth)

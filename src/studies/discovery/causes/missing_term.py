@@ -58,6 +58,6 @@ class MissingTerm(Cause):
 
 def extended_library(model: ManoeuvringModel, max_order: int = 3) -> list:
     """Candidate terms (monomials up to ``max_order``) the model does not have."""
-    have = {(t.dof, t.powers) for t in model.terms}
+    have = {t.key for t in model.terms}
     return [t for dof in ("X", "Y", "N") for t in candidate_terms(dof, max_order)
-            if (t.dof, t.powers) not in have]
+            if t.key not in have]
