@@ -164,8 +164,16 @@ def integrated_time(x: np.ndarray) -> float:
 
 
 def calibrate(ctx: Context) -> tuple[dict, list]:
-    """Baseline fit: sets the residual scales, ``n_eff`` and ``tau`` of ``ctx``."""
-    params, residuals, problems = regression_fit(ctx, Setup(ctx.model, ctx.train))
+    """Baseline fit: sets the residual scales, ``n_eff`` and ``tau`` of ``ctx``.
+
+    The baseline is fitted on the Abkowitz rows of the records; a hull family
+    with terms of the MMG primes alone (``u' = u / U``, the thrust loading:
+    ``model.hull=thrust|reduced``) on the MMG model's rows (the standard MMG
+    hull's terms are monomials of ``v', r'``, which both rows hold)."""
+    needs_mmg_rows = ctx.dynamics is not None and any(
+        getattr(t, "thrust", 0) or (t.powers[0] and hasattr(t, "thrust")) for t in ctx.model.terms)
+    params, residuals, problems = regression_fit(
+        ctx, Setup(ctx.model, ctx.train, dynamics=ctx.dynamics if needs_mmg_rows else None))
     scored = nominal_residuals(ctx, residuals, problems)
     ctx.sigma = np.array([max(np.std(r), 1e-300) for r in scored])
     ctx.n_rows = len(scored[0])

@@ -82,9 +82,14 @@ def baseline_dynamics(prepared: PreparedDiscovery) -> MMGDynamics | None:
     if not has_mmg_particulars(name):
         from ..errors import ConfigError
         raise ConfigError(f"model=mmg: vessel {name} has no MMG particulars (propeller, rudder, K_T curve)")
+    hull = str(getattr(prepared.cfg.model, "hull", "standard"))
+    if hull == "auto":
+        from ..errors import ConfigError
+        raise ConfigError("discover: model.hull=auto is chosen by `studies run` (hull_choice.md); "
+                          "name the family here (model.hull=standard|thrust|reduced)")
     first = prepared.train[0]
     return MMGDynamics(mmg_vessel_at_speed(name, float(np.hypot(first["u"].iloc[0], first["v"].iloc[0]))),
-                       asymmetry=bool(getattr(prepared.cfg.model, "asymmetry", False)))
+                       asymmetry=bool(getattr(prepared.cfg.model, "asymmetry", False)), hull=hull)
 
 
 def check_injected(prepared: PreparedDiscovery) -> None:

@@ -8,7 +8,7 @@ from ...identification.kalman import estimate_derivatives
 from ...identification.mmg_filter import MMGFilterPlan
 from ...identification.mmg_regression import mmg_problems
 from ...models.abkowitz import ManoeuvringModel
-from ...models.mmg import HULL_TERMS, MMGParameters, mmg
+from ...models.mmg import ASYMMETRY_TERMS, HULL_FAMILIES, STANDARD_TERMS, MMGParameters, family_modules, mmg
 from ...simulate.mmg import MMGReplayPlan, replay_mmg
 from ...vessels import has_mmg_particulars, mmg_vessel_at_speed
 from .base import Cause, Setup
@@ -53,10 +53,16 @@ class MMGDynamics:
     so MMG residuals are multiplied by ``d / L``.
     """
 
-    def __init__(self, vessel, modules: MMGParameters | None = None, asymmetry: bool = False):
+    def __init__(self, vessel, modules: MMGParameters | None = None, asymmetry: bool = False,
+                 hull: str = "standard"):
         self.vessel = vessel
-        self.modules = modules or vessel.modules
-        self.model = mmg(asymmetry=asymmetry)      # with Y0, N0: the single-screw ship's asymmetry
+        self.hull = hull
+        self.modules = family_modules(hull, modules or vessel.modules)
+        # with Y0, N0: the single-screw ship's asymmetry; the hull family of model.hull
+        self.model = mmg(asymmetry=asymmetry, hull=hull)
+        # the published values are the standard hull's (a family that shares the rudder's
+        # forces out differently is regressed without them)
+        self.prior = vessel.coefficients if HULL_FAMILIES[hull][1] else None
         self._estimates = {}
 
     def estimates(self, records, derivative: str) -> list:
@@ -76,7 +82,7 @@ class MMGDynamics:
         # the setup's hull terms: the MMG hull, with a missing term's added terms (a cause on an MMG baseline)
         model = setup.model if setup.model is not None and setup.cause is not None else self.model
         problems = mmg_problems(model, self.vessel, self.modules, setup.fit_records, estimates,
-                                self.vessel.coefficients, PRIOR_SCALE, PRIOR_FLOOR)
+                                self.prior, PRIOR_SCALE, PRIOR_FLOOR)
         return problems, self.vessel.draught / self.vessel.length
 
     def replay(self, params: dict, record, environment=None, external=None, model=None):
@@ -96,7 +102,9 @@ class MMGDynamics:
         """
         speed, direction, seen = _through_the_water(record, environment)
         model = model or self.model
-        hull = {name for name, *_ in HULL_TERMS}
+        # the baseline's own hull terms and the standard method's (with Y0, N0) go to the compiled
+        # simulator; a missing term's terms are added as accelerations
+        hull = set(self.model.names) | set(STANDARD_TERMS) | set(ASYMMETRY_TERMS)
         extra = [t for t in model.terms if t.name not in hull]
         if extra:                       # a missing term's terms, outside the MMG simulator's hull
             model = ManoeuvringModel(model.name, tuple(t for t in model.terms if t.name in hull))
