@@ -181,7 +181,7 @@ BAD = [
     ("config", ["kalman.iterations=-1"], "kalman.iterations must be >= 0"),
     ("config", ["model=roll", "model.terms=[b1,b7]"], "model.terms: unknown roll terms ['b7']"),
     ("discover", ["discover.holdout=0.9"], "discover.holdout must be in [0.05, 0.8], got 0.9"),
-    ("config", ["model=mmg", "model.hull=round"], "model.hull must be one of standard, thrust, reduced, auto"),
+    ("config", ["model=mmg", "model.hull=round"], "model.hull must be one of standard, thrust, reduced, crossflow, auto"),
     ("config", ["model=mmg", "model.hull=reduced", "model.rudder_lift=fit"],
      "model.hull=reduced: the reduced family carries the rudder in its hull terms"),
 ]

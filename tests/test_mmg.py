@@ -21,8 +21,8 @@ import pytest
 from conftest import SHARED_DATA, marin_file
 from studies.analysis.characteristics import turning_geometry, zigzag_overshoots
 from studies.data.marin import read_marin
-from studies.models.mmg import (HULL_FAMILIES, HULL_TERMS, KVLCC2_HULL, family_modules, hull_forces, mmg,
-                                module_constants, module_forces)
+from studies.models.mmg import (HULL_FAMILIES, HULL_TERMS, KVLCC2_HULL, crossflow_integrals, family_modules,
+                                hull_forces, hull_primes, mmg, module_constants, module_forces)
 from studies.vessels import get_mmg_vessel
 from studies.simulate import Manoeuvre, turning, zigzag
 from studies.simulate.mmg import (_derivatives, _drift, _module_accelerations, hull_vector,
@@ -62,8 +62,8 @@ def _states(seed=3, size=200, speed=1.2):
 def test_hull_terms_carry_the_published_names_and_the_resistance_sign(model):
     assert model.names == DESIGN_NAMES
     assert set(KVLCC2_HULL) == set(DESIGN_NAMES)
-    # MMG primes: u / U, v', r', delta, thrust loading T'
-    primes = np.array([[0.99, 0.1, -0.2, 0.0, 0.3], [0.95, -0.3, 0.4, 0.1, 1.2]])
+    # MMG primes: u / U, v', r', delta, thrust loading T', cross-flow integrals of sway and yaw
+    primes = np.array([[0.99, 0.1, -0.2, 0.0, 0.3, -0.01, 0.002], [0.95, -0.3, 0.4, 0.1, 1.2, 0.08, -0.004]])
     r0 = model.terms_of("X")[0]
     np.testing.assert_array_equal(r0.feature(primes), [-1.0, -1.0])
     # the term set's forces are the hull formula of the module
@@ -87,9 +87,10 @@ def test_every_hull_family_is_the_simulators_formula(hull):
     """Each family's terms, evaluated as the regression does, give the forces of the compiled
     simulator's hull formula, with the thrust loading and u' = cos(beta) where a term has them."""
     family = mmg(hull=hull)
+    vessel = get_mmg_vessel("kvlcc2", full_scale=True)
     rng = np.random.default_rng(3)
-    primes = np.column_stack([rng.uniform(0.9, 1.0, 50), rng.uniform(-0.3, 0.3, 50), rng.uniform(-0.6, 0.6, 50),
-                              rng.uniform(-0.6, 0.6, 50), rng.uniform(0.1, 3.0, 50)])
+    primes = hull_primes(rng.uniform(3.0, 8.0, 50), rng.uniform(-2.0, 2.0, 50), rng.uniform(-0.02, 0.02, 50),
+                         rng.uniform(-0.6, 0.6, 50), rng.uniform(0.5, 2.0, 50), vessel, vessel.modules)
     values = {name: float(rng.normal()) for name in family.names}
     c = [values.get(name, 0.0) for name, *_ in HULL_TERMS]
     np.testing.assert_allclose(family.forces(primes, values), np.column_stack(hull_forces(*primes.T, c)),
@@ -99,6 +100,14 @@ def test_every_hull_family_is_the_simulators_formula(hull):
         zero = primes.copy()
         zero[:, 4] = 0.0
         assert not t.feature(zero).any()
+
+
+def test_the_crossflow_integrals_are_the_drag_of_the_hulls_strips():
+    """Pure drift: the whole length at v', f_Y = -|v'| v'; pure yaw: no side force for a
+    factor-symmetric strip and the moment -(C r')^2 sign(r') / 32."""
+    fy, fn = crossflow_integrals(np.array([0.2, 0.0]), np.array([0.0, 0.4]), 1.8, 0.84)
+    np.testing.assert_allclose(fy, [-0.04, 0.0], atol=1e-15)
+    np.testing.assert_allclose(fn, [0.0, -(0.84 * 0.4) ** 2 / 32.0], rtol=1e-4, atol=1e-15)  # 16 nodes across the kink
 
 
 def test_the_reduced_hull_has_no_rudder_module():
@@ -121,14 +130,32 @@ def test_kt_fit_reproduces_the_open_water_table(ship):
     assert k1 < 0 and 0.9 < np.max(np.roots([k2, k1, k0])) < 1.0
 
 
-def test_compiled_right_hand_side_is_the_array_definition(ship, model):
+#: values of each hull family (the reduced one as identified from HSVA's zig-zags)
+FAMILY_VALUES = {
+    "standard": KVLCC2_HULL,
+    "thrust": {**KVLCC2_HULL, "YT": 0.04, "NT": -0.015, "YTd": 0.47, "NTd": -0.14},
+    "reduced": {"Xu": -1.2054, "Xuu": 1.1918, "Xrr": -0.0025, "Xvr": -0.334, "Xdd": -0.0394, "Yv": -0.3327,
+                "Yr": 5.6182, "Yu": -0.002, "Yur": -5.5346, "Yd": 0.0476, "YTd": 0.9629, "YT": 0.0843,
+                "Yvvd": 1.0384, "Nv": -0.0916, "Nr": -1.7181, "Nu": 0.0009, "Nur": 1.6776, "Nd": -0.0198,
+                "NTd": -0.4345, "NT": -0.0313, "Nvvd": -0.3277},
+    "crossflow": {**{n: KVLCC2_HULL[n] for n in ("R0", "Xvv", "Xvr", "Xrr", "Xvvvv", "Yv", "Yr", "Nv", "Nr")},
+                  "YCF": 0.9, "NCF": 0.5},
+}
+
+
+@pytest.mark.parametrize("hull", sorted(FAMILY_VALUES))
+def test_compiled_right_hand_side_is_the_array_definition(ship, hull):
     """The accelerations of the compiled RK4 stage (drift angle by the one-argument
     arctangent, module gains through the inverse mass matrix) are the equations of
-    motion solved with the array forces of :func:`mmg_forces`."""
+    motion solved with the array forces of :func:`mmg_forces`, for every hull family
+    (the thrust loading and the cross-flow integrals computed inside the stage)."""
+    model, values = mmg(hull=hull), FAMILY_VALUES[hull]
+    assert sorted(values) == sorted(model.names)
+    modules = family_modules(hull, ship.modules)
     u, v, r, delta, n = _states()
-    k, a = mmg_inputs(ship)
+    k, a = mmg_inputs(ship, modules)
     g = _module_accelerations(k, a)
-    c = hull_vector(model, KVLCC2_HULL)
+    c = hull_vector(model, values)
     # heading 0, prescribed rudder at rest: only the first three derivatives are compared
     compiled = np.array([_derivatives(uu, vv, rr, 1.0, 0.0, d, np.sin(d), np.cos(d), 0.0, 0.0, True,
                                       nn, c, k, a, g, 0.0, 0.0, 0.0, 0.0)[:3]
@@ -137,7 +164,7 @@ def test_compiled_right_hand_side_is_the_array_definition(ship, model):
     filtered = np.array([mmg_acceleration(uu, vv, rr, d, nn, c, k, a, g)
                          for uu, vv, rr, d, nn in zip(u, v, r, delta, n)])
     np.testing.assert_allclose(filtered, compiled, rtol=1e-12, atol=1e-16)
-    f = mmg_forces(model, KVLCC2_HULL, ship, u, v, r, delta, n)
+    f = mmg_forces(model, values, ship, u, v, r, delta, n, modules)
     mx, my, jz = ship.added_masses()
     m, xgm = ship.mass, ship.xg * ship.mass
     mass = np.array([[m + mx, 0.0, 0.0], [0.0, m + my, xgm],

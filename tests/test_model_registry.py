@@ -195,8 +195,12 @@ def test_the_identified_model_file_round_trips_every_simulator():
                         modules=replace(kvlcc2.modules, epsilon=1.2, kappa=0.4)),
         # the reduced hull: terms of the thrust loading, the rudder module off
         IdentifiedModel(mmg(hull="reduced"), REDUCED_HSVA, kvlcc2, modules=family_modules("reduced", kvlcc2.modules)),
+        # the cross-flow hybrid: two drag coefficients beside the linear derivatives
+        IdentifiedModel(mmg(hull="crossflow"), {**{n: kvlcc2.coefficients[n] for n in mmg(hull="crossflow").names
+                                                   if n in kvlcc2.coefficients}, "YCF": 0.9, "NCF": 0.5}, kvlcc2),
     ]
     assert [t.thrust for t in models[2].model.terms if t.thrust] == [1] * 4
+    assert [t.name for t in models[3].model.terms if t.crossflow] == ["YCF", "NCF"]
     for model in models:
         again = IdentifiedModel.from_dict(json.loads(json.dumps(model.to_dict())))
         assert again.model == model.model

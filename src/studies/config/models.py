@@ -293,8 +293,10 @@ class MMGModelConfig(ModelConfig):
         et al. 2022: no cubic terms, the rudder in the hull's terms ``delta,
         T' delta, v'^2 delta`` with the rudder module off, ``u' = cos(beta)``
         terms; measured records only, no prior; ``model.asymmetry`` adds
-        nothing to it: its ``Yu, Nu, YT, NT`` carry the asymmetry), or
-        ``auto``: the family the training records support, by their
+        nothing to it: its ``Yu, Nu, YT, NT`` carry the asymmetry),
+        ``crossflow`` (Yoshimura's unified model: the standard surge terms,
+        ``Yv Yr Nv Nr`` and the cross-flow drag of the hull's strips
+        ``YCF``, ``NCF`` in place of the cubic terms) or ``auto``: the family the training records support, by their
         leave-one-record-out cross-validation and the physics of the turn
         (:mod:`studies.workflows.hull_choice`; measured records only).
     """

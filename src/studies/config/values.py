@@ -173,7 +173,7 @@ MMG_REFINABLE = ("tP", "wP0", "C1", "C2_plus", "C2_minus", "tR", "aH", "xH", "ga
 MMG_SCALES = ("auto", "model", "full")
 #: the MMG hull families of ``model.hull`` (the names of :data:`studies.models.mmg.HULL_FAMILIES`),
 #: and ``auto``: the one the training records support (:mod:`studies.workflows.hull_choice`)
-MMG_HULLS = ("standard", "thrust", "reduced", "auto")
+MMG_HULLS = ("standard", "thrust", "reduced", "crossflow", "auto")
 
 
 #: environment variable naming a folder of the user's own configs (default ``./conf``)

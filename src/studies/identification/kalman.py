@@ -679,7 +679,7 @@ def _biased_channels(settings: KalmanSettings) -> tuple:
 
 
 #: the MMG constants of a filter without the MMG process model (one compiled signature)
-_NO_MMG = ((0.0,) * len(HULL_TERMS), (0.0,) * len(MODULE_CONSTANTS), (0.0,) * 13, (0.0,) * 4)
+_NO_MMG = ((0.0,) * len(HULL_TERMS), (0.0,) * len(MODULE_CONSTANTS), (0.0,) * 15, (0.0,) * 4)
 
 
 def _process(model, values: dict, vessel, modules=None, tau=None, gain: float = 0.0) -> tuple:

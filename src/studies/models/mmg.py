@@ -92,7 +92,8 @@ from .abkowitz import ManoeuvringModel
 from .terms import Term
 
 __all__ = ["MMGTerm", "MMGParameters", "HULL_TERMS", "STANDARD_TERMS", "ASYMMETRY_TERMS",
-           "THRUST_TERMS", "REDUCED_TERMS", "HULL_FAMILIES", "family_modules", "hull_primes", "KVLCC2_HULL", "KVLCC2_ADDED_MASS",
+           "THRUST_TERMS", "REDUCED_TERMS", "CROSSFLOW_TERMS", "HULL_FAMILIES", "crossflow_integrals",
+           "crossflow_factors", "family_modules", "hull_primes", "KVLCC2_HULL", "KVLCC2_ADDED_MASS",
            "KVLCC2_KT_PUBLISHED", "mmg", "fit_kt", "hull_forces", "module_forces",
            "rudder_propeller", "thrust_normal_force", "module_gains", "module_constants",
            "MODULE_CONSTANTS"]
@@ -109,47 +110,60 @@ class MMGTerm(Term):
     thrust loading ``T' = T / (0.5 rho L d U^2)`` of the propeller module.
     ``sign`` is -1 for the resistance ``R0`` (``X'_H = -R'_0 + ...``, the
     published coefficient is positive) and +1 for every other term;
-    ``thrust`` the exponent of ``T'`` (0 for the standard method's terms).
+    ``thrust`` the exponent of ``T'`` (0 for the standard method's terms);
+    ``crossflow``: the term is a drag coefficient times the cross-flow
+    integral of its DOF (:func:`crossflow_integrals`).
     """
 
     sign: float = 1.0
     thrust: int = 0
+    crossflow: bool = False
+
+    @property
+    def key(self) -> tuple:
+        return self.dof, self.powers, self.thrust, self.crossflow
 
     def feature(self, primes: np.ndarray) -> np.ndarray:
-        """The term on MMG primes, shape (n, 5): columns ``u' = u / U``, ``v' = v / U``,
-        ``r' = r L / U``, ``delta`` [rad, contract sign] and the thrust loading
-        ``T' = T / (0.5 rho L d U^2)`` (only read by a term with ``thrust``)."""
+        """The term on MMG primes (:func:`hull_primes`), shape (n, 7): columns ``u' = u / U``,
+        ``v' = v / U``, ``r' = r L / U``, ``delta`` [rad, contract sign], the thrust
+        loading ``T' = T / (0.5 rho L d U^2)`` (read by a term with ``thrust``) and the
+        cross-flow drag integrals of sway and yaw (:func:`crossflow_integrals`, read by a
+        ``crossflow`` term, whose exponents are zero)."""
+        if self.crossflow:
+            return self.sign * np.asarray(primes, float)[:, 5 if self.dof == "Y" else 6]
         out = self.sign * super().feature(primes)
         if self.thrust:
             out = out * np.asarray(primes, float)[:, 4] ** self.thrust
         return out
 
 
-#: (name, dof, exponents of (u', v', r', delta), sign, exponent of T'): the standard method's
+#: (name, dof, exponents of (u', v', r', delta), sign, exponent of T', cross-flow): the standard method's
 #: terms in the order of eq. 8-10, the constants Y0, N0, then the terms of the other hull
 #: families (:data:`HULL_FAMILIES`)
 HULL_TERMS = (
-    ("R0", "X", (0, 0, 0, 0), -1.0, 0), ("Xvv", "X", (0, 2, 0, 0), 1.0, 0),
-    ("Xvr", "X", (0, 1, 1, 0), 1.0, 0), ("Xrr", "X", (0, 0, 2, 0), 1.0, 0),
-    ("Xvvvv", "X", (0, 4, 0, 0), 1.0, 0),
-    ("Yv", "Y", (0, 1, 0, 0), 1.0, 0), ("Yr", "Y", (0, 0, 1, 0), 1.0, 0),
-    ("Yvvv", "Y", (0, 3, 0, 0), 1.0, 0), ("Yvvr", "Y", (0, 2, 1, 0), 1.0, 0),
-    ("Yvrr", "Y", (0, 1, 2, 0), 1.0, 0), ("Yrrr", "Y", (0, 0, 3, 0), 1.0, 0),
-    ("Nv", "N", (0, 1, 0, 0), 1.0, 0), ("Nr", "N", (0, 0, 1, 0), 1.0, 0),
-    ("Nvvv", "N", (0, 3, 0, 0), 1.0, 0), ("Nvvr", "N", (0, 2, 1, 0), 1.0, 0),
-    ("Nvrr", "N", (0, 1, 2, 0), 1.0, 0), ("Nrrr", "N", (0, 0, 3, 0), 1.0, 0),
-    ("Y0", "Y", (0, 0, 0, 0), 1.0, 0), ("N0", "N", (0, 0, 0, 0), 1.0, 0),
+    ("R0", "X", (0, 0, 0, 0), -1.0, 0, False), ("Xvv", "X", (0, 2, 0, 0), 1.0, 0, False),
+    ("Xvr", "X", (0, 1, 1, 0), 1.0, 0, False), ("Xrr", "X", (0, 0, 2, 0), 1.0, 0, False),
+    ("Xvvvv", "X", (0, 4, 0, 0), 1.0, 0, False),
+    ("Yv", "Y", (0, 1, 0, 0), 1.0, 0, False), ("Yr", "Y", (0, 0, 1, 0), 1.0, 0, False),
+    ("Yvvv", "Y", (0, 3, 0, 0), 1.0, 0, False), ("Yvvr", "Y", (0, 2, 1, 0), 1.0, 0, False),
+    ("Yvrr", "Y", (0, 1, 2, 0), 1.0, 0, False), ("Yrrr", "Y", (0, 0, 3, 0), 1.0, 0, False),
+    ("Nv", "N", (0, 1, 0, 0), 1.0, 0, False), ("Nr", "N", (0, 0, 1, 0), 1.0, 0, False),
+    ("Nvvv", "N", (0, 3, 0, 0), 1.0, 0, False), ("Nvvr", "N", (0, 2, 1, 0), 1.0, 0, False),
+    ("Nvrr", "N", (0, 1, 2, 0), 1.0, 0, False), ("Nrrr", "N", (0, 0, 3, 0), 1.0, 0, False),
+    ("Y0", "Y", (0, 0, 0, 0), 1.0, 0, False), ("N0", "N", (0, 0, 0, 0), 1.0, 0, False),
     # surge in u' = cos(beta) and the rudder's drag
-    ("Xu", "X", (1, 0, 0, 0), 1.0, 0), ("Xuu", "X", (2, 0, 0, 0), 1.0, 0),
-    ("Xdd", "X", (0, 0, 0, 2), 1.0, 0),
+    ("Xu", "X", (1, 0, 0, 0), 1.0, 0, False), ("Xuu", "X", (2, 0, 0, 0), 1.0, 0, False),
+    ("Xdd", "X", (0, 0, 0, 2), 1.0, 0, False),
     # sway: u', u' r', the rudder (delta, v'^2 delta), the thrust loading (T', T' delta)
-    ("Yu", "Y", (1, 0, 0, 0), 1.0, 0), ("Yur", "Y", (1, 0, 1, 0), 1.0, 0),
-    ("Yd", "Y", (0, 0, 0, 1), 1.0, 0), ("Yvvd", "Y", (0, 2, 0, 1), 1.0, 0),
-    ("YT", "Y", (0, 0, 0, 0), 1.0, 1), ("YTd", "Y", (0, 0, 0, 1), 1.0, 1),
+    ("Yu", "Y", (1, 0, 0, 0), 1.0, 0, False), ("Yur", "Y", (1, 0, 1, 0), 1.0, 0, False),
+    ("Yd", "Y", (0, 0, 0, 1), 1.0, 0, False), ("Yvvd", "Y", (0, 2, 0, 1), 1.0, 0, False),
+    ("YT", "Y", (0, 0, 0, 0), 1.0, 1, False), ("YTd", "Y", (0, 0, 0, 1), 1.0, 1, False),
     # yaw: the same monomials
-    ("Nu", "N", (1, 0, 0, 0), 1.0, 0), ("Nur", "N", (1, 0, 1, 0), 1.0, 0),
-    ("Nd", "N", (0, 0, 0, 1), 1.0, 0), ("Nvvd", "N", (0, 2, 0, 1), 1.0, 0),
-    ("NT", "N", (0, 0, 0, 0), 1.0, 1), ("NTd", "N", (0, 0, 0, 1), 1.0, 1),
+    ("Nu", "N", (1, 0, 0, 0), 1.0, 0, False), ("Nur", "N", (1, 0, 1, 0), 1.0, 0, False),
+    ("Nd", "N", (0, 0, 0, 1), 1.0, 0, False), ("Nvvd", "N", (0, 2, 0, 1), 1.0, 0, False),
+    ("NT", "N", (0, 0, 0, 0), 1.0, 1, False), ("NTd", "N", (0, 0, 0, 1), 1.0, 1, False),
+    # cross-flow drag of sway and yaw (Yoshimura's unified model): coefficient C_D each
+    ("YCF", "Y", (0, 0, 0, 0), 1.0, 0, True), ("NCF", "N", (0, 0, 0, 0), 1.0, 0, True)
 )
 #: the terms of the MMG standard method (the first 17 of :data:`HULL_TERMS`)
 STANDARD_TERMS = tuple(name for name, *_ in HULL_TERMS[:17])
@@ -166,13 +180,52 @@ THRUST_TERMS = ("YT", "NT", "YTd", "NTd")
 REDUCED_TERMS = ("Xu", "Xuu", "Xrr", "Xvr", "Xdd",
                  "Yv", "Yr", "Yu", "Yur", "Yd", "YTd", "YT", "Yvvd",
                  "Nv", "Nr", "Nu", "Nur", "Nd", "NTd", "NT", "Nvvd")
+#: a cross-flow hybrid (Yoshimura's unified model): the standard surge terms, linear sway and
+#: yaw derivatives and the cross-flow drag of the hull's strips in place of the cubic terms
+CROSSFLOW_TERMS = ("R0", "Xvv", "Xvr", "Xrr", "Xvvvv", "Yv", "Yr", "YCF", "Nv", "Nr", "NCF")
 #: the hull families of ``model.hull``: their terms, and whether the rudder module acts
 #: (False: the rudder's forces are hull terms)
 HULL_FAMILIES = {
     "standard": (STANDARD_TERMS, True),
     "thrust": (STANDARD_TERMS + THRUST_TERMS, True),
     "reduced": (REDUCED_TERMS, False),
+    "crossflow": (CROSSFLOW_TERMS, True),
 }
+
+#: Gauss-Legendre nodes and weights on x' in [-1/2, 1/2] (the hull's length from the stern
+#: to the bow, midship at 0) of the cross-flow integrals
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(16)
+CROSSFLOW_NODES = tuple(float(x) for x in 0.5 * _GL_X)
+CROSSFLOW_WEIGHTS = tuple(float(w) for w in 0.5 * _GL_W)
+
+
+def crossflow_factors(vessel) -> tuple[float, float]:
+    """Yoshimura's yaw-rate factors of the cross-flow ``(C_rY, C_rN)`` [-] from the
+    vessel's ratios: ``C_rY = 0.52 L/B - 1.062``, ``C_rN = 0.0742 L/d - 0.297``
+    (Yoshimura & Masumoto, MARSIM 2012: regressions over merchant hulls)."""
+    return (0.52 * vessel.length / vessel.beam - 1.062, 0.0742 * vessel.length / vessel.draught - 0.297)
+
+
+def crossflow_integrals(vp, rp, cry, crn):
+    """Cross-flow drag integrals of sway and yaw (prime, per unit drag coefficient)::
+
+        f_Y = -int |v' + C_rY r' x'| (v' + C_rY r' x') dx'
+        f_N = -int x' |v' + C_rN r' x'| (v' + C_rN r' x') dx'
+
+    over ``x'`` from -1/2 (stern) to 1/2 (bow), by 16-point Gauss-Legendre;
+    ``YCF f_Y`` is then the side force over ``0.5 rho L d U^2`` of a drag
+    coefficient ``YCF``, ``NCF f_N`` the yaw moment over ``0.5 rho L^2 d
+    U^2``. Scalars or arrays."""
+    fy = 0.0 * vp
+    fn = 0.0 * vp
+    for k in range(16):
+        x = CROSSFLOW_NODES[k]
+        w = CROSSFLOW_WEIGHTS[k]
+        a = vp + cry * rp * x
+        b = vp + crn * rp * x
+        fy = fy - w * np.abs(a) * a
+        fn = fn - w * x * np.abs(b) * b
+    return fy, fn
 
 #: published hull coefficients of the KVLCC2 L7 model (Yasukawa & Yoshimura
 #: 2015, Table 4; forces over 0.5 rho L d U^2, moment over 0.5 rho L^2 d U^2)
@@ -258,7 +311,7 @@ def mmg(name: str = "mmg", asymmetry: bool = False, hull: str = "standard") -> M
     ``standard``: the 17 terms of the MMG standard method
     (:data:`STANDARD_TERMS`); ``thrust``: those and :data:`THRUST_TERMS`;
     ``reduced``: :data:`REDUCED_TERMS` (with the rudder module off, see
-    :func:`family_modules`). Forces of every term set are over ``0.5 rho L d
+    :func:`family_modules`); ``crossflow``: :data:`CROSSFLOW_TERMS`. Forces of every term set are over ``0.5 rho L d
     U^2`` (moment over ``0.5 rho L^2 d U^2``); the propeller and, but for
     ``reduced``, the rudder are modules (:func:`module_forces`).
     ``asymmetry=True`` adds the constants ``Y0`` and ``N0``
@@ -270,7 +323,7 @@ def mmg(name: str = "mmg", asymmetry: bool = False, hull: str = "standard") -> M
     if hull not in HULL_FAMILIES:
         raise ValueError(f"unknown MMG hull '{hull}'; known: {', '.join(HULL_FAMILIES)}")
     names = HULL_FAMILIES[hull][0] + (ASYMMETRY_TERMS if asymmetry and hull != "reduced" else ())
-    return ManoeuvringModel(name, tuple(MMGTerm(n, dof, p, s, t) for n, dof, p, s, t in HULL_TERMS
+    return ManoeuvringModel(name, tuple(MMGTerm(n, dof, p, s, t, cf) for n, dof, p, s, t, cf in HULL_TERMS
                                         if n in names))
 
 
@@ -326,10 +379,11 @@ def module_constants(vessel, params: MMGParameters) -> tuple:
     return tuple(float(x) for x in values)
 
 
-def hull_forces(up, vp, rp, delta, tp, c):
+def hull_forces(up, vp, rp, delta, tp, fy, fn, c):
     """Prime hull forces ``(X'_H, Y'_H, N'_H)`` at ``u' = u/U``, ``v' = v/U``,
-    ``r' = r L/U``, the rudder angle ``delta`` [rad, contract sign] and the
-    thrust loading ``T' = T / (0.5 rho L d U^2)``.
+    ``r' = r L/U``, the rudder angle ``delta`` [rad, contract sign], the
+    thrust loading ``T' = T / (0.5 rho L d U^2)`` and the cross-flow
+    integrals ``fy``, ``fn`` (:func:`crossflow_integrals`).
 
     ``c`` holds the coefficients in the order of :data:`HULL_TERMS` (``R0``
     as published, positive), zero for a term the model does not have.
@@ -344,24 +398,29 @@ def hull_forces(up, vp, rp, delta, tp, c):
     x = (-c[0] + c[1] * vv) + (c[2] * vr + c[3] * rr) + c[4] * vv * vv \
         + (c[19] * up + c[20] * up * up) + c[21] * delta * delta
     y = (c[5] * vp + c[6] * rp) + (c[7] * vv * vp + c[8] * vv * rp) + (c[9] * vp * rr + c[10] * rr * rp) \
-        + c[17] + (c[22] * up + c[23] * ur) + (c[24] * delta + c[25] * vvd) + (c[26] * tp + c[27] * td)
+        + c[17] + (c[22] * up + c[23] * ur) + (c[24] * delta + c[25] * vvd) + (c[26] * tp + c[27] * td) \
+        + c[34] * fy
     n = (c[11] * vp + c[12] * rp) + (c[13] * vv * vp + c[14] * vv * rp) + (c[15] * vp * rr + c[16] * rr * rp) \
-        + c[18] + (c[28] * up + c[29] * ur) + (c[30] * delta + c[31] * vvd) + (c[32] * tp + c[33] * td)
+        + c[18] + (c[28] * up + c[29] * ur) + (c[30] * delta + c[31] * vvd) + (c[32] * tp + c[33] * td) \
+        + c[35] * fn
     return x, y, n
 
 
 def hull_primes(u, v, r, delta, n, vessel, modules: MMGParameters) -> np.ndarray:
-    """MMG primes (k, 5) of states given as arrays (:meth:`MMGTerm.feature`):
-    ``u / U``, ``v / U``, ``r L / U``, ``delta`` [rad, contract sign] and the
+    """MMG primes (k, 7) of states given as arrays (:meth:`MMGTerm.feature`):
+    ``u / U``, ``v / U``, ``r L / U``, ``delta`` [rad, contract sign], the
     propeller module's thrust loading ``T / (0.5 rho L d U^2)`` at the rate
-    ``n`` [rps] (``vessel`` at the states' scale)."""
+    ``n`` [rps] and the cross-flow integrals of sway and yaw with the
+    vessel's factors (:func:`crossflow_integrals`, :func:`crossflow_factors`)
+    (``vessel`` at the states' scale)."""
     u, v, r, delta, n = np.broadcast_arrays(*(np.asarray(x, float) for x in (u, v, r, delta, n)))
     speed = np.sqrt(u * u + v * v)
     k = module_constants(vessel, modules)
     rp = r * vessel.length / speed
     thrust, _ = thrust_normal_force(u, speed, np.arctan2(-v, u), rp, np.sin(delta), np.cos(delta), n, k)
     tp = thrust / (0.5 * vessel.rho * vessel.length * vessel.draught * speed * speed)
-    return np.column_stack([u / speed, v / speed, rp, delta, tp])
+    fy, fn = crossflow_integrals(v / speed, rp, *crossflow_factors(vessel))
+    return np.column_stack([u / speed, v / speed, rp, delta, tp, fy, fn])
 
 
 def module_forces(u, v, r, delta, n, k):

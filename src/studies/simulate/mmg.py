@@ -58,7 +58,8 @@ from scipy.optimize import brentq
 
 from ..data.resample import resample
 from ..models.abkowitz import ManoeuvringModel
-from ..models.mmg import (HULL_TERMS, MMGParameters, hull_forces, hull_primes, module_constants,
+from ..models.mmg import (HULL_TERMS, MMGParameters, crossflow_factors, crossflow_integrals, hull_forces,
+                          hull_primes, module_constants,
                           module_forces,
                           module_gains, thrust_normal_force)
 from ..vessels.kvlcc2_mmg import MMGVessel
@@ -73,6 +74,7 @@ _FAST = {"contract", "arcp", "nsz"}
 
 _hull = njit(cache=True, inline="always", fastmath=_FAST)(hull_forces)
 _thrust_normal = njit(cache=True, inline="always", fastmath=_FAST)(thrust_normal_force)
+_crossflow = njit(cache=True, fastmath=_FAST)(crossflow_integrals)
 
 #: yaw sign of the contract: a positive rudder turns the ship to negative heading
 YAW_SIGN = -1.0
@@ -104,7 +106,11 @@ def _derivatives(u, v, r, cpsi, spsi, delta, sdelta, cdelta, delta_c, prescribed
     rp = r * a[0] * inv
     thrust, normal = _thrust_normal(u, speed, _drift(u, v), rp, sdelta, cdelta, n, k)
     q = a[1] * speed * speed
-    xh, yh, nh = _hull(u * inv, v * inv, rp, delta, thrust / q, c)
+    vp = v * inv
+    fy = fn = 0.0
+    if c[34] != 0.0 or c[35] != 0.0:          # a cross-flow hull (model.hull=crossflow)
+        fy, fn = _crossflow(vp, rp, a[13], a[14])
+    xh, yh, nh = _hull(u * inv, vp, rp, delta, thrust / q, fy, fn, c)
     ge = 1.0 + eg * abs(rp)
     fx = q * xh + a[3] * v * r + a[4] * r * r
     fy = q * yh - a[2] * u * r
@@ -148,7 +154,8 @@ def _module_accelerations(k: tuple, a: tuple) -> tuple:
 
 def _body_constants(vessel: MMGVessel) -> tuple:
     """``(L, 0.5 rho L d, m + m_x, m + m_y, x_G m, 1/(m + m_x), inverse of the
-    sway-yaw mass block (4), rudder limit, rate limit, 1/time constant)``."""
+    sway-yaw mass block (4), rudder limit, rate limit, 1/time constant, C_rY, C_rN)``
+    (the last two: the cross-flow's yaw-rate factors, :func:`~studies.models.mmg.crossflow_factors`)."""
     mx, my, jz = vessel.added_masses()
     m = vessel.mass
     a1, a2 = m + mx, m + my
@@ -157,7 +164,7 @@ def _body_constants(vessel: MMGVessel) -> tuple:
     det = a2 * a3 - xgm * xgm
     values = (vessel.length, 0.5 * vessel.rho * vessel.length * vessel.draught, a1, a2, xgm,
               1.0 / a1, a3 / det, -xgm / det, -xgm / det, a2 / det, vessel.rudder_max,
-              vessel.rudder_rate, 1.0 / vessel.rudder_time_constant)
+              vessel.rudder_rate, 1.0 / vessel.rudder_time_constant, *crossflow_factors(vessel))
     return tuple(float(x) for x in values)
 
 

@@ -262,7 +262,7 @@ class IdentifiedModel:
 
     def to_dict(self) -> dict:
         """Plain JSON-able content (floats exact through JSON)."""
-        terms = [[t.name, t.dof, list(t.powers)] + ([t.sign, t.thrust] if isinstance(t, MMGTerm) else [])
+        terms = [[t.name, t.dof, list(t.powers)] + ([t.sign, t.thrust, t.crossflow] if isinstance(t, MMGTerm) else [])
                  for t in self.model.terms]
         vessel = asdict(self.vessel)
         if self.is_mmg:
@@ -289,7 +289,8 @@ class IdentifiedModel:
                               f"studies (knows {VERSION})")
         try:
             mmg_simulator = body["simulator"] == "mmg"
-            terms = tuple(MMGTerm(n, d, tuple(p), float(rest[0]), int(rest[1]) if len(rest) > 1 else 0)
+            terms = tuple(MMGTerm(n, d, tuple(p), float(rest[0]), int(rest[1]) if len(rest) > 1 else 0,
+                                  bool(rest[2]) if len(rest) > 2 else False)
                           if mmg_simulator
                           else Term(n, d, tuple(p)) for n, d, p, *rest in body["model"]["terms"])
             model = ManoeuvringModel(str(body["model"]["name"]), terms)
