@@ -103,6 +103,8 @@ class MMGRun(_manoeuvring.ManoeuvringRun):
     """
 
     modules: object = None
+    #: the records' state and acceleration estimates, shared with the run's folds (:func:`_estimates`)
+    estimate_cache: dict = dataclasses.field(default_factory=dict)
 
     @property
     def tags(self) -> dict:
@@ -221,14 +223,32 @@ def prepare_mmg(cfg: RunConfig, root: Path | None = None, record=None) -> MMGRun
                   family_modules(hull, vessel.modules))
 
 
+def _record_key(record: pd.DataFrame) -> tuple:
+    """What tells a record from another within a run, across processes: its name, length
+    and the sums of its track (two folds of a cross-validation hold the same record objects;
+    a worker process holds copies of them)."""
+    return (str(record.attrs.get("name", "")), len(record), float(record["x0"].sum()),
+            float(record["y0"].sum()), float(record["psi"].sum()))
+
+
 def _estimates(run: MMGRun) -> list:
+    """The states and accelerations of the run's records (each record's own smoother, or
+    ``data.derivative``): computed once per record and kept in ``run.estimate_cache``, which
+    the run's cross-validation folds and hull families share (a record's estimate does not
+    depend on the other records)."""
     derivative = run.cfg.data.derivative
     if run.measured:
         derivative = _manoeuvring.measured_derivative(run.records, derivative)
     if derivative == "ekf":
         derivative = "ekf_kinematic"
     kalman, _ = _measured.kalman_options(run.cfg)
-    return _measured.estimate_all(run.records, derivative, kalman)
+    cache = run.estimate_cache
+    setting = (derivative, repr(kalman))
+    keys = [(_record_key(r), setting) for r in run.records]
+    missing = [r for r, k in zip(run.records, keys) if k not in cache]
+    for record, estimate in zip(missing, _measured.estimate_all(missing, derivative, kalman)):
+        cache[(_record_key(record), setting)] = estimate
+    return [cache[k] for k in keys]
 
 
 def hull_problems(run: MMGRun, estimates=None):
@@ -523,6 +543,7 @@ def execute_mmg(run: MMGRun, out_dir: Path) -> dict:
     started = time.perf_counter()
     chosen = {}
     if run.cfg.model.hull == "auto" and run.measured:
+        _estimates(run)                       # once, before the folds (and their processes) share them
         hull, chosen = choose_hull(run, identify_mmg, out_dir)
         picked = with_hull(run, hull)
         run.cfg, run.model, run.modules = picked.cfg, picked.model, picked.modules
