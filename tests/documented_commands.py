@@ -168,7 +168,7 @@ def studies_env(extra: dict | None = None) -> dict:
 
 #: presets checked, not run here: their own time on this machine's two cores
 LONG_PRESETS = {
-    "kvlcc2_cross_facility": "HSVA's 13 zig-zags -> MARIN, about 1.5 min (tests/test_cross_facility.py)",
+    "kvlcc2_cross_facility": "HSVA's 13 zig-zags -> MARIN, about 40 s (tests/test_cross_facility.py)",
     "kvlcc2_pooled": "16 records held out in turn, about 1 min",
     "kvlcc2_calibration": "16 records held out in turn with bands, about 13 min",
     "kvlcc2_roll_calibration": "8 Bayesian roll runs, about 7 min",
