@@ -335,3 +335,18 @@ def test_replay_of_the_marin_turning_circle(full_scale, model):
     u_s, r_s = _steady_turn(rec)
     assert r_s == pytest.approx(r_m, rel=0.15)
     assert u_s == pytest.approx(u_m, rel=0.25)
+
+
+def test_the_candidate_library_does_not_repeat_a_hull_term():
+    """A candidate monomial the MMG hull already has (``Xvv``, the constant ``Y0``) is not
+    added twice; a term of the thrust loading or a cross-flow integral is not the constant."""
+    from studies.models.terms import candidate_terms
+
+    for hull in HULL_FAMILIES:
+        family = mmg(hull=hull, asymmetry=True)
+        extended = family.extended([t for dof in ("X", "Y", "N") for t in candidate_terms(dof, 2)])
+        assert len(set(extended.names)) == len(extended.names)
+        keys = [t.key for t in extended.terms]
+        assert len(set(keys)) == len(keys)
+    thrust = mmg(hull="thrust")            # YT (T') and the candidate constant Y0 are two features
+    assert "Y0" in thrust.extended([t for t in candidate_terms("Y", 0)]).names

@@ -119,10 +119,6 @@ class MMGTerm(Term):
     thrust: int = 0
     crossflow: bool = False
 
-    @property
-    def key(self) -> tuple:
-        return self.dof, self.powers, self.thrust, self.crossflow
-
     def feature(self, primes: np.ndarray) -> np.ndarray:
         """The term on MMG primes (:func:`hull_primes`), shape (n, 7): columns ``u' = u / U``,
         ``v' = v / U``, ``r' = r L / U``, ``delta`` [rad, contract sign], the thrust

@@ -47,9 +47,10 @@ class Term:
 
     @property
     def key(self) -> tuple:
-        """What makes two terms the same feature: DOF, exponents and the exponent
-        of the thrust loading (0 but for :class:`~studies.models.mmg.MMGTerm`)."""
-        return self.dof, self.powers, getattr(self, "thrust", 0)
+        """What makes two terms the same feature: DOF, exponents, the exponent of
+        the thrust loading and whether it is a cross-flow integral (0 and False
+        but for :class:`~studies.models.mmg.MMGTerm`)."""
+        return self.dof, self.powers, int(getattr(self, "thrust", 0)), bool(getattr(self, "crossflow", False))
 
     @property
     def dof_index(self) -> int:
