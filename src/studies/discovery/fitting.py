@@ -34,12 +34,16 @@ from scipy.signal import savgol_filter
 from ..data.derivatives import choose_window
 from ..identification import LeastSquares, build_problems
 from ..identification.bayes import run_with_progress
+from ..models.mmg import ASYMMETRY_TERMS, STANDARD_TERMS
 from .causes.base import Cause, Setup
 
 __all__ = ["Context", "CauseFit", "regression_fit", "setup_problems", "scored_fit", "nominal_residuals",
            "calibrate", "kinematic_smoothing", "validate", "training_error", "sample_intervals"]
 
 log = logging.getLogger(__name__)
+
+#: the MMG hull's terms that are monomials of v', r' alone (fitted on either rows)
+STANDARD_HULL = frozenset(STANDARD_TERMS + ASYMMETRY_TERMS)
 
 
 @dataclass
@@ -168,10 +172,9 @@ def calibrate(ctx: Context) -> tuple[dict, list]:
 
     The baseline is fitted on the Abkowitz rows of the records; a hull family
     with terms of the MMG primes alone (``u' = u / U``, the thrust loading:
-    ``model.hull=thrust|reduced``) on the MMG model's rows (the standard MMG
+    ``model.hull=thrust|reduced|crossflow``) on the MMG model's rows (the standard MMG
     hull's terms are monomials of ``v', r'``, which both rows hold)."""
-    needs_mmg_rows = ctx.dynamics is not None and any(
-        getattr(t, "thrust", 0) or (t.powers[0] and hasattr(t, "thrust")) for t in ctx.model.terms)
+    needs_mmg_rows = ctx.dynamics is not None and not set(ctx.model.names) <= STANDARD_HULL
     params, residuals, problems = regression_fit(
         ctx, Setup(ctx.model, ctx.train, dynamics=ctx.dynamics if needs_mmg_rows else None))
     scored = nominal_residuals(ctx, residuals, problems)

@@ -150,14 +150,11 @@ HULL_TERMS = (
     # surge in u' = cos(beta) and the rudder's drag
     ("Xu", "X", (1, 0, 0, 0), 1.0, 0, False), ("Xuu", "X", (2, 0, 0, 0), 1.0, 0, False),
     ("Xdd", "X", (0, 0, 0, 2), 1.0, 0, False),
-    # sway: u', u' r', the rudder (delta, v'^2 delta), the thrust loading (T', T' delta)
-    ("Yu", "Y", (1, 0, 0, 0), 1.0, 0, False), ("Yur", "Y", (1, 0, 1, 0), 1.0, 0, False),
-    ("Yd", "Y", (0, 0, 0, 1), 1.0, 0, False), ("Yvvd", "Y", (0, 2, 0, 1), 1.0, 0, False),
-    ("YT", "Y", (0, 0, 0, 0), 1.0, 1, False), ("YTd", "Y", (0, 0, 0, 1), 1.0, 1, False),
-    # yaw: the same monomials
-    ("Nu", "N", (1, 0, 0, 0), 1.0, 0, False), ("Nur", "N", (1, 0, 1, 0), 1.0, 0, False),
-    ("Nd", "N", (0, 0, 0, 1), 1.0, 0, False), ("Nvvd", "N", (0, 2, 0, 1), 1.0, 0, False),
-    ("NT", "N", (0, 0, 0, 0), 1.0, 1, False), ("NTd", "N", (0, 0, 0, 1), 1.0, 1, False),
+    # sway, then yaw, the same monomials: u', u' r', the rudder (delta, v'^2 delta), the thrust
+    # loading (T', T' delta)
+    *((dof + name, dof, powers, 1.0, thrust, False) for dof in ("Y", "N")
+      for name, powers, thrust in (("u", (1, 0, 0, 0), 0), ("ur", (1, 0, 1, 0), 0), ("d", (0, 0, 0, 1), 0),
+                                   ("vvd", (0, 2, 0, 1), 0), ("T", (0, 0, 0, 0), 1), ("Td", (0, 0, 0, 1), 1))),
     # cross-flow drag of sway and yaw (Yoshimura's unified model): coefficient C_D each
     ("YCF", "Y", (0, 0, 0, 0), 1.0, 0, True), ("NCF", "N", (0, 0, 0, 0), 1.0, 0, True)
 )
