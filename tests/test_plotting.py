@@ -58,3 +58,28 @@ def test_a_second_process_draws_the_figures_and_reports_their_errors(tmp_path):
     # without start (a test, a notebook): drawn at once in this process
     Drawer().draw(plot_deviations, table, tmp_path / "here.png", "here")
     assert (tmp_path / "here.png").is_file()
+
+
+def test_two_workers_draw_every_figure_and_end_when_done(tmp_path):
+    """The report's pool: every figure handed over is drawn (by one worker or
+    the other), and the idle workers are ended by ``close`` (not left behind)."""
+    import pandas as pd
+
+    from studies.analysis.figures import plot_deviations
+    from studies.plotting import Drawer
+
+    table = pd.DataFrame({"name": ["Xu", "Yv", "Nr"], "deviation_pct": [1.0, -20.0, 300.0]})
+    drawer = Drawer()
+    drawer.start(workers=2)
+    processes = list(getattr(drawer._pool, "_processes", {}).values()) if drawer._pool else []
+    try:
+        for k in range(6):
+            drawer.draw(plot_deviations, table, tmp_path / f"figure_{k}.png", f"figure {k}")
+        drawer.finish()
+        processes = processes or list(drawer._pool._processes.values())
+    finally:
+        drawer.close()
+    assert all((tmp_path / f"figure_{k}.png").stat().st_size > 1000 for k in range(6))
+    for process in processes:
+        process.join(timeout=5)
+        assert not process.is_alive()

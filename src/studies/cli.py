@@ -229,8 +229,8 @@ def _opener(settings, root: Path, on_create):
 
 
 @contextlib.contextmanager
-def _figures_beside():
-    """One job's figures drawn by a second process while it computes
+def _figures_beside(workers: int = 1):
+    """One job's figures drawn by ``workers`` other processes while it computes
     (:class:`studies.plotting.Drawer`); in a sweep's jobs they are drawn in the
     job's own process (the sweep already keeps every core busy)."""
     from hydra.core.hydra_config import HydraConfig
@@ -240,7 +240,7 @@ def _figures_beside():
 
     single = not HydraConfig.initialized() or HydraConfig.get().mode != RunMode.MULTIRUN
     if single:
-        DRAWER.start()
+        DRAWER.start(workers)
     try:
         yield
     finally:
@@ -351,6 +351,7 @@ def _simulate_task(cfg):
 def _report_task(cfg) -> None:
     from hydra.utils import get_original_cwd
 
+    from .plotting import DRAWER
     from .report.builder import build_report
     from .runtime import tracking
     from .config.paths import output_path
@@ -358,16 +359,20 @@ def _report_task(cfg) -> None:
     root = Path(get_original_cwd())
     verbose = cfg.get("verbose", False) is True
     try:
-        settings = _settings(cfg)
-        report_dir = output_path(settings.report.dir, "report.dir", root)
-        tracking.check_store(settings.tracking.uri, root)
-        if settings.report.compare:
-            path = _reproduction(settings, root, report_dir)
-        else:
-            name, runs = tracking.read_experiment(settings.tracking.uri, root,
-                                                  settings.report.experiment or None)
-            path = build_report(name, tracking.select_sweep(runs, settings.report.sweep), report_dir,
-                                settings.report.condition)
+        # the page's figures are drawn by two worker processes while the runs are read
+        # and the tables assembled (a sweep's report holds a dozen figures or more)
+        with _figures_beside(workers=2):
+            settings = _settings(cfg)
+            report_dir = output_path(settings.report.dir, "report.dir", root)
+            tracking.check_store(settings.tracking.uri, root)
+            if settings.report.compare:
+                path = _reproduction(settings, root, report_dir)
+            else:
+                name, runs = tracking.read_experiment(settings.tracking.uri, root,
+                                                      settings.report.experiment or None)
+                path = build_report(name, tracking.select_sweep(runs, settings.report.sweep), report_dir,
+                                    settings.report.condition)
+            DRAWER.finish()
     except (LookupError, StudiesError) as error:
         _fail(error, verbose)
     print(f"report written: {path} and {path.with_suffix('.html')}")
@@ -640,15 +645,16 @@ def console_main() -> None:
     then the process ends with its status once its exit handlers have run.
 
     Python's own teardown of the imported modules (numba, MLflow, SQLAlchemy,
-    matplotlib) took 1.5-2 s after every command and writes nothing: after
-    one job (not a sweep, whose launcher keeps worker processes), the exit
-    handlers run (threads joined, Hydra's job log and every logging handler
-    flushed and closed) and the process leaves without it.
+    matplotlib) took 1.5-2 s after every command and writes nothing: the
+    exit handlers run (threads joined, Hydra's job log and every logging
+    handler flushed and closed) and the process leaves without it. After a
+    sweep, the joblib launcher's worker processes, idle once every job has
+    returned, are ended first (their own teardown was another 1-2 s).
     """
     argv = sys.argv[1:]
     status = main(argv)
     if any(a in ("-m", "--multirun") for a in argv):
-        sys.exit(status)
+        _end_sweep_workers()
     import atexit
     import threading
 
@@ -660,6 +666,18 @@ def console_main() -> None:
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(status if isinstance(status, int) else 1)
+
+
+def _end_sweep_workers() -> None:
+    """End the joblib launcher's idle worker processes (loky's reusable
+    executor), if this process started them."""
+    if "joblib" not in sys.modules:
+        return
+    from joblib.externals.loky import reusable_executor
+
+    executor = getattr(reusable_executor, "_executor", None)
+    if executor is not None:
+        executor.shutdown(wait=True, kill_workers=True)
 
 
 def _bench(rest: list) -> int:

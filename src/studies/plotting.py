@@ -100,8 +100,8 @@ class Drawer:
     A figure is a module-level function and its arguments (``draw(fn,
     *args)``). Until :meth:`start` is called, or after :meth:`close`, figures
     are drawn at once in this process (what a test or a notebook gets). After
-    :meth:`start`, one worker process (started with its plotting imports
-    while the command computes) draws them in order; :meth:`finish` waits
+    :meth:`start`, worker processes (started with their plotting imports
+    while the command computes) draw them (one worker: in order); :meth:`finish` waits
     for them (and raises the first error a figure raised) before the
     command logs its files. A worker that dies leaves its figures to be
     drawn here. On two or more cores this takes the figures (1-3 s of a
@@ -123,18 +123,23 @@ class Drawer:
         finally:
             self._skip = before
 
-    def start(self) -> None:
-        """Start the worker (a fresh interpreter) and its imports, when there is a core for it."""
+    def start(self, workers: int = 1) -> None:
+        """Start ``workers`` worker processes (fresh interpreters) and their imports,
+        when the machine has a core beside this one (at most one worker a core:
+        this process mostly waits once it has handed its figures over)."""
         import os
 
-        if self._pool is not None or (os.cpu_count() or 1) < 2:
+        cores = os.cpu_count() or 1
+        if self._pool is not None or cores < 2:
             return
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
-        self._pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
+        workers = max(1, min(int(workers), cores))
+        self._pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
                                          initializer=_leave_interrupts_to_the_command)
-        self._pending.append((self._pool.submit(_warm_up), _warm_up, (), {}))
+        for _ in range(workers):
+            self._pending.append((self._pool.submit(_warm_up), _warm_up, (), {}))
 
     def draw(self, fn, *args, **kwargs) -> None:
         """Draw ``fn(*args, **kwargs)`` now, or in the worker once started."""
@@ -166,11 +171,21 @@ class Drawer:
             self.close()
 
     def close(self) -> None:
-        """Stop the worker (figures not finished are dropped: call :meth:`finish` first)."""
+        """Stop the workers (figures not finished are dropped: call :meth:`finish` first).
+
+        Workers with nothing left to draw are ended at once: waiting for their
+        interpreters to unload matplotlib and pandas took 0.2-0.4 s of every
+        command and writes nothing. A worker still drawing is waited for, so
+        that no half-written figure is left behind.
+        """
         pool, self._pool = self._pool, None
-        self._pending = []
-        if pool is not None:
-            pool.shutdown(wait=True, cancel_futures=True)
+        pending, self._pending = self._pending, []
+        if pool is None:
+            return
+        if all(future.done() for future, *_ in pending):
+            for process in list(getattr(pool, "_processes", {}).values()):
+                process.terminate()
+        pool.shutdown(wait=True, cancel_futures=True)
 
 
 def _leave_interrupts_to_the_command() -> None:

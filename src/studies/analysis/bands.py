@@ -59,10 +59,10 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from ..identification.kalman import KalmanSettings, measurement_variance
-from ..identification.regression import prime_states
 from ..plotting import pyplot
-from ..simulate.simulator import replay_plan
+
+# the filter, the regression's primes and the simulator are imported where they are used:
+# the levels and the trust verdict are read by `studies report`, which simulates nothing
 
 __all__ = ["LEVELS", "Z_SCORES", "TRUSTED_COVERAGE", "interval_score", "crps_ensemble", "joint_coverage",
            "predictive_draws", "point_replay", "band_statistics", "pit_values", "training_envelope",
@@ -103,6 +103,8 @@ def crps_ensemble(samples, y) -> np.ndarray:
 def _initial_spread(record: pd.DataFrame, settings: KalmanSettings, bias_sd) -> dict:
     """Standard deviations of the initial ``u, v, r``: measurement noise at the
     first sample and the sensor biases ``bias_sd`` (3,) found on the training records."""
+    from ..identification.kalman import measurement_variance
+
     head = record.iloc[: min(len(record), 2000)]
     var = measurement_variance(head, ("u", "v", "r"), settings.noise_window, settings.noise_span)[0]
     return {ch: float(np.sqrt(var[j] + float(bias_sd[j]) ** 2)) for j, ch in enumerate(("u", "v", "r"))}
@@ -158,6 +160,9 @@ def predictive_draws(model, vectors: np.ndarray, vessel, record: pd.DataFrame, d
     :func:`~studies.simulate.simulator.replay_many` (columns 3-5: ``x0, y0,
     psi``).
     """
+    from ..identification.kalman import KalmanSettings
+    from ..simulate.simulator import replay_plan
+
     vectors = np.atleast_2d(vectors)
     plan = replay_plan(model, vessel, record, modules, steer=steer)
     if discrepancy is None:
@@ -184,6 +189,8 @@ def point_replay(model, vector: np.ndarray, vessel, record: pd.DataFrame, module
     the track a frame of ``t`` [s, the record's], ``x0``, ``y0`` [m] and
     ``psi`` [rad] (all NaN from the step it diverged), ``steered`` whether a
     zig-zag was run by its rule."""
+    from ..simulate.simulator import replay_plan
+
     plan = replay_plan(model, vessel, record, modules, steer=steer)
     states, diverged = plan.run(np.atleast_2d(np.asarray(vector, float)))
     states = states[0]
@@ -218,6 +225,8 @@ def band_statistics(states: np.ndarray, diverged: np.ndarray, record: pd.DataFra
     out = {"t": record["t"].to_numpy(float)[:n], "diverged": float(np.mean(diverged >= 0))}
     sd = {ch: np.zeros(n) for ch, _ in _COLUMNS}
     if noise:
+        from ..identification.kalman import measurement_variance
+
         var = measurement_variance(record.iloc[:n], ("x0", "y0", "psi"))
         for j, (ch, _) in enumerate(_COLUMNS):
             sd[ch] = np.sqrt(var[:, j])
@@ -386,6 +395,8 @@ ENVELOPE_STATES = ("u'", "v'", "r'")
 
 def training_envelope(records, vessel) -> dict:
     """Range ``{state: (low, high)}`` of the prime ``u', v', r'`` over the training records."""
+    from ..identification.regression import prime_states
+
     primes = np.vstack([prime_states(r["u"], r["v"], r["r"], r["delta"], vessel)[:, :3] for r in records])
     return {name: (float(np.min(primes[:, j])), float(np.max(primes[:, j])))
             for j, name in enumerate(ENVELOPE_STATES)}
@@ -394,6 +405,8 @@ def training_envelope(records, vessel) -> dict:
 def outside_fraction(record: pd.DataFrame, envelope: dict, vessel) -> tuple[float, dict]:
     """Share of the record's samples whose prime ``u', v', r'`` leave the
     training envelope, and the record's own range ``{state: (low, high)}``."""
+    from ..identification.regression import prime_states
+
     primes = prime_states(record["u"], record["v"], record["r"], record["delta"], vessel)[:, :3]
     out = np.zeros(len(primes), bool)
     ranges = {}
