@@ -187,6 +187,7 @@ def test_an_mmg_baseline_of_another_hull_family_is_fitted_and_replayed_as_that_f
     from studies.discovery.fitting import Setup
     from studies.errors import ConfigError
     from studies.identification.ls import LeastSquares
+    from studies.identification.mmg_regression import with_known
     from studies.workflows.discover_inference import baseline_dynamics
 
     record = read_hsva(hsva_file("20_10_S"))
@@ -197,13 +198,17 @@ def test_an_mmg_baseline_of_another_hull_family_is_fitted_and_replayed_as_that_f
         ctx = Context(dynamics.vessel, dynamics.model, [record], [], "central", dynamics=dynamics)
         problems, ratio = dynamics.problems(ctx, Setup(dynamics.model, [record], dynamics=dynamics))
         assert ratio == dynamics.vessel.draught / dynamics.vessel.length
-        replay = dynamics.replay(LeastSquares().fit(problems).params, record)
+        # the free terms by LS, with the terms the problems hold as known (the reduced
+        # family's tied rudder pairs, a yaw moment = the side force at the rudder's lever)
+        params = with_known(LeastSquares().fit(problems).params, problems)
+        replay = dynamics.replay(params, record)
         err = np.hypot(replay["x0"].to_numpy() - record["x0"].to_numpy()[:len(replay)],
                        replay["y0"].to_numpy() - record["y0"].to_numpy()[:len(replay)])
         assert np.isfinite(err).all() and len(replay) == len(record)
         errors[hull] = float(np.median(err))
     assert {"Yd", "YTd", "Nur"} <= set(dynamics.model.names) and "Yvvv" not in dynamics.model.names
     assert dynamics.modules.f_alpha == 0.0 and dynamics.prior is None
+    assert params["Nd"] == pytest.approx(dynamics.ties[0][2] * params["Yd"], rel=1e-9)
     # its own record replayed by each family fitted to it: the reduced family follows it (measured
     # 3.2 m against the standard hull's 15.1 m on a 7 m model), so its own terms were fitted and run
     assert errors["reduced"] < 0.5 * errors["standard"], errors

@@ -350,3 +350,46 @@ def test_the_candidate_library_does_not_repeat_a_hull_term():
         assert len(set(keys)) == len(keys)
     thrust = mmg(hull="thrust")            # YT (T') and the candidate constant Y0 are two features
     assert "Y0" in thrust.extended([t for t in candidate_terms("Y", 0)]).names
+
+
+def test_the_rudders_yaw_moment_is_its_side_force_at_the_rudders_lever():
+    """The reduced hull's rudder pairs are one coefficient each: on rows where the yaw
+    moment of the rudder terms is the side force times the lever, the joint regression
+    recovers the shared coefficients, although the yaw rows alone are too noisy to tell
+    them from the hull's own yaw terms; the problems it hands to every method hold the
+    pairs as known coefficients, and a fit on them returns the full set."""
+    from studies.identification.ls import LeastSquares
+    from studies.identification.mmg_regression import tied_values, with_known
+    from studies.identification.regression import RegressionProblem
+    from studies.models.mmg import RUDDER_TIES, family_ties, rudder_lever
+
+    vessel = get_mmg_vessel("kvlcc2")
+    lever = rudder_lever(vessel, vessel.modules)
+    # (x_R + a_H x_H) / ((1 + a_H) L) with x_R = -L/2, a_H = 0.312, x_H = -0.464 L
+    assert lever == pytest.approx((-0.5 + 0.312 * -0.464) / 1.312, abs=1e-12)
+    assert [(y, n) for y, n, _ in family_ties("reduced", vessel, vessel.modules)] == list(RUDDER_TIES)
+    assert family_ties("standard", vessel, vessel.modules) == ()
+
+    rng = np.random.default_rng(7)
+    n = 4000
+    v, r, delta, thrust = (rng.uniform(-1, 1, n) for _ in range(4))
+    rudder = np.column_stack([delta, thrust * delta, v * v * delta])
+    hull_y, hull_n = np.column_stack([v, r]), np.column_stack([v, r + 0.9 * delta])   # N's r nearly delta
+    c = np.array([0.05, 0.9, 0.8])
+    y_rows = hull_y @ [-0.3, 0.1] + rudder @ c + 0.001 * rng.standard_normal(n)
+    n_rows = hull_n @ [-0.1, -0.05] + lever * rudder @ c + 0.02 * rng.standard_normal(n)
+    problems = {"Y": RegressionProblem("Y", np.column_stack([hull_y, rudder]), y_rows, ["Yv", "Yr", "Yd", "YTd", "Yvvd"]),
+                "N": RegressionProblem("N", np.column_stack([hull_n, rudder]), n_rows, ["Nv", "Nr", "Nd", "NTd", "Nvvd"])}
+    ties = family_ties("reduced", vessel, vessel.modules)
+    tied = tied_values(problems, ties)
+    assert [tied[y] for y, _, _ in ties] == pytest.approx(c, rel=0.01)
+    for y, name, _ in ties:
+        assert tied[name] == pytest.approx(lever * tied[y], rel=1e-12)
+    free = LeastSquares().fit(problems).params
+    assert abs(free["Nd"] - lever * c[0]) > 10 * abs(tied["Nd"] - lever * c[0])   # alone, N cannot tell
+
+    known = {dof: RegressionProblem(dof, p.theta[:, :2], p.y - p.theta[:, 2:] @ [tied[k] for k in p.names[2:]],
+                                    p.names[:2], {k: tied[k] for k in p.names[2:]}) for dof, p in problems.items()}
+    params = with_known(LeastSquares().fit(known).params, known)
+    assert set(params) == {"Yv", "Yr", "Yd", "YTd", "Yvvd", "Nv", "Nr", "Nd", "NTd", "Nvvd"}
+    assert [params["Yv"], params["Yr"], params["Nv"], params["Nr"]] == pytest.approx([-0.3, 0.1, -0.1, -0.05], abs=0.01)

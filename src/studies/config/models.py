@@ -299,6 +299,13 @@ class MMGModelConfig(ModelConfig):
         ``YCF``, ``NCF`` in place of the cubic terms) or ``auto``: the family the training records support, by their
         leave-one-record-out cross-validation and the physics of the turn
         (:mod:`studies.workflows.hull_choice`; measured records only).
+    tie_rudder : bool
+        For a family that carries the rudder in its hull terms (``reduced``):
+        the rudder's yaw moment is its side force times the lever
+        ``(x_R + a_H x_H) / ((1 + a_H) L)`` (about -0.49 L), each pair
+        ``Yd/Nd``, ``YTd/NTd``, ``Yvvd/Nvvd`` regressed as one coefficient on
+        the sway and yaw rows together (:data:`studies.models.mmg.RUDDER_TIES`),
+        as Alexandersson et al. (2022) do; ``false``: each term free.
     """
 
     prior_scale: float = 0.5
@@ -317,6 +324,7 @@ class MMGModelConfig(ModelConfig):
     fit_wake: bool = False
     rudder_lift: str = "published"
     hull: str = "standard"
+    tie_rudder: bool = True
 
     def __post_init__(self):
         super().__post_init__()

@@ -133,6 +133,7 @@ def regression_fit(ctx: Context, setup: Setup):
         p = problems[dof]
         n = int(getattr(p, "n_data", p.n_rows))
         coef = ls.fit_one(p) if p.theta.shape[1] else np.zeros(0)
+        params.update(p.fixed)              # known in the problem: the setup's, a family's tied terms
         params.update(dict(zip(p.names, coef.tolist())))
         residuals.append((p.y[:n] - p.theta[:n] @ coef if p.theta.shape[1] else p.y[:n]) * ratio)
     return params, residuals, problems

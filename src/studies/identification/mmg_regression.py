@@ -46,9 +46,9 @@ from ..data.captive import captive_motion
 from ..data.derivatives import DerivativeEstimate
 from ..models.abkowitz import ManoeuvringModel
 from ..models.mmg import MMGParameters, hull_primes, module_constants, module_forces
-from .regression import assemble_problems
+from .regression import RegressionProblem, assemble_problems
 
-__all__ = ["hull_force_targets", "captive_targets", "mmg_problems", "add_prior_rows", "MMG_PRIOR_RECORD",
+__all__ = ["hull_force_targets", "captive_targets", "mmg_problems", "tied_values", "with_known", "add_prior_rows", "MMG_PRIOR_RECORD",
            "MMG_CAPTIVE_RECORD"]
 
 #: the ``record`` index of the prior's pseudo-observation rows
@@ -111,7 +111,7 @@ def hull_force_targets(vessel, modules: MMGParameters, estimate: DerivativeEstim
 
 def mmg_problems(model: ManoeuvringModel, vessel, modules: MMGParameters, records, estimates,
                  prior: dict | None = None, prior_scale: float = 0.5, prior_floor: float = 0.005,
-                 weights: str = "none", captive=None) -> dict:
+                 weights: str = "none", captive=None, ties=()) -> dict:
     """``{dof: RegressionProblem}`` of the MMG hull terms from estimated states.
 
     Parameters
@@ -137,6 +137,13 @@ def mmg_problems(model: ManoeuvringModel, vessel, modules: MMGParameters, record
         hull forces (:func:`captive_targets`) as rows of the regression, each
         scaled by ``weight sqrt(n / k)`` (``n`` record rows, ``k`` tests), so
         that ``weight = 1`` gives the tests as much say as the records.
+    ties : tuple of (str, str, float)
+        ``(sway term, yaw term, lever)``: the yaw coefficient is the sway one
+        times ``lever`` (:func:`studies.models.mmg.family_ties`). Each pair is
+        one coefficient of a joint regression of the sway and yaw rows
+        (:func:`tied_values`); the problems returned hold both members as
+        known coefficients (``problem.fixed``, moved into ``y``), so that
+        every method fits the other terms with them.
     """
     primes, lhs, which, times, speed2, states = [], [], [], [], [], []
     for i, (rec, est) in enumerate(zip(records, estimates)):
@@ -176,6 +183,10 @@ def mmg_problems(model: ManoeuvringModel, vessel, modules: MMGParameters, record
     keys = [k for k in states[0] if all(k in s for s in states)]
     joined = {k: np.concatenate([s[k] for s in states]) for k in keys}
     problems = assemble_problems(model, primes, lhs, {}, which, times, joined, row_weights=root)
+    ties = tuple(t for t in ties if t[0] in model.names and t[1] in model.names)
+    if ties:
+        fixed = tied_values(problems, ties)
+        problems = assemble_problems(model, primes, lhs, fixed, which, times, joined, row_weights=root)
     if prior and np.isfinite(prior_scale):
         for problem in problems.values():
             add_prior_rows(problem, prior, prior_scale, prior_floor)
@@ -184,6 +195,50 @@ def mmg_problems(model: ManoeuvringModel, vessel, modules: MMGParameters, record
     for problem in problems.values():
         problem.meta = {"derivative": estimates[0].method if estimates else "none", "weights": weights}
     return problems
+
+
+def with_known(params: dict, problems: dict) -> dict:
+    """``params`` with the coefficients the problems hold as known (``problem.fixed``:
+    the tied rudder terms) added: the full coefficient set of the model."""
+    known = {name: float(value) for p in problems.values() for name, value in p.fixed.items()}
+    return {**known, **params}
+
+
+def tied_values(problems: dict, ties) -> dict:
+    """``{name: value}`` of the tied terms: the sway and yaw rows regressed together
+    with each tied pair as one coefficient ``c`` (sway ``c``, yaw ``lever c``).
+
+    The two DOFs' rows are in different units and noise: each is divided by the
+    residual RMS of its own unconstrained least-squares fit, so that the joint
+    fit weighs them as the separate fits would. Given the tied values, each
+    DOF's other coefficients minimise its own rows alone: the fits of the
+    problems with the tied terms known are those of the joint regression.
+    """
+    from .ls import LeastSquares
+
+    py, pn = problems["Y"], problems["N"]
+    ls = LeastSquares()
+    scale = {}
+    for dof, p in (("Y", py), ("N", pn)):
+        resid = p.y - p.theta @ ls.fit_one(p)
+        scale[dof] = float(np.sqrt(np.mean(resid ** 2))) or 1.0
+    ny, nn = list(py.names), list(pn.names)
+    shared = [(a, b, float(lever)) for a, b, lever in ties if a in ny and b in nn]
+    only_y = [n for n in ny if n not in {a for a, _, _ in shared}]
+    only_n = [n for n in nn if n not in {b for _, b, _ in shared}]
+    rows_y, rows_n = len(py.y), len(pn.y)
+    columns = [np.r_[py.theta[:, ny.index(n)] / scale["Y"], np.zeros(rows_n)] for n in only_y]
+    columns += [np.r_[np.zeros(rows_y), pn.theta[:, nn.index(n)] / scale["N"]] for n in only_n]
+    columns += [np.r_[py.theta[:, ny.index(a)] / scale["Y"], lever * pn.theta[:, nn.index(b)] / scale["N"]]
+                for a, b, lever in shared]
+    joint = RegressionProblem("YN", np.column_stack(columns), np.r_[py.y / scale["Y"], pn.y / scale["N"]],
+                              only_y + only_n + [a for a, _, _ in shared])
+    coef = ls.fit_one(joint)[len(only_y) + len(only_n):]
+    out = {}
+    for (a, b, lever), c in zip(shared, coef):
+        out[a] = float(c)
+        out[b] = float(lever * c)
+    return out
 
 
 def add_prior_rows(problem, prior: dict, scale: float, floor: float) -> None:

@@ -92,7 +92,8 @@ from .abkowitz import ManoeuvringModel
 from .terms import Term
 
 __all__ = ["MMGTerm", "MMGParameters", "HULL_TERMS", "STANDARD_TERMS", "ASYMMETRY_TERMS",
-           "THRUST_TERMS", "REDUCED_TERMS", "CROSSFLOW_TERMS", "HULL_FAMILIES", "crossflow_integrals",
+           "THRUST_TERMS", "REDUCED_TERMS", "CROSSFLOW_TERMS", "HULL_FAMILIES", "RUDDER_TIES", "FAMILY_TIES",
+           "rudder_lever", "family_ties", "crossflow_integrals",
            "crossflow_factors", "family_modules", "hull_primes", "KVLCC2_HULL", "KVLCC2_ADDED_MASS",
            "KVLCC2_KT_PUBLISHED", "mmg", "fit_kt", "hull_forces", "module_forces",
            "rudder_propeller", "thrust_normal_force", "module_gains", "module_constants",
@@ -184,6 +185,14 @@ HULL_FAMILIES = {
     "reduced": (REDUCED_TERMS, False),
     "crossflow": (CROSSFLOW_TERMS, True),
 }
+
+#: the rudder's side force and its yaw moment as one force at one lever: pairs of (sway, yaw)
+#: terms of the same monomial whose yaw coefficient is the sway one times :func:`rudder_lever`
+#: (a family that carries the rudder in its hull terms regresses each pair as one coefficient:
+#: the zig-zags alone cannot tell the rudder's moment from the hull's)
+RUDDER_TIES = (("Yd", "Nd"), ("YTd", "NTd"), ("Yvvd", "Nvvd"))
+#: the tied pairs of each hull family (:data:`HULL_FAMILIES`; ``model.tie_rudder``)
+FAMILY_TIES = {"reduced": RUDDER_TIES}
 
 #: Gauss-Legendre nodes and weights on x' in [-1/2, 1/2] (the hull's length from the stern
 #: to the bow, midship at 0) of the cross-flow integrals
@@ -318,6 +327,26 @@ def mmg(name: str = "mmg", asymmetry: bool = False, hull: str = "standard") -> M
     names = HULL_FAMILIES[hull][0] + (ASYMMETRY_TERMS if asymmetry and hull != "reduced" else ())
     return ManoeuvringModel(name, tuple(MMGTerm(n, dof, p, s, t, cf) for n, dof, p, s, t, cf in HULL_TERMS
                                         if n in names))
+
+
+def rudder_lever(vessel, modules: MMGParameters) -> float:
+    """The rudder's yaw moment over its side force in prime units, ``N'_R / Y'_R =
+    (x_R + a_H x_H) / ((1 + a_H) L)`` [-] (the rudder module's eq. 13-14: the force
+    on the rudder at ``x_R`` and the hull's share ``a_H`` of it at ``x_H``; about -0.49
+    for the KVLCC2, where Alexandersson et al. 2022 take -0.5)."""
+    length = float(vessel.length)
+    return float((float(vessel.xr) / length + modules.aH * modules.xH) / (1.0 + modules.aH))
+
+
+def family_ties(hull: str, vessel, modules: MMGParameters) -> tuple:
+    """``((sway term, yaw term, lever), ...)``: the family's tied rudder terms
+    (:data:`FAMILY_TIES`) with the lever of :func:`rudder_lever`; empty for a family
+    without ties."""
+    pairs = FAMILY_TIES.get(hull, ())
+    if not pairs:
+        return ()
+    lever = rudder_lever(vessel, modules)
+    return tuple((y, n, lever) for y, n in pairs)
 
 
 def family_modules(hull: str, modules: MMGParameters) -> MMGParameters:

@@ -89,7 +89,8 @@ def baseline_dynamics(prepared: PreparedDiscovery) -> MMGDynamics | None:
                           "name the family here (model.hull=standard|thrust|reduced)")
     first = prepared.train[0]
     return MMGDynamics(mmg_vessel_at_speed(name, float(np.hypot(first["u"].iloc[0], first["v"].iloc[0]))),
-                       asymmetry=bool(getattr(prepared.cfg.model, "asymmetry", False)), hull=hull)
+                       asymmetry=bool(getattr(prepared.cfg.model, "asymmetry", False)), hull=hull,
+                       tie_rudder=bool(getattr(prepared.cfg.model, "tie_rudder", True)))
 
 
 def check_injected(prepared: PreparedDiscovery) -> None:

@@ -40,7 +40,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..models.mmg import HULL_FAMILIES, family_modules, mmg
+from ..models.mmg import FAMILY_TIES, HULL_FAMILIES, family_modules, mmg
 from ..simulate.manoeuvres import turning
 from ..simulate.mmg import simulate_mmg
 from .cross_validation import cross_validate
@@ -132,7 +132,9 @@ def choose_hull(run, identify, out_dir: Path) -> tuple[str, dict]:
         params = {name: result.params[name] for name in candidate.model.names}
         turn = turn_admissibility(candidate, params, modules)
         score = cv.get("cv/median_abs/rmse_position", np.nan)
+        tied = len(FAMILY_TIES.get(hull, ())) if run.cfg.model.tie_rudder else 0
         row = {"family": hull, "terms": len(candidate.model.names),
+               "coefficients": len(candidate.model.names) - tied,      # a tied pair is one
                "held-out position RMSE, median [m]": score,
                "held-out 2nd overshoot error, median [deg]": cv.get("cv/median_abs/closed_loop/overshoot2_error_deg",
                                                                      np.nan),
@@ -165,7 +167,7 @@ def _markdown(table: pd.DataFrame, chosen: str, any_admissible: bool, run) -> st
              f"{SPEED_RANGE[0]}-{SPEED_RANGE[1]} U0, steady diameter {DIAMETER_RANGE[0]:g}-"
              f"{DIAMETER_RANGE[1]:g} L). The rule, stated before any other record is seen: the admissible "
              "family with the lowest held-out RMSE. No validation record plays a part.", "",
-             "| family | terms | held-out RMSE, median [m] | 2nd overshoot run as the test, median abs [deg] | "
+             "| family | terms (coefficients: a tied rudder pair is one) | held-out RMSE, median [m] | 2nd overshoot run as the test, median abs [deg] | "
              "turn: speed / U0, steady diameter / L (rudder +35, -35 deg) | turn | chosen |",
              "|---|---:|---:|---:|---|---|---|"]
     for _, r in table.iterrows():
@@ -173,7 +175,8 @@ def _markdown(table: pd.DataFrame, chosen: str, any_admissible: bool, run) -> st
         for sign in ("+35", "-35"):
             ratio, diameter = r.get(f"rudder {sign} deg/speed_ratio"), r.get(f"rudder {sign} deg/diameter_L")
             sides.append("–" if ratio is None or not np.isfinite(ratio) else f"{ratio:.2f}, {diameter:.2f}")
-        lines.append(f"| {r['family']} | {r['terms']} | {fmt(r['held-out position RMSE, median [m]'])} | "
+        terms = f"{r['terms']}" + (f" ({r['coefficients']})" if r["coefficients"] != r["terms"] else "")
+        lines.append(f"| {r['family']} | {terms} | {fmt(r['held-out position RMSE, median [m]'])} | "
                      f"{fmt(r['held-out 2nd overshoot error, median [deg]'])} | {'; '.join(sides)} | "
                      f"{r['turn']} | {'**yes**' if r['family'] == chosen else ''} |")
     if not any_admissible:

@@ -38,7 +38,7 @@ import pandas as pd
 from ..analysis.state_ranges import STATES, beyond, training_ranges
 from ..identification.base import condition_number, variance_inflation
 from ..identification.ls import LeastSquares
-from ..markdown import markdown_table
+from ..markdown import format_number, markdown_table
 
 __all__ = ["identifiability", "IDENTIFIABILITY_FILE", "VIF_HIGH"]
 
@@ -153,6 +153,12 @@ def identifiability(problems: dict, params: dict, train: list, held_out: list, v
     lines += ["Coefficients in the prime system; the regression's records' rows only (without the "
               "prior's pseudo-rows), columns scaled to unit norm.", ""]
     lines += [f"**Warning:** {w}." for w in warnings] + ([""] if warnings else [])
+    known = {name: value for p in problems.values() for name, value in p.fixed.items()}
+    if known:
+        lines += ["Known in these regressions, so in neither table: "
+                  + ", ".join(f"{name} = {format_number(value)}" for name, value in known.items())
+                  + " (a family's tied rudder terms are regressed first, on the sway and yaw rows "
+                  "together: `model.tie_rudder`).", ""]
     if not conditioning.empty:
         barely = [n for n, row in conditioning.iterrows() if row["vif"] > VIF_HIGH]
         lines += ["## Are the coefficients separable on these records?", "",

@@ -8,7 +8,8 @@ from ...identification.kalman import estimate_derivatives
 from ...identification.mmg_filter import MMGFilterPlan
 from ...identification.mmg_regression import mmg_problems
 from ...models.abkowitz import ManoeuvringModel
-from ...models.mmg import ASYMMETRY_TERMS, HULL_FAMILIES, STANDARD_TERMS, MMGParameters, family_modules, mmg
+from ...models.mmg import (ASYMMETRY_TERMS, HULL_FAMILIES, STANDARD_TERMS, MMGParameters, family_modules,
+                           family_ties, mmg)
 from ...simulate.mmg import MMGReplayPlan, replay_mmg
 from ...vessels import has_mmg_particulars, mmg_vessel_at_speed
 from .base import Cause, Setup
@@ -54,10 +55,12 @@ class MMGDynamics:
     """
 
     def __init__(self, vessel, modules: MMGParameters | None = None, asymmetry: bool = False,
-                 hull: str = "standard"):
+                 hull: str = "standard", tie_rudder: bool = True):
         self.vessel = vessel
         self.hull = hull
         self.modules = family_modules(hull, modules or vessel.modules)
+        # the family's tied rudder terms (model.tie_rudder), known in the problems
+        self.ties = family_ties(hull, vessel, self.modules) if tie_rudder else ()
         # with Y0, N0: the single-screw ship's asymmetry; the hull family of model.hull
         self.model = mmg(asymmetry=asymmetry, hull=hull)
         # the published values are the standard hull's (a family that shares the rudder's
@@ -82,7 +85,7 @@ class MMGDynamics:
         # the setup's hull terms: the MMG hull, with a missing term's added terms (a cause on an MMG baseline)
         model = setup.model if setup.model is not None and setup.cause is not None else self.model
         problems = mmg_problems(model, self.vessel, self.modules, setup.fit_records, estimates,
-                                self.prior, PRIOR_SCALE, PRIOR_FLOOR)
+                                self.prior, PRIOR_SCALE, PRIOR_FLOOR, ties=self.ties)
         return problems, self.vessel.draught / self.vessel.length
 
     def replay(self, params: dict, record, environment=None, external=None, model=None):
