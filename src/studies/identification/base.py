@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Identification", "condition_number", "variance_inflation"]
+__all__ = ["Identification", "condition_number", "variance_inflation", "known_coefficients"]
 
 
 @dataclass
@@ -56,6 +56,15 @@ def _unit_columns(theta: np.ndarray) -> np.ndarray:
     norms = np.linalg.norm(theta, axis=0)
     norms[norms == 0] = 1.0
     return theta / norms
+
+
+def known_coefficients(problems: dict) -> dict:
+    """``{name: value}`` of the coefficients the problems hold as known
+    (``problem.fixed``, moved into ``y``: a model's fixed terms, an MMG
+    family's tied rudder pairs). Every identification returns them with the
+    ones it fits, so that its ``params`` are the whole model."""
+    return {name: float(value) for problem in problems.values()
+            for name, value in (getattr(problem, "fixed", None) or {}).items()}
 
 
 def condition_number(theta: np.ndarray) -> float:

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Identification, condition_number, variance_inflation
+from .base import Identification, condition_number, known_coefficients, variance_inflation
 from .regression import RegressionProblem
 
 __all__ = ["LeastSquares", "ILL_CONDITIONED"]
@@ -39,8 +39,9 @@ class LeastSquares:
         return coef / norms
 
     def fit(self, problems: dict, objective=None) -> Identification:
-        """Fit every DOF's problem; ``objective`` (trajectory fitness) is unused."""
-        result = Identification()
+        """Fit every DOF's problem; ``objective`` (trajectory fitness) is unused.
+        ``params`` hold the problems' known coefficients too (:func:`known_coefficients`)."""
+        result = Identification(params=known_coefficients(problems))
         for dof, problem in problems.items():
             coef = self.fit_one(problem)
             result.params.update(dict(zip(problem.names, coef.tolist())))

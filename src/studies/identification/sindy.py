@@ -130,7 +130,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..models.mmg import MMGTerm
 from ..models.terms import candidate_terms
-from .base import Identification
+from .base import Identification, known_coefficients
 from .ls import regression_diagnostics
 from .regression import RegressionProblem, build_problems
 from ..config import SINDY_COEFFICIENTS, SINDY_FOLDS, SINDY_LIBRARIES, SINDY_RULES, SINDY_SELECTIONS
@@ -611,7 +611,7 @@ class SparseRegression:
             fitted = self.extended_problems(problems, objective)
         else:
             fitted = problems
-        result = Identification()
+        result = Identification(params=known_coefficients(problems))
         terms = {}
         shared, simulated = None, None
         if self.selection == "simulation" and self.threshold is None:

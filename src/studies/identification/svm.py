@@ -90,7 +90,7 @@ import warnings
 import numpy as np
 
 from ..errors import ConfigError
-from .base import Identification
+from .base import Identification, known_coefficients
 from .ls import regression_diagnostics
 from .regression import RegressionProblem
 from ..config import SVM_LOSSES
@@ -290,8 +290,9 @@ class SupportVectorRegression:
         return coef, metrics
 
     def fit(self, problems: dict, objective=None) -> Identification:
-        """Fit every DOF's problem; ``objective`` (trajectory fitness) is unused."""
-        result = Identification()
+        """Fit every DOF's problem; ``objective`` (trajectory fitness) is unused.
+        ``params`` hold the problems' known coefficients too (:func:`known_coefficients`)."""
+        result = Identification(params=known_coefficients(problems))
         for dof, problem in problems.items():
             if problem.theta.shape[1] == 0:
                 continue

@@ -90,11 +90,12 @@ def _leave_one_out(problems: dict, records: list, params: dict) -> tuple[pd.Data
     if len(records) < 2 or any(p.record is None for p in problems.values()):
         return pd.DataFrame(), {}
     columns = {}
+    free = {name for p in problems.values() for name in p.names}     # not the known ones
     for k, record in enumerate(records):
         refit = LeastSquares().fit({dof: _without_record(p, k) for dof, p in problems.items()}).params
         columns[str(record.attrs.get("name", f"record {k + 1}"))] = {
             name: 100.0 * (refit[name] - value) / abs(value) if value else np.nan
-            for name, value in params.items() if name in refit}
+            for name, value in params.items() if name in refit and name in free}
     table = pd.DataFrame(columns)
     table.index.name = "coefficient"
     largest = table.abs().max(axis=1)

@@ -15,7 +15,7 @@ import time
 import numpy as np
 
 from ...errors import ConfigError
-from ..base import Identification
+from ..base import Identification, known_coefficients
 from ..discrepancy import DISCREPANCIES, estimate_process_noise, out_of_sample_values
 from ..ls import regression_diagnostics
 from ..objective import TrajectoryObjective
@@ -242,7 +242,9 @@ class BayesianRegression:
             Needed only for the trajectory posterior (b).
         """
         started = time.perf_counter()
-        result = Identification()
+        # the problems' known coefficients (fixed terms, tied rudder pairs) are part of the model
+        # the discrepancy and the trajectory posterior replay
+        result = Identification(params=known_coefficients(problems))
         converged = []
         for dof, problem in problems.items():
             one = self.fit_one(problem)
