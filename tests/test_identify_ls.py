@@ -87,3 +87,25 @@ def test_wind_speed_error_moves_deviations_linearly_and_antisymmetrically(model,
     assert np.all(ratio < 0)
     assert np.median(ratio) == pytest.approx(-1.0, abs=0.15)
     assert abs(dev_minus["Xrr"]) > 20.0 and abs(dev_minus["N0uu"]) > 100.0
+
+
+@pytest.mark.parametrize("method", ["ls", "svm", "bayes", "sindy"])
+def test_every_identification_returns_the_coefficients_held_as_known(method):
+    """A problem's known coefficients (``problem.fixed``, moved into ``y``: an MMG family's
+    tied rudder pairs) are part of the model every identification returns, beside the ones
+    it fits: a replay of its ``params`` (the Bayes discrepancy, the GA's start, the run's
+    model) would otherwise run without them."""
+    from studies.identification import make_identifier
+    from studies.identification.regression import RegressionProblem
+
+    rng = np.random.default_rng(3)
+    x = rng.uniform(-1, 1, (600, 2))
+    known = {"Yd": 0.25}
+    delta = rng.uniform(-0.6, 0.6, 600)
+    y = x @ [-0.4, 0.2] + known["Yd"] * delta + 1e-4 * rng.standard_normal(600)
+    problem = RegressionProblem("Y", x, y - known["Yd"] * delta, ["Yv", "Yr"], dict(known))
+    options = {"n_samples": 200, "burn_in": 100, "seed": 0} if method == "bayes" else {}
+    result = make_identifier(method, options).fit({"Y": problem})
+    assert result.params["Yd"] == known["Yd"]
+    assert result.params["Yv"] == pytest.approx(-0.4, abs=0.02)
+    assert result.params["Yr"] == pytest.approx(0.2, abs=0.02)
