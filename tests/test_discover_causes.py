@@ -187,7 +187,6 @@ def test_an_mmg_baseline_of_another_hull_family_is_fitted_and_replayed_as_that_f
     from studies.discovery.fitting import Setup
     from studies.errors import ConfigError
     from studies.identification.ls import LeastSquares
-    from studies.identification.mmg_regression import with_known
     from studies.workflows.discover_inference import baseline_dynamics
 
     record = read_hsva(hsva_file("20_10_S"))
@@ -200,7 +199,7 @@ def test_an_mmg_baseline_of_another_hull_family_is_fitted_and_replayed_as_that_f
         assert ratio == dynamics.vessel.draught / dynamics.vessel.length
         # the free terms by LS, with the terms the problems hold as known (the reduced
         # family's tied rudder pairs, a yaw moment = the side force at the rudder's lever)
-        params = with_known(LeastSquares().fit(problems).params, problems)
+        params = LeastSquares().fit(problems).params
         replay = dynamics.replay(params, record)
         err = np.hypot(replay["x0"].to_numpy() - record["x0"].to_numpy()[:len(replay)],
                        replay["y0"].to_numpy() - record["y0"].to_numpy()[:len(replay)])

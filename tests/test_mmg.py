@@ -359,7 +359,7 @@ def test_the_rudders_yaw_moment_is_its_side_force_at_the_rudders_lever():
     them from the hull's own yaw terms; the problems it hands to every method hold the
     pairs as known coefficients, and a fit on them returns the full set."""
     from studies.identification.ls import LeastSquares
-    from studies.identification.mmg_regression import tied_values, with_known
+    from studies.identification.mmg_regression import tied_values
     from studies.identification.regression import RegressionProblem
     from studies.models.mmg import RUDDER_TIES, family_ties, rudder_lever
 
@@ -390,6 +390,6 @@ def test_the_rudders_yaw_moment_is_its_side_force_at_the_rudders_lever():
 
     known = {dof: RegressionProblem(dof, p.theta[:, :2], p.y - p.theta[:, 2:] @ [tied[k] for k in p.names[2:]],
                                     p.names[:2], {k: tied[k] for k in p.names[2:]}) for dof, p in problems.items()}
-    params = with_known(LeastSquares().fit(known).params, known)
+    params = LeastSquares().fit(known).params
     assert set(params) == {"Yv", "Yr", "Yd", "YTd", "Yvvd", "Nv", "Nr", "Nd", "NTd", "Nvvd"}
     assert [params["Yv"], params["Yr"], params["Nv"], params["Nr"]] == pytest.approx([-0.3, 0.1, -0.1, -0.05], abs=0.01)

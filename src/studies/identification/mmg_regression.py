@@ -48,7 +48,7 @@ from ..models.abkowitz import ManoeuvringModel
 from ..models.mmg import MMGParameters, hull_primes, module_constants, module_forces
 from .regression import RegressionProblem, assemble_problems
 
-__all__ = ["hull_force_targets", "captive_targets", "mmg_problems", "tied_values", "with_known", "add_prior_rows", "MMG_PRIOR_RECORD",
+__all__ = ["hull_force_targets", "captive_targets", "mmg_problems", "tied_values", "add_prior_rows", "MMG_PRIOR_RECORD",
            "MMG_CAPTIVE_RECORD"]
 
 #: the ``record`` index of the prior's pseudo-observation rows
@@ -195,13 +195,6 @@ def mmg_problems(model: ManoeuvringModel, vessel, modules: MMGParameters, record
     for problem in problems.values():
         problem.meta = {"derivative": estimates[0].method if estimates else "none", "weights": weights}
     return problems
-
-
-def with_known(params: dict, problems: dict) -> dict:
-    """``params`` with the coefficients the problems hold as known (``problem.fixed``:
-    the tied rudder terms) added: the full coefficient set of the model."""
-    known = {name: float(value) for p in problems.values() for name, value in p.fixed.items()}
-    return {**known, **params}
 
 
 def tied_values(problems: dict, ties) -> dict:

@@ -63,7 +63,7 @@ from ..identification.ls import LeastSquares
 from ..identification.mmg_output_error import MMGObjective, refine_modules
 from ..identification.mmg_propeller import fit_wake
 from ..identification.mmg_rudder import RUDDER_LIFT_FACTORS, fit_rudder_lift, rudder_lift_columns
-from ..identification.mmg_regression import mmg_problems, with_known
+from ..identification.mmg_regression import mmg_problems
 from ..models.mmg import HULL_FAMILIES, family_modules, family_ties, mmg
 from ..models.registry import get_model
 from ..simulate.mmg import replay_mmg, simulate_mmg
@@ -291,8 +291,7 @@ def identify_mmg(run: MMGRun):
     problems = hull_problems(run, estimates)
 
     def fit_hull(modules):
-        built = problems(modules)
-        return with_known(LeastSquares().fit(built).params, built)
+        return LeastSquares().fit(problems(modules)).params
 
     metrics = {"mmg/prior_scale": cfg.prior_scale, "mmg/scale": float(run.vessel.scale),
                "mmg/captive_weight": cfg.captive_weight}
@@ -314,20 +313,13 @@ def identify_mmg(run: MMGRun):
         metrics.update(info)
     identifier = make_identifier(run.method, _manoeuvring._method_options(run.cfg))
     objective = MMGObjective(run.model, run.vessel, run.records, modules, max_samples=2000)
-    built = problems(modules)
     t0 = time.perf_counter()
-    result = identifier.fit(built, objective=objective)
+    # the result holds the problems' known coefficients too (the tied rudder pairs)
+    result = identifier.fit(problems(modules), objective=objective)
     metrics["runtime/identify_s"] = time.perf_counter() - t0
-    result.params = with_known(result.params, built)         # the tied rudder terms
     metrics.update(result.metrics)
     run.estimates = estimates
     return result, modules, metrics
-
-
-def fit_hull_ls(run: MMGRun, modules) -> dict:
-    """The hull coefficients by least squares (the tied rudder terms included)."""
-    built = hull_problems(run)(modules)
-    return with_known(LeastSquares().fit(built).params, built)
 
 
 def _factor_table(run: MMGRun, modules) -> pd.DataFrame:
@@ -589,7 +581,7 @@ def execute_mmg(run: MMGRun, out_dir: Path) -> dict:
         metrics.update(_validate_simulated(run, params, out_dir))
     if run.method == "sindy":
         metrics.update(sindy_beside_ls(run, run.model, result,
-                                       lambda: fit_hull_ls(run, modules),
+                                       lambda: LeastSquares().fit(hull_problems(run)(modules)).params,
                                        metrics, out_dir, _manoeuvring._validate_records))
     if run.cfg.model.captive:
         metrics.update(_captive(run, params, modules, out_dir))
